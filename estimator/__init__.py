@@ -1,0 +1,3 @@
+"""The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O."""
+
+__all__: list[str] = []

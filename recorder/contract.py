@@ -95,7 +95,7 @@ def robot_names_in(topics: list[str] | set[str], pattern: str) -> list[str]:
     if "{robot}" not in pattern:
         raise ValueError(f"topic pattern {pattern!r} has no '{{robot}}' placeholder")
     head, tail = pattern.split("{robot}", 1)
-    rx = re.compile("^" + re.escape(head) + r"([^/]+)" + re.escape(tail).replace(r"\{robot\}", r"\1") + "$")
+    rx = re.compile("^" + re.escape(head) + r"([^/]+)" + re.escape(tail) + "$")
     names = {m.group(1) for t in topics if (m := rx.match(t))}
 
     def natural(name: str) -> tuple[str, int, str]:

@@ -1,0 +1,262 @@
+"""Omnidirectional camera models: pixel <-> ray, behind the ``CameraModel`` protocol.
+
+Conventions (docs/api.md, stated once here):
+
+- Robot frame: x forward, y left, z up. A ray is a unit vector from the camera's optical
+  centre, which sits ``height_m`` above the ground on the robot's vertical axis.
+- Pixel (u, v) = (column, row), origin top-left, pixel index i has coordinate i.
+  With du = u - cu, dv = v - cv: radius ``r = hypot(du, dv)`` and bearing in the robot
+  frame ``theta = atan2(-du, -dv)`` (0 = forward = image up, +pi/2 = left = image left).
+- Every model is radially symmetric: a pixel radius maps to a *nadir angle* (angle between
+  the ray and straight down) and the bearing is kept, so
+
+      ray = (sin(n) cos(theta), sin(n) sin(theta), -cos(n)),   n = nadir_angle_rad(r).
+
+Models:
+
+- ``ideal``: the paper's "ideal calibrated image": the ground distance of the point a ray
+  hits on z = 0 is linear in r, d = k * r with k = 8.4 m / 499 px.
+- ``fisheye``: equidistant lens looking down, n = r / f with f = r_max / (pi/2).
+- ``mirror``: catadioptric (NuBot's form): ground distance d = a * tan(b * r); the horizon
+  is at r = pi / (2 b). Pixels inside ``self_radius_px`` show the camera's own reflection.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "CAMERA_MODELS",
+    "CameraModel",
+    "FisheyeCamera",
+    "IdealCamera",
+    "MirrorCamera",
+    "camera_from_dict",
+    "ground_range_m",
+    "make_camera",
+]
+
+CAMERA_MODELS = ("ideal", "fisheye", "mirror")
+"""Names accepted by :func:`make_camera` and the ``model`` key of :func:`camera_from_dict`."""
+
+FloatArray = NDArray[np.float64]
+
+
+@runtime_checkable
+class CameraModel(Protocol):
+    """A radially symmetric omni camera: pixel <-> unit ray in the robot frame."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def width_px(self) -> int: ...
+    @property
+    def height_px(self) -> int: ...
+    @property
+    def centre_px(self) -> tuple[float, float]: ...
+    @property
+    def height_m(self) -> float: ...
+    @property
+    def max_radius_px(self) -> float: ...
+
+    def nadir_angle_rad(self, r_px: ArrayLike) -> FloatArray:
+        """Angle between the ray of pixel radius ``r_px`` and straight down (NaN if none)."""
+        ...
+
+    def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:
+        """Inverse of :meth:`nadir_angle_rad` (NaN where the model has no pixel)."""
+        ...
+
+    def pixel_to_ray(self, u: ArrayLike, v: ArrayLike) -> FloatArray:
+        """Unit rays (..., 3) in the robot frame for pixels (u, v)."""
+        ...
+
+    def ray_to_pixel(self, rays: ArrayLike) -> FloatArray:
+        """Pixels (..., 2) as (u, v) for rays (..., 3) in the robot frame (any length)."""
+        ...
+
+    def to_dict(self) -> dict[str, Any]:
+        """Parameters as a JSON-able dict with a ``"model"`` key."""
+        ...
+
+
+class _RadialCamera:
+    """Shared pixel <-> ray code; subclasses define the radial law."""
+
+    name: str
+    width_px: int
+    height_px: int
+    cu_px: float
+    cv_px: float
+    height_m: float
+
+    @property
+    def centre_px(self) -> tuple[float, float]:
+        return (self.cu_px, self.cv_px)
+
+    def nadir_angle_rad(self, r_px: ArrayLike) -> FloatArray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:  # pragma: no cover
+        raise NotImplementedError
+
+    def pixel_to_ray(self, u: ArrayLike, v: ArrayLike) -> FloatArray:
+        du = np.asarray(u, dtype=np.float64) - self.cu_px
+        dv = np.asarray(v, dtype=np.float64) - self.cv_px
+        r = np.hypot(du, dv)
+        theta = np.arctan2(-du, -dv)
+        n = self.nadir_angle_rad(r)
+        s = np.sin(n)
+        return np.stack([s * np.cos(theta), s * np.sin(theta), -np.cos(n)], axis=-1)
+
+    def ray_to_pixel(self, rays: ArrayLike) -> FloatArray:
+        d = np.asarray(rays, dtype=np.float64)
+        x, y, z = d[..., 0], d[..., 1], d[..., 2]
+        n = np.arctan2(np.hypot(x, y), -z)
+        theta = np.arctan2(y, x)
+        r = self.radius_px(n)
+        return np.stack([self.cu_px - r * np.sin(theta), self.cv_px - r * np.cos(theta)], axis=-1)
+
+
+@dataclass(frozen=True)
+class IdealCamera(_RadialCamera):
+    """Ground distance linear in pixel radius: d = k * r (the paper's ideal image)."""
+
+    k_m_per_px: float = 8.4 / 499.0
+    height_m: float = 0.85
+    width_px: int = 1080
+    height_px: int = 1080
+    cu_px: float = 539.0
+    cv_px: float = 539.0
+    max_radius_px: float = 539.0
+    name: str = "ideal"
+
+    def nadir_angle_rad(self, r_px: ArrayLike) -> FloatArray:
+        r = np.asarray(r_px, dtype=np.float64)
+        return np.arctan2(self.k_m_per_px * r, self.height_m)
+
+    def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:
+        n = np.asarray(nadir_angle_rad, dtype=np.float64)
+        ok = (n >= 0) & (n < math.pi / 2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = self.height_m * np.tan(np.where(ok, n, 0.0)) / self.k_m_per_px
+        return np.where(ok, r, np.nan)
+
+    def to_dict(self) -> dict[str, Any]:
+        return _as_dict(self)
+
+
+@dataclass(frozen=True)
+class FisheyeCamera(_RadialCamera):
+    """Equidistant fisheye looking down: n = r / f, r = max_radius_px <-> 90 deg."""
+
+    fov_deg: float = 180.0
+    height_m: float = 0.85
+    width_px: int = 1080
+    height_px: int = 1080
+    cu_px: float = 539.0
+    cv_px: float = 539.0
+    max_radius_px: float = 539.0
+    name: str = "fisheye"
+
+    @property
+    def f_px_per_rad(self) -> float:
+        return self.max_radius_px / math.radians(self.fov_deg / 2.0)
+
+    def nadir_angle_rad(self, r_px: ArrayLike) -> FloatArray:
+        return np.asarray(r_px, dtype=np.float64) / self.f_px_per_rad
+
+    def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:
+        n = np.asarray(nadir_angle_rad, dtype=np.float64)
+        return np.where(n >= 0, n * self.f_px_per_rad, np.nan)
+
+    def to_dict(self) -> dict[str, Any]:
+        return _as_dict(self)
+
+
+@dataclass(frozen=True)
+class MirrorCamera(_RadialCamera):
+    """Catadioptric camera: ground distance d = a * tan(b * r) (NuBot's form).
+
+    With a = 1.2 m and b = pi / 1100 rad/px the horizon is at r = 550 px (just outside the
+    539 px image circle) and r = 500 px sees the ground 8.4 m away. Pixels with
+    r < ``self_radius_px`` show the camera's own reflection (black in the rendered image).
+    """
+
+    a_m: float = 1.2
+    b_rad_per_px: float = math.pi / 1100.0
+    self_radius_px: float = 30.0
+    height_m: float = 0.85
+    width_px: int = 1080
+    height_px: int = 1080
+    cu_px: float = 539.0
+    cv_px: float = 539.0
+    max_radius_px: float = 539.0
+    name: str = "mirror"
+
+    @property
+    def horizon_px(self) -> float:
+        return math.pi / (2.0 * self.b_rad_per_px)
+
+    def nadir_angle_rad(self, r_px: ArrayLike) -> FloatArray:
+        r = np.asarray(r_px, dtype=np.float64)
+        ok = (r >= 0) & (r < self.horizon_px)
+        d = self.a_m * np.tan(self.b_rad_per_px * np.where(ok, r, 0.0))
+        return np.where(ok, np.arctan2(d, self.height_m), np.nan)
+
+    def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:
+        n = np.asarray(nadir_angle_rad, dtype=np.float64)
+        ok = (n >= 0) & (n < math.pi / 2)
+        d = self.height_m * np.tan(np.where(ok, n, 0.0))
+        return np.where(ok, np.arctan(d / self.a_m) / self.b_rad_per_px, np.nan)
+
+    def to_dict(self) -> dict[str, Any]:
+        return _as_dict(self)
+
+
+_CLASSES: dict[str, type[IdealCamera] | type[FisheyeCamera] | type[MirrorCamera]] = {
+    "ideal": IdealCamera,
+    "fisheye": FisheyeCamera,
+    "mirror": MirrorCamera,
+}
+
+
+def _as_dict(cam: IdealCamera | FisheyeCamera | MirrorCamera) -> dict[str, Any]:
+    d: dict[str, Any] = {"model": cam.name}
+    d.update({k: v for k, v in asdict(cam).items() if k != "name"})
+    return d
+
+
+def make_camera(name: str, **params: Any) -> IdealCamera | FisheyeCamera | MirrorCamera:
+    """A camera model by name (one of ``CAMERA_MODELS``) with optional parameter overrides."""
+    try:
+        cls = _CLASSES[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown camera model {name!r}; choose one of {', '.join(CAMERA_MODELS)}"
+        ) from None
+    try:
+        return cls(**params)
+    except TypeError as err:
+        raise ValueError(f"bad parameters for camera model {name!r}: {err}") from err
+
+
+def camera_from_dict(d: dict[str, Any]) -> IdealCamera | FisheyeCamera | MirrorCamera:
+    """Inverse of ``to_dict()``: the ``"model"`` key names the class, the rest are fields."""
+    if "model" not in d:
+        raise ValueError(f"camera dict has no 'model' key: {sorted(d)}")
+    params = {k: v for k, v in d.items() if k not in ("model", "name")}
+    return make_camera(str(d["model"]), **params)
+
+
+def ground_range_m(camera: CameraModel, r_px: ArrayLike) -> FloatArray:
+    """Horizontal distance at which the ray of pixel radius ``r_px`` meets the ground z = 0."""
+    n = camera.nadir_angle_rad(r_px)
+    with np.errstate(invalid="ignore"):
+        out = camera.height_m * np.tan(n)
+    return np.where(n < math.pi / 2, out, np.inf)

@@ -1,0 +1,118 @@
+"""Errors of the replay package: one base class, one subclass per known problem.
+
+Every message names the offending file (or value) and, where there is one, the fix. The CLI
+maps any :class:`ReplayError` to a one-line message on stderr and a non-zero exit code.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = [
+    "CalibrationError",
+    "CorruptLogError",
+    "EstimatorUnavailableError",
+    "ImageDecodeError",
+    "InputNotFoundError",
+    "MissingPosesError",
+    "NoImageTopicsError",
+    "NotMcapError",
+    "OptionsError",
+    "OutputExistsError",
+    "ReplayError",
+    "TruncatedLogError",
+]
+
+
+class ReplayError(Exception):
+    """Base class of every error the replay package raises on purpose."""
+
+    exit_code = 1
+
+
+class InputNotFoundError(ReplayError):
+    """The input path does not exist or is not a regular file."""
+
+    def __init__(self, path: Path | str) -> None:
+        super().__init__(f"{path}: not a file (check the path)")
+
+
+class NotMcapError(ReplayError):
+    """The input does not start with the MCAP magic bytes."""
+
+    def __init__(self, path: Path | str) -> None:
+        super().__init__(f"{path}: not an MCAP file (bad magic bytes)")
+
+
+class TruncatedLogError(ReplayError):
+    """The log ends early (no footer / summary); ``--recover`` replays what is complete."""
+
+    def __init__(self, path: Path | str, detail: str = "") -> None:
+        extra = f" ({detail})" if detail else ""
+        super().__init__(
+            f"{path}: the log is truncated or its end is damaged{extra}; "
+            "use --recover to replay every complete chunk"
+        )
+
+
+class CorruptLogError(ReplayError):
+    """A chunk or record of the log cannot be read (bad CRC, bad compression, bad record)."""
+
+    def __init__(self, path: Path | str, detail: str) -> None:
+        super().__init__(
+            f"{path}: corrupt log data ({detail}); use --recover to skip damaged chunks"
+        )
+
+
+class NoImageTopicsError(ReplayError):
+    """No channel of the log matches the image topic pattern."""
+
+    def __init__(self, path: Path | str, pattern: str, robots: list[str] | None = None) -> None:
+        which = f" for robots {', '.join(robots)}" if robots else ""
+        super().__init__(
+            f"{path}: no image topics match {pattern!r}{which} (set --image-topic)"
+        )
+
+
+class MissingPosesError(ReplayError):
+    """A robot with images has no pose topic, or no image could be paired with a pose."""
+
+    def __init__(self, path: Path | str, detail: str) -> None:
+        super().__init__(f"{path}: missing poses: {detail} (set --pose-topic or --pose-tolerance)")
+
+
+class ImageDecodeError(ReplayError):
+    """No image of the log could be decoded (a single bad image is only counted)."""
+
+    def __init__(self, path: Path | str, detail: str) -> None:
+        super().__init__(f"{path}: images do not decode: {detail}")
+
+
+class CalibrationError(ReplayError):
+    """The calibration file or the camera metadata cannot be used."""
+
+    def __init__(self, source: Path | str, detail: str) -> None:
+        super().__init__(f"{source}: unusable calibration: {detail}")
+
+
+class OutputExistsError(ReplayError):
+    """An output file exists already and ``--force`` was not given."""
+
+    def __init__(self, path: Path | str) -> None:
+        super().__init__(f"{path}: output exists already (use --force to overwrite)")
+
+
+class OptionsError(ReplayError):
+    """An option value is out of range or inconsistent with the log."""
+
+    exit_code = 2
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(f"invalid option: {detail}")
+
+
+class EstimatorUnavailableError(ReplayError):
+    """A part of ``estimator/`` the chosen options need is not importable."""
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(f"estimator unavailable: {detail}")

@@ -1,0 +1,224 @@
+"""Small synthetic ROS 2 MCAP logs for replay tests (no pybullet).
+
+Robots stand (or turn) at known poses, a ball sits (or rolls) at a known field position. Each
+image is a dark-green frame with an orange disc drawn where the paper's ideal camera puts the
+ball: pixel radius ``r = (d - B_M) / K_M_PER_PX`` for the range ``d`` from the robot to the
+ball, direction by the docs/api.md convention (``theta = atan2(-du, -dv)``, 0 = forward).
+Poses come at a higher rate than images; the ball's ground truth at the pose rate.
+
+Options damage the log in the ways replay must survive: drop a robot's poses over a time
+span, corrupt chosen images, write raw sensor_msgs/Image instead of PNG.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from mcap.writer import CompressionType
+from mcap_ros2.writer import Writer
+
+from recorder import contract
+
+K_M_PER_PX = 0.0163
+B_M = 0.2786
+CENTRE_PX = (539.0, 539.0)
+SIZE_PX = 1080
+DISC_RADIUS_PX = 10
+GREEN_BGR = (30, 90, 20)
+ORANGE_BGR = (0, 110, 255)
+NS = 1_000_000_000
+
+DEFAULT_ROBOTS: dict[str, tuple[float, float, float]] = {
+    "robot1": (-3.0, 0.0, 0.0),
+    "robot2": (-1.0, 2.0, -math.pi / 2),
+    "robot3": (-2.0, -1.5, math.pi / 4),
+}
+DEFAULT_BALL = (0.5, 0.3)
+
+
+@dataclass
+class SyntheticLog:
+    """What was written, for the tests to compare against."""
+
+    path: Path
+    robots: dict[str, tuple[float, float, float]]
+    ball: tuple[float, float]
+    image_stamps_ns: list[int] = field(default_factory=list)
+    pose_stamps_ns: list[int] = field(default_factory=list)
+    n_images: int = 0
+
+    def ball_at(self, t_ns: int) -> tuple[float, float]:
+        return self.ball  # static unless ball_velocity was given (see write_log)
+
+
+def quaternion_from_yaw(yaw: float) -> dict[str, float]:
+    return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}
+
+
+def ball_pixel(
+    robot: tuple[float, float, float], ball: tuple[float, float]
+) -> tuple[float, float]:
+    """Where the paper's ideal camera on ``robot`` (x, y, yaw) sees the ball centre."""
+    rx, ry, yaw = robot
+    dx, dy = ball[0] - rx, ball[1] - ry
+    d = math.hypot(dx, dy)
+    r = (d - B_M) / K_M_PER_PX
+    theta = math.atan2(dy, dx) - yaw  # bearing in the robot frame
+    du, dv = -r * math.sin(theta), -r * math.cos(theta)
+    return CENTRE_PX[0] + du, CENTRE_PX[1] + dv
+
+
+def render(u: float, v: float, size: int = SIZE_PX) -> np.ndarray:
+    """A dark-green frame with an orange disc centred at (u, v) (sub-pixel accurate)."""
+    img = np.empty((size, size, 3), np.uint8)
+    img[:] = GREEN_BGR
+    shift = 4
+    centre = (round(u * (1 << shift)), round(v * (1 << shift)))
+    cv2.circle(img, centre, DISC_RADIUS_PX << shift, ORANGE_BGR, -1, cv2.LINE_8, shift)
+    return img
+
+
+def _header(t_ns: int, frame_id: str) -> dict[str, object]:
+    return {"stamp": contract.stamp_from_ns(t_ns), "frame_id": frame_id}
+
+
+def _pose_msg(t_ns: int, x: float, y: float, yaw: float) -> dict[str, object]:
+    return {
+        "header": _header(t_ns, contract.FIELD_FRAME),
+        "pose": {"position": {"x": x, "y": y, "z": 0.0}, "orientation": quaternion_from_yaw(yaw)},
+    }
+
+
+def write_log(
+    path: str | Path,
+    *,
+    robots: dict[str, tuple[float, float, float]] | None = None,
+    ball: tuple[float, float] = DEFAULT_BALL,
+    ball_velocity: tuple[float, float] = (0.0, 0.0),
+    yaw_rate_rad_s: float = 0.0,
+    duration_s: float = 1.0,
+    image_hz: float = 10.0,
+    pose_hz: float = 50.0,
+    image_encoding: str = "png",
+    drop_poses: dict[str, tuple[float, float]] | None = None,
+    corrupt_images: Sequence[int] = (),
+    with_truth: bool = True,
+    with_cameras: bool = False,
+    with_poses: bool = True,
+    chunk_size: int = 256 * 1024,
+    compression: CompressionType = CompressionType.ZSTD,
+    image_offset_ns: int = 0,
+) -> SyntheticLog:
+    """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
+    with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
+    bytes are garbage; ``image_encoding`` is "png", "jpeg" or "bgr8"/"rgb8"/"mono8" (raw)."""
+    robots = dict(DEFAULT_ROBOTS if robots is None else robots)
+    path = Path(path)
+    log = SyntheticLog(path, robots, ball)
+    drop_poses = drop_poses or {}
+    pose_dt = round(NS / pose_hz)
+    image_dt = round(NS / image_hz)
+    end_ns = round(duration_s * NS)
+
+    def robot_at(name: str, t_ns: int) -> tuple[float, float, float]:
+        x, y, yaw = robots[name]
+        return x, y, yaw + yaw_rate_rad_s * t_ns / NS
+
+    def ball_at(t_ns: int) -> tuple[float, float]:
+        s = t_ns / NS
+        return ball[0] + ball_velocity[0] * s, ball[1] + ball_velocity[1] * s
+
+    # events: (time, order, kind, robot); at equal times poses precede images
+    events: list[tuple[int, int, str, str]] = []
+    for t in range(0, end_ns + 1, pose_dt):
+        for name in robots:
+            events.append((t, 0, "pose", name))
+        if with_truth:
+            events.append((t, 1, "truth", ""))
+    for t in range(image_offset_ns, end_ns + 1, image_dt):
+        for name in robots:
+            events.append((t, 2, "image", name))
+    events.sort(key=lambda e: (e[0], e[1]))
+
+    with path.open("wb") as f:
+        writer = Writer(f, chunk_size=chunk_size, compression=compression)
+        schemas = {
+            name: writer.register_msgdef(name, text)
+            for name, text in contract.MESSAGE_DEFINITIONS.items()
+        }
+        writer.add_metadata(
+            contract.SCENARIO_METADATA,
+            {"name": "synthetic", "seed": "0", "params": json.dumps(
+                {"field_length_m": 18.0, "field_width_m": 12.0}, sort_keys=True)},
+        )
+        if with_cameras:
+            writer.add_metadata(
+                contract.CAMERAS_METADATA,
+                {name: json.dumps({"model": "ideal", "centre_px": list(CENTRE_PX)})
+                 for name in robots},
+            )
+        image_index = 0
+        for t, _order, kind, name in events:
+            if kind == "pose":
+                if not with_poses:
+                    continue
+                span = drop_poses.get(name)
+                if span is not None and span[0] * NS <= t < span[1] * NS:
+                    continue
+                x, y, yaw = robot_at(name, t)
+                writer.write_message(
+                    contract.topic_for(contract.POSE_TOPIC, name), schemas[contract.POSE_STAMPED],
+                    _pose_msg(t, x, y, yaw), log_time=t, publish_time=t,
+                )
+                if name == next(iter(robots)):
+                    log.pose_stamps_ns.append(t)
+            elif kind == "truth":
+                bx, by = ball_at(t)
+                writer.write_message(
+                    contract.GT_BALL_TOPIC, schemas[contract.POSE_STAMPED],
+                    _pose_msg(t, bx, by, 0.0), log_time=t, publish_time=t,
+                )
+            else:
+                u, v = ball_pixel(robot_at(name, t), ball_at(t))
+                img = render(u, v)
+                topic = contract.topic_for(contract.IMAGE_TOPIC, name)
+                header = _header(t, contract.camera_frame(name))
+                if image_encoding in ("png", "jpeg"):
+                    ext = ".png" if image_encoding == "png" else ".jpg"
+                    ok, buf = cv2.imencode(ext, img)
+                    assert ok
+                    data = buf.tobytes()
+                    if image_index in corrupt_images:
+                        data = b"\x89PNG garbage" + bytes(64)
+                    msg: dict[str, object] = {"header": header, "format": image_encoding,
+                                              "data": data}
+                    schema = schemas[contract.COMPRESSED_IMAGE]
+                else:
+                    if image_encoding == "rgb8":
+                        px = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+                    elif image_encoding == "mono8":
+                        px = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+                    else:
+                        px = img
+                    data = px.tobytes()
+                    if image_index in corrupt_images:
+                        data = data[: len(data) // 3]
+                    channels = 1 if image_encoding == "mono8" else 3
+                    msg = {"header": header, "height": SIZE_PX, "width": SIZE_PX,
+                           "encoding": image_encoding, "is_bigendian": 0,
+                           "step": SIZE_PX * channels, "data": data}
+                    schema = schemas[contract.IMAGE]
+                    topic = topic.replace("/compressed", "")
+                writer.write_message(topic, schema, msg, log_time=t, publish_time=t)
+                if name == next(iter(robots)):
+                    log.image_stamps_ns.append(t)
+                image_index += 1
+        writer.finish()
+    log.n_images = image_index
+    return log

@@ -1,0 +1,260 @@
+"""Ball detection in an omnidirectional image, as the paper (Section II.F, eq. 1-2).
+
+Pipeline: BGR -> HSV -> threshold on the ball colour -> morphological OPEN -> connected
+blobs (external contours) -> centroid from image moments ``Cx = M10 / M00`` (eq. 1),
+``Cy = M01 / M00`` (eq. 2) in OpenCV pixel coordinates (pixel index i has coordinate i).
+
+Colour. The default range is for the simulator's orange ball (about RGB (255, 110, 0),
+OpenCV hue 13 of 0-179): H 5-25, S >= 120, V >= 80. The hue window is +-8-12 around
+the ball's hue, which shading (a darker V) does not move; S >= 120 rejects the white
+lines, the green field (H about 60) and the grey/black robots; V >= 80 keeps the shaded
+side of the ball but rejects the dark robot body. A range with ``hsv_lower[0] >
+hsv_upper[0]`` wraps around hue 180 (for a red ball).
+
+Centroid. The OPEN removes speckle but also nibbles a blob's outline, so the opened mask
+only FINDS blobs; the moments are taken over the blob's threshold mask (holes filled, so a
+specular highlight does not pull the centroid). With ``subpixel=True`` (default) the
+pixels on the blob's edge are weighted by how much of them the ball covers, estimated
+from their colour: an edge pixel p that is a blend of the ball's colour c_b (median of
+the blob's interior) and the local background c_g (median of a ring around the blob) gets
+weight ``w = <p - c_g, c_b - c_g> / |c_b - c_g|^2`` clipped to [0, 1]; if p is not on that
+blend line (e.g. a white line touches the ball) its binary mask value is used. Interior
+pixels weigh 1. On an anti-aliased disc these are the true area fractions, so the
+centroid is accurate to a few hundredths of a pixel, where the binary mask alone is only
+accurate to about 0.5 / sqrt(radius) px (digitisation noise). ``subpixel=False`` gives
+the paper's plain binary moments.
+
+Plausibility (several blobs). A blob is plausible when ``min_area_px <= area <=
+max_area_px``, its circularity ``4 pi A / P^2`` (contour area A and perimeter P) is at
+least ``min_circularity`` and its fill ratio (pixels / bounding box area, pi/4 for a disc
+and for a half disc) is within ``[min_fill_ratio, max_fill_ratio]``. Candidates are ranked
+plausible first, then by the shape score ``min(circularity, 1) * (1 - |fill - pi/4| /
+(pi/4))`` (most ball-like first), then by larger area, then top-to-bottom, left-to-right.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from estimator.errors import DetectionError
+
+__all__ = ["Detection", "DetectionParams", "detect_ball", "detect_blobs"]
+
+_PI_4 = math.pi / 4.0  # fill ratio of a disc (and a half disc) in its bounding box
+
+
+@dataclass(frozen=True)
+class DetectionParams:
+    """Parameters of :func:`detect_ball` (OpenCV HSV units: H 0-179, S and V 0-255)."""
+
+    hsv_lower: tuple[int, int, int] = (5, 120, 80)
+    hsv_upper: tuple[int, int, int] = (25, 255, 255)
+    open_kernel_px: int = 3
+    """Side of the elliptical structuring element of the OPEN (1 or less: no OPEN)."""
+    min_area_px: float = 12.0
+    max_area_px: float = 200_000.0
+    min_circularity: float = 0.5
+    min_fill_ratio: float = 0.5
+    max_fill_ratio: float = 0.95
+    ignore_radius_px: float = 0.0
+    """Pixels within this radius of ``ignore_centre_px`` are ignored (the robot's body)."""
+    ignore_centre_px: tuple[float, float] | None = None
+    """Centre of the ignored disc; None: the image centre ((w - 1) / 2, (h - 1) / 2)."""
+    subpixel: bool = True
+    """Weight edge pixels by their ball coverage (see the module docstring)."""
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (("H", 0, 179), ("S", 0, 255), ("V", 0, 255)):
+            i = "HSV".index(name)
+            for bound in (self.hsv_lower[i], self.hsv_upper[i]):
+                if not lo <= bound <= hi:
+                    raise DetectionError(
+                        f"HSV bound {name} = {bound} is outside OpenCV's {lo}-{hi}; "
+                        "use OpenCV units (hue is degrees / 2)"
+                    )
+        for i in (1, 2):
+            if self.hsv_lower[i] > self.hsv_upper[i]:
+                raise DetectionError(
+                    f"hsv_lower {self.hsv_lower} exceeds hsv_upper {self.hsv_upper} in "
+                    f"{'HSV'[i]}; swap them (only the hue may wrap)"
+                )
+        if not 0 <= self.min_area_px <= self.max_area_px:
+            raise DetectionError(
+                f"area limits [{self.min_area_px}, {self.max_area_px}] px are not "
+                "0 <= min <= max; fix min_area_px / max_area_px"
+            )
+        if self.ignore_radius_px < 0:
+            raise DetectionError(
+                f"ignore_radius_px = {self.ignore_radius_px} is negative; use 0 to ignore nothing"
+            )
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One ball candidate: centroid [px] (eq. 1-2), area, bounding box and shape."""
+
+    cx_px: float
+    cy_px: float
+    area_px: float
+    """M00: the (edge-weighted) pixel count of the blob."""
+    bbox_px: tuple[int, int, int, int]
+    """(x, y, w, h) of the blob's bounding box."""
+    circularity: float
+    """4 pi A / P^2 of the blob's outline: 1 for a circle, pi/4 for a square."""
+    outline_px: npt.NDArray[np.int32] = field(compare=False, repr=False)
+    """N x 2 (u, v) outline of the blob (not compared)."""
+
+
+def _check_image(image_bgr: npt.NDArray[np.uint8]) -> None:
+    if not isinstance(image_bgr, np.ndarray):
+        raise DetectionError(
+            f"image is a {type(image_bgr).__name__}; pass an H x W x 3 uint8 BGR numpy array"
+        )
+    if image_bgr.ndim != 3 or image_bgr.shape[2] != 3 or image_bgr.dtype != np.uint8:
+        raise DetectionError(
+            f"image has shape {image_bgr.shape} and dtype {image_bgr.dtype}; pass an "
+            "H x W x 3 uint8 BGR array (decode PNG/JPEG with cv2.imdecode first)"
+        )
+
+
+def _threshold(image_bgr: npt.NDArray[np.uint8], params: DetectionParams) -> npt.NDArray[np.uint8]:
+    hsv = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2HSV)
+    lo, hi = params.hsv_lower, params.hsv_upper
+    if lo[0] <= hi[0]:
+        mask = cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
+    else:  # hue range wraps around 180 (red)
+        upper = cv2.inRange(hsv, np.array(lo, np.uint8), np.array((179, hi[1], hi[2]), np.uint8))
+        lower = cv2.inRange(hsv, np.array((0, lo[1], lo[2]), np.uint8), np.array(hi, np.uint8))
+        mask = cv2.bitwise_or(upper, lower)
+    if params.ignore_radius_px > 0:
+        h, w = mask.shape
+        cu, cv = params.ignore_centre_px or ((w - 1) / 2.0, (h - 1) / 2.0)
+        shift = 4  # sub-pixel centre and radius, 1/16 px
+        cv2.circle(
+            mask,
+            (round(cu * 16), round(cv * 16)),
+            round(params.ignore_radius_px * 16),
+            0,
+            thickness=-1,
+            shift=shift,
+        )
+    return np.asarray(mask, dtype=np.uint8)
+
+
+_CROSS3 = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+_ELLIPSE5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+_ELLIPSE9 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))
+_PAD = 6  # ROI margin around a blob's bounding box: room for the 9 x 9 ring
+
+
+def _weights(
+    image_roi: npt.NDArray[np.uint8],
+    blob: npt.NDArray[np.uint8],
+    subpixel: bool,
+) -> npt.NDArray[np.float64]:
+    """Per-pixel ball coverage in [0, 1] of one blob (binary, or edge-weighted)."""
+    binary = (blob > 0).astype(np.float64)
+    if not subpixel:
+        return binary
+    core = cv2.erode(blob, _CROSS3) > 0  # pixels whose 4 neighbours are ball: weight 1
+    region = cv2.dilate(blob, _ELLIPSE5) > 0  # blob + 2 px: every partly covered pixel
+    ring = (cv2.dilate(blob, _ELLIPSE9) > 0) & ~region  # the local background
+    inside = core if np.any(core) else blob > 0
+    if not np.any(ring):
+        return binary
+    pixels = image_roi.astype(np.float64)
+    c_b = np.median(pixels[inside], axis=0)  # ball colour
+    c_g = np.median(pixels[ring], axis=0)  # background colour
+    delta = c_b - c_g
+    norm2 = float(np.dot(delta, delta))
+    if norm2 < 30.0**2:  # ball and background too alike to unmix: binary moments
+        return binary
+    band = region & ~core
+    p = pixels[band] - c_g
+    w = np.clip(p @ delta / norm2, 0.0, 1.0)  # coverage: position on the blend line
+    residual = np.linalg.norm(p - w[:, None] * delta[None, :], axis=1)
+    off_line = residual > 0.25 * math.sqrt(norm2)  # not a ball/background blend
+    w = np.where(off_line, binary[band], w)
+    weights = binary.copy()
+    weights[core] = 1.0
+    weights[band] = w
+    return np.asarray(weights, dtype=np.float64)
+
+
+def _candidates(
+    image_bgr: npt.NDArray[np.uint8], params: DetectionParams
+) -> list[tuple[bool, Detection]]:
+    """(plausible, detection) for every blob, best first."""
+    _check_image(image_bgr)
+    mask = _threshold(image_bgr, params)
+    if params.open_kernel_px > 1:
+        kernel = cv2.getStructuringElement(
+            cv2.MORPH_ELLIPSE, (params.open_kernel_px, params.open_kernel_px)
+        )
+        opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
+    else:
+        opened = mask
+    contours, _ = cv2.findContours(opened, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    height, width = mask.shape
+    ranked: list[tuple[tuple[bool, float, float, float, float], Detection]] = []
+    for contour in contours:
+        x, y, w, h = cv2.boundingRect(contour)
+        x0, y0 = max(x - _PAD, 0), max(y - _PAD, 0)
+        x1, y1 = min(x + w + _PAD, width), min(y + h + _PAD, height)
+        # The blob: its opened outline filled (holes closed), grown back by the OPEN's
+        # kernel, intersected with the threshold mask plus the filled outline.
+        filled = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.drawContours(filled, [contour], 0, 255, thickness=-1, offset=(-x0, -y0))
+        grown = cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1 else filled
+        blob = np.asarray(
+            cv2.bitwise_or(cv2.bitwise_and(grown, mask[y0:y1, x0:x1]), filled), dtype=np.uint8
+        )
+        weights = _weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel)
+        m00 = float(weights.sum())
+        if m00 <= 0.0:
+            continue
+        vs, us = np.mgrid[y0:y1, x0:x1]
+        cx = float((weights * us).sum()) / m00  # eq. 1: Cx = M10 / M00
+        cy = float((weights * vs).sum()) / m00  # eq. 2: Cy = M01 / M00
+        contour_area = float(cv2.contourArea(contour))
+        perimeter = float(cv2.arcLength(contour, True))
+        circularity = 4.0 * math.pi * contour_area / perimeter**2 if perimeter > 0 else 0.0
+        fill = float(np.count_nonzero(blob)) / float(w * h)
+        plausible = (
+            params.min_area_px <= m00 <= params.max_area_px
+            and circularity >= params.min_circularity
+            and params.min_fill_ratio <= fill <= params.max_fill_ratio
+        )
+        score = min(circularity, 1.0) * max(0.0, 1.0 - abs(fill - _PI_4) / _PI_4)
+        detection = Detection(
+            cx_px=cx,
+            cy_px=cy,
+            area_px=m00,
+            bbox_px=(int(x), int(y), int(w), int(h)),
+            circularity=circularity,
+            outline_px=contour.reshape(-1, 2).astype(np.int32),
+        )
+        ranked.append(((not plausible, -score, -m00, cy, cx), detection))
+    ranked.sort(key=lambda item: item[0])
+    return [(not key[0], detection) for key, detection in ranked]
+
+
+def detect_blobs(
+    image_bgr: npt.NDArray[np.uint8], params: DetectionParams | None = None
+) -> list[Detection]:
+    """Every ball-coloured blob, best first (plausible ones first; see the module doc)."""
+    return [d for _, d in _candidates(image_bgr, params or DetectionParams())]
+
+
+def detect_ball(
+    image_bgr: npt.NDArray[np.uint8], params: DetectionParams | None = None
+) -> Detection | None:
+    """The most plausible ball in the image, or None when no blob is plausible."""
+    for plausible, detection in _candidates(image_bgr, params or DetectionParams()):
+        return detection if plausible else None
+    return None

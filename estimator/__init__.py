@@ -1,3 +1,106 @@
-"""The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O."""
+"""The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O.
 
-__all__: list[str] = []
+Detection (:mod:`estimator.detection`), paper mode (:mod:`estimator.paper`), the corrected
+estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`),
+fusion of several robots (:mod:`estimator.fusion`), geometry and errors. Camera models
+live in :mod:`estimator.camera` (imported on demand, not re-exported here).
+"""
+
+from estimator.calibration import (
+    PAPER_CALIBRATION,
+    Calibration,
+    CameraCalibration,
+    FitResult,
+    LinearCalibration,
+    LookupCalibration,
+    MirrorCalibration,
+    calibration_from_dict,
+    calibration_from_json,
+    calibration_to_json,
+    fit_all,
+    fit_linear,
+    fit_lookup,
+    fit_mirror,
+)
+from estimator.corrected import BallEstimate, estimate_ball
+from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
+from estimator.errors import (
+    CalibrationError,
+    CalibrationFormatError,
+    DetectionError,
+    EstimatorError,
+    FitError,
+    FusionError,
+    GeometryError,
+    OutOfRangeError,
+    UnknownFusionError,
+)
+from estimator.fusion import (
+    FUSION_METHODS,
+    FusedEstimate,
+    Fusion,
+    MeanFusion,
+    NearestFusion,
+    NoiseModel,
+    RobustFusion,
+    WeightedFusion,
+    get_fusion,
+    range_sigma_m,
+)
+from estimator.geometry import (
+    RobotPose,
+    quaternion_from_yaw,
+    slerp,
+    wrap_angle,
+    yaw_from_quaternion,
+)
+from estimator.paper import locate_ball, rpy_from_quaternion
+
+__all__ = [
+    "FUSION_METHODS",
+    "PAPER_CALIBRATION",
+    "BallEstimate",
+    "Calibration",
+    "CalibrationError",
+    "CalibrationFormatError",
+    "CameraCalibration",
+    "Detection",
+    "DetectionError",
+    "DetectionParams",
+    "EstimatorError",
+    "FitError",
+    "FitResult",
+    "FusedEstimate",
+    "Fusion",
+    "FusionError",
+    "GeometryError",
+    "LinearCalibration",
+    "LookupCalibration",
+    "MeanFusion",
+    "MirrorCalibration",
+    "NearestFusion",
+    "NoiseModel",
+    "OutOfRangeError",
+    "RobotPose",
+    "RobustFusion",
+    "UnknownFusionError",
+    "WeightedFusion",
+    "calibration_from_dict",
+    "calibration_from_json",
+    "calibration_to_json",
+    "detect_ball",
+    "detect_blobs",
+    "estimate_ball",
+    "fit_all",
+    "fit_linear",
+    "fit_lookup",
+    "fit_mirror",
+    "get_fusion",
+    "locate_ball",
+    "quaternion_from_yaw",
+    "range_sigma_m",
+    "rpy_from_quaternion",
+    "slerp",
+    "wrap_angle",
+    "yaw_from_quaternion",
+]

@@ -1,0 +1,71 @@
+"""The corrected estimator: calibration applied to the RANGE, bearing by atan2.
+
+Differences from paper mode (:mod:`estimator.paper`): the calibration d(r) maps the
+pixel radius to the range along the bearing (not per field axis, the paper's eq. 11-12
+erratum), the image centre and the calibration are parameters, and the bearing uses
+atan2 (no branch on Cy).
+
+Conventions (docs/api.md), converted here once: image up = robot forward (x_r), image
+right = robot right (-y_r). With du = u - cu, dv = v - cv (pixels)::
+
+    r     = hypot(du, dv)                         (eq. 3)
+    theta = atan2(-du, -dv)                       robot frame: 0 forward, +pi/2 left
+    d     = calibration.range_m(r)                (eq. 4, any calibration model)
+    x     = x_robot + d cos(yaw + theta)          field frame (cf. eq. 9-14)
+    y     = y_robot + d sin(yaw + theta)
+
+At r == 0 the bearing is undefined; we define theta = 0 (forward), so the ball is put
+d(0) in front of the robot.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from estimator.calibration import PAPER_CALIBRATION, Calibration
+from estimator.geometry import RobotPose
+
+__all__ = ["BallEstimate", "estimate_ball"]
+
+
+@dataclass(frozen=True)
+class BallEstimate:
+    """One robot's estimate of the ball: range and bearing from the robot, field position."""
+
+    robot: str
+    robot_x_m: float
+    robot_y_m: float
+    range_m: float
+    """Horizontal range from the robot's centre to the ball's centre [m]."""
+    bearing_rad: float
+    """Bearing of the ball in the ROBOT frame [rad]: 0 forward, +pi/2 left."""
+    x_m: float
+    y_m: float
+
+
+def estimate_ball(
+    cx_px: float,
+    cy_px: float,
+    pose: RobotPose,
+    calibration: Calibration = PAPER_CALIBRATION,
+    *,
+    centre_px: tuple[float, float] = (539.0, 539.0),
+    robot: str = "",
+) -> BallEstimate:
+    """The ball's field position from its centroid (cx_px, cy_px) seen by a robot at ``pose``."""
+    du = cx_px - centre_px[0]
+    dv = cy_px - centre_px[1]
+    r = math.hypot(du, dv)  # eq. 3
+    theta = math.atan2(-du, -dv) if r > 0.0 else 0.0  # robot frame, 0 = forward
+    d = calibration.range_m(r)  # eq. 4, applied to the range
+    phi = pose.yaw_rad + theta  # field bearing of the ball from the robot
+    return BallEstimate(
+        robot=robot,
+        robot_x_m=pose.x_m,
+        robot_y_m=pose.y_m,
+        range_m=d,
+        bearing_rad=theta,
+        x_m=pose.x_m + d * math.cos(phi),
+        y_m=pose.y_m + d * math.sin(phi),
+    )

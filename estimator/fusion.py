@@ -1,0 +1,267 @@
+"""Fusing several robots' ball estimates into one, behind the :class:`Fusion` protocol.
+
+- ``mean``: the paper's plain average (eq. 20-21).
+- ``nearest``: the estimate of the robot nearest the ball (smallest ``range_m``), as NuBot
+  and CAMBADA do.
+- ``weighted``: inverse-covariance weighting of all estimates.
+- ``robust``: ``weighted`` with iterative n-sigma outlier rejection (Falcons).
+
+Noise model (one per estimate, field frame). A robot measures range d and bearing; its
+range noise is CAMBADA's ``sigma_r(d) = 0.01 d^2 - 0.01 d + 0.039`` m (configurable), along
+the field bearing phi from robot to ball, and its bearing noise sigma_b (0.01 rad) gives a
+tangential sigma ``d sigma_b`` across it::
+
+    Sigma_i = R(phi) diag(sigma_r^2, (d sigma_b)^2) R(phi)^T
+
+Both sigmas are floored at ``min_sigma_m`` so Sigma_i is never singular (d = 0).
+All methods are deterministic: no randomness, ties broken by input order, and the
+``robots`` of a result are listed in input order.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from estimator.corrected import BallEstimate
+from estimator.errors import FusionError, UnknownFusionError
+
+__all__ = [
+    "FUSION_METHODS",
+    "Covariance",
+    "FusedEstimate",
+    "Fusion",
+    "MeanFusion",
+    "NearestFusion",
+    "NoiseModel",
+    "RobustFusion",
+    "WeightedFusion",
+    "get_fusion",
+    "range_sigma_m",
+]
+
+FUSION_METHODS = ("mean", "nearest", "weighted", "robust")
+
+Covariance = tuple[tuple[float, float], tuple[float, float]]
+"""A 2 x 2 covariance [m^2] as a tuple of rows."""
+
+Matrix = npt.NDArray[np.float64]
+
+
+def range_sigma_m(
+    d_m: float, coefficients: tuple[float, float, float] = (0.01, -0.01, 0.039)
+) -> float:
+    """CAMBADA's range noise sigma(d) = c2 d^2 + c1 d + c0 [m] (default 0.01, -0.01, 0.039)."""
+    c2, c1, c0 = coefficients
+    return c2 * d_m * d_m + c1 * d_m + c0
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """The per-estimate covariance model (see the module docstring)."""
+
+    range_sigma_coefficients: tuple[float, float, float] = (0.01, -0.01, 0.039)
+    """(c2, c1, c0) of sigma_r(d) = c2 d^2 + c1 d + c0 [m]."""
+    bearing_sigma_rad: float = 0.01
+    min_sigma_m: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if not (self.bearing_sigma_rad >= 0.0 and self.min_sigma_m > 0.0):
+            raise FusionError(
+                f"bearing_sigma_rad = {self.bearing_sigma_rad} and min_sigma_m = "
+                f"{self.min_sigma_m}; pass bearing_sigma_rad >= 0 and min_sigma_m > 0"
+            )
+
+    def covariance(self, estimate: BallEstimate) -> Matrix:
+        """Sigma_i of one estimate in the field frame [m^2]."""
+        d = estimate.range_m
+        sigma_r = max(abs(range_sigma_m(d, self.range_sigma_coefficients)), self.min_sigma_m)
+        sigma_t = max(abs(d) * self.bearing_sigma_rad, self.min_sigma_m)
+        dx = estimate.x_m - estimate.robot_x_m
+        dy = estimate.y_m - estimate.robot_y_m
+        phi = math.atan2(dy, dx) if (dx or dy) else 0.0  # field bearing robot -> ball
+        c, s = math.cos(phi), math.sin(phi)
+        rotation = np.array([[c, -s], [s, c]])
+        sigma = rotation @ np.diag([sigma_r**2, sigma_t**2]) @ rotation.T
+        return np.asarray(sigma, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class FusedEstimate:
+    """The team's ball estimate: field position [m], its covariance [m^2], robots used."""
+
+    x_m: float
+    y_m: float
+    covariance: Covariance
+    robots: tuple[str, ...]
+
+
+def _fused(position: Matrix, covariance: Matrix, robots: Sequence[str]) -> FusedEstimate:
+    cov = 0.5 * (covariance + covariance.T)  # symmetric to rounding
+    return FusedEstimate(
+        x_m=float(position[0]),
+        y_m=float(position[1]),
+        covariance=(
+            (float(cov[0, 0]), float(cov[0, 1])),
+            (float(cov[1, 0]), float(cov[1, 1])),
+        ),
+        robots=tuple(robots),
+    )
+
+
+@runtime_checkable
+class Fusion(Protocol):
+    """Several robots' estimates -> one, or None for no estimates."""
+
+    @property
+    def name(self) -> str:
+        """The method's name, one of FUSION_METHODS for the built-in ones."""
+        ...
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        """The fused estimate of ``estimates`` (None when there are none)."""
+        ...
+
+
+@dataclass(frozen=True)
+class MeanFusion:
+    """The paper's eq. 20-21: x = mean(x_i), y = mean(y_i).
+
+    Covariance: the sample covariance of the estimates divided by n (the covariance of
+    the mean); for a single estimate, the noise model's covariance of that estimate.
+    """
+
+    noise: NoiseModel = field(default_factory=NoiseModel)
+
+    @property
+    def name(self) -> str:
+        return "mean"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        if not estimates:
+            return None
+        points = np.array([[e.x_m, e.y_m] for e in estimates])
+        n = len(estimates)
+        mean = points.mean(axis=0)  # eq. 20-21
+        if n == 1:
+            covariance = self.noise.covariance(estimates[0])
+        else:
+            centred = points - mean
+            covariance = centred.T @ centred / (n - 1) / n
+        return _fused(mean, covariance, [e.robot for e in estimates])
+
+
+@dataclass(frozen=True)
+class NearestFusion:
+    """The estimate with the smallest ``range_m`` (first one on ties), its covariance
+    from the noise model."""
+
+    noise: NoiseModel = field(default_factory=NoiseModel)
+
+    @property
+    def name(self) -> str:
+        return "nearest"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        if not estimates:
+            return None
+        best = min(estimates, key=lambda e: e.range_m)  # min keeps the first on ties
+        return _fused(np.array([best.x_m, best.y_m]), self.noise.covariance(best), [best.robot])
+
+
+def _information_fuse(points: Matrix, covariances: Sequence[Matrix]) -> tuple[Matrix, Matrix]:
+    """Inverse-covariance weighting: P = (sum Sigma_i^-1)^-1, x = P sum Sigma_i^-1 x_i."""
+    information = np.zeros((2, 2))
+    weighted_sum = np.zeros(2)
+    for point, sigma in zip(points, covariances, strict=True):
+        inverse = np.linalg.inv(sigma)
+        information += inverse
+        weighted_sum += inverse @ point
+    covariance = np.asarray(np.linalg.inv(information), dtype=np.float64)
+    return covariance @ weighted_sum, covariance
+
+
+@dataclass(frozen=True)
+class WeightedFusion:
+    """Inverse-covariance weighted mean of all estimates (covariances from the noise
+    model); its covariance is (sum Sigma_i^-1)^-1."""
+
+    noise: NoiseModel = field(default_factory=NoiseModel)
+
+    @property
+    def name(self) -> str:
+        return "weighted"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        if not estimates:
+            return None
+        points = np.array([[e.x_m, e.y_m] for e in estimates])
+        position, covariance = _information_fuse(
+            points, [self.noise.covariance(e) for e in estimates]
+        )
+        return _fused(position, covariance, [e.robot for e in estimates])
+
+
+@dataclass(frozen=True)
+class RobustFusion:
+    """``weighted`` with iterative n-sigma outlier rejection (as the Falcons do).
+
+    Repeat: fuse the kept estimates; compute each kept estimate's Mahalanobis distance
+    m_i = sqrt((x_i - x)^T Sigma_i^-1 (x_i - x)) to the fused x; if the largest m_i
+    exceeds ``n_sigma``, drop that one estimate (the first on ties) and fuse again. Stops
+    when none exceeds ``n_sigma`` or one estimate is left.
+    """
+
+    noise: NoiseModel = field(default_factory=NoiseModel)
+    n_sigma: float = 3.0
+
+    def __post_init__(self) -> None:
+        if not self.n_sigma > 0.0:
+            raise FusionError(f"n_sigma = {self.n_sigma} must be > 0 (3 is usual)")
+
+    @property
+    def name(self) -> str:
+        return "robust"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        if not estimates:
+            return None
+        kept = list(range(len(estimates)))
+        points = np.array([[e.x_m, e.y_m] for e in estimates])
+        sigmas = [self.noise.covariance(e) for e in estimates]
+        while True:
+            position, covariance = _information_fuse(points[kept], [sigmas[i] for i in kept])
+            if len(kept) == 1:
+                break
+            distances = [
+                math.sqrt(
+                    float((points[i] - position) @ np.linalg.solve(sigmas[i], points[i] - position))
+                )
+                for i in kept
+            ]
+            worst = int(np.argmax(distances))  # argmax keeps the first on ties
+            if distances[worst] <= self.n_sigma:
+                break
+            del kept[worst]
+        return _fused(position, covariance, [estimates[i].robot for i in kept])
+
+
+def get_fusion(name: str, *, noise: NoiseModel | None = None) -> Fusion:
+    """The fusion method called ``name`` (one of FUSION_METHODS), with its defaults."""
+    model = noise or NoiseModel()
+    if name == "mean":
+        return MeanFusion(model)
+    if name == "nearest":
+        return NearestFusion(model)
+    if name == "weighted":
+        return WeightedFusion(model)
+    if name == "robust":
+        return RobustFusion(model)
+    raise UnknownFusionError(
+        f"fusion method {name!r} is unknown; use one of {', '.join(FUSION_METHODS)}"
+    )

@@ -1,0 +1,163 @@
+"""Omnidirectional images from pybullet: render cube-map faces, remap them through a camera model.
+
+For each robot camera we render five 90 deg faces (forward, left, back, right, down) in the
+*robot* frame from the optical centre, tile them into one atlas and ``cv2.remap`` the atlas
+into the 1080 x 1080 omni image. Because the faces turn with the robot, the remap tables
+depend only on the camera model and the face size: they are computed once per model and
+reused every frame. Each face carries a one-pixel margin (a slightly wider field of view)
+so bilinear interpolation never reads across a seam into the neighbouring face.
+
+The robot's own body is taken out of the scene while its camera renders (it would sit a few
+centimetres below the lens and fill the view); the image shows instead a dark square where
+the robot's footprint is, and the mirror model's own reflection as a black disc.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from estimator.camera import CameraModel, MirrorCamera
+from recorder.world import ROBOT_RGB, ROBOT_SIZE_M, World
+
+__all__ = ["DEFAULT_FACE_PX", "FACES", "OmniRenderer"]
+
+DEFAULT_FACE_PX = 1024
+"""Cube face side in pixels. 1024 gives ~512 px/rad at a face centre, about the omni image's
+tangential resolution at 8 m range (r ~ 500 px), so far balls stay sharp."""
+
+# name -> (view direction, up vector) in the robot frame (x forward, y left, z up)
+FACES: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    "front": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    "left": ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    "back": ((-1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    "right": ((0.0, -1.0, 0.0), (0.0, 0.0, 1.0)),
+    "down": ((0.0, 0.0, -1.0), (1.0, 0.0, 0.0)),
+}
+_MARGIN_PX = 1
+_NEAR_M = 0.02
+_FAR_M = 80.0
+
+
+@dataclass(frozen=True)
+class _Face:
+    name: str
+    forward: np.ndarray
+    up: np.ndarray
+    right: np.ndarray
+
+
+def _faces() -> list[_Face]:
+    out = []
+    for name, (f, u) in FACES.items():
+        fa, ua = np.array(f, float), np.array(u, float)
+        out.append(_Face(name, fa, ua, np.cross(fa, ua)))
+    return out
+
+
+def _perspective(fov_deg: float, near: float, far: float) -> list[float]:
+    """OpenGL projection (column-major), as pybullet's computeProjectionMatrixFOV, aspect 1."""
+    f = 1.0 / math.tan(math.radians(fov_deg) / 2.0)
+    return [f, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) / (near - far), -1,
+            0, 0, 2 * far * near / (near - far), 0]
+
+
+def _look_at(eye: np.ndarray, forward: np.ndarray, up: np.ndarray) -> list[float]:
+    """OpenGL view matrix (column-major) looking along ``forward`` with ``up``."""
+    f = forward / np.linalg.norm(forward)
+    s = np.cross(f, up)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return [float(x) for x in m.T.reshape(-1)]
+
+
+class OmniRenderer:
+    """Renders a camera model's omni image from a world, with remap tables built once."""
+
+    def __init__(self, camera: CameraModel, *, face_px: int = DEFAULT_FACE_PX) -> None:
+        if face_px < 16:
+            raise ValueError(f"face size must be >= 16 px, got {face_px}")
+        self.camera = camera
+        self.face_px = int(face_px)
+        self.tile_px = self.face_px + 2 * _MARGIN_PX
+        # half-angle whose tangent is tile/face: each tile pixel subtends as in a 90 deg face
+        self.tile_fov_deg = math.degrees(2.0 * math.atan(self.tile_px / self.face_px))
+        self._faces = _faces()
+        self._proj = _perspective(self.tile_fov_deg, _NEAR_M, _FAR_M)
+        self._build_maps()
+
+    def _build_maps(self) -> None:
+        cam = self.camera
+        h, w = cam.height_px, cam.width_px
+        v, u = np.mgrid[0:h, 0:w].astype(np.float64)
+        rays = cam.pixel_to_ray(u, v)
+        cu, cv_ = cam.centre_px
+        r = np.hypot(u - cu, v - cv_)
+        valid = (r <= cam.max_radius_px) & np.all(np.isfinite(rays), axis=-1)
+        rays = np.where(valid[..., None], rays, np.array([0.0, 0.0, -1.0]))
+        dots = np.stack([rays @ f.forward for f in self._faces], axis=-1)
+        best = np.argmax(dots, axis=-1)
+        map_x = np.zeros((h, w), np.float32)
+        map_y = np.zeros((h, w), np.float32)
+        half = self.face_px / 2.0
+        centre = self.tile_px / 2.0 - 0.5  # pixel i has coordinate i, its centre at i
+        for k, face in enumerate(self._faces):
+            sel = best == k
+            d = rays[sel]
+            depth = d @ face.forward
+            a = (d @ face.right) / depth
+            b = (d @ face.up) / depth
+            map_x[sel] = (k * self.tile_px + centre + a * half).astype(np.float32)
+            map_y[sel] = (centre - b * half).astype(np.float32)
+        self._map1, self._map2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+        # masks: outside the image circle (black), own body footprint (dark), mirror self
+        black = ~valid
+        if isinstance(cam, MirrorCamera):
+            black |= r < cam.self_radius_px
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = cam.height_m / -rays[..., 2]
+            gx, gy = rays[..., 0] * t, rays[..., 1] * t
+        body = valid & (rays[..., 2] < 0) & (np.abs(gx) <= ROBOT_SIZE_M / 2) & (
+            np.abs(gy) <= ROBOT_SIZE_M / 2
+        )
+        self._black = black
+        self._body = body & ~black
+
+    def render(self, world: World, robot: str | None, x_m: float, y_m: float,
+               yaw_rad: float) -> np.ndarray:
+        """The omni image (BGR uint8, height x width x 3) of a camera at (x, y, yaw).
+
+        ``robot`` names the world's robot that carries the camera; it is hidden while
+        rendering. ``None`` renders from a bare camera (e.g. tests).
+        """
+        if robot is None:
+            atlas = self.render_atlas(world, x_m, y_m, yaw_rad)
+        else:
+            with world.hidden(robot):
+                atlas = self.render_atlas(world, x_m, y_m, yaw_rad)
+        return self.remap(atlas)
+
+    def render_atlas(self, world: World, x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
+        """The five faces side by side (RGB), each ``tile_px`` square."""
+        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        eye = np.array([x_m, y_m, self.camera.height_m])
+        tiles = []
+        for face in self._faces:
+            view = _look_at(eye, rot @ face.forward, rot @ face.up)
+            tiles.append(world.render(self.tile_px, self.tile_px, view, self._proj))
+        return np.hstack(tiles)
+
+    def remap(self, atlas_rgb: np.ndarray) -> np.ndarray:
+        out = cv2.remap(atlas_rgb, self._map1, self._map2, cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
+        out = cv2.cvtColor(out, cv2.COLOR_RGB2BGR)
+        out[self._body] = ROBOT_RGB[::-1]
+        out[self._black] = 0
+        return out

@@ -1,0 +1,374 @@
+"""The simulated RoboCup MSL world in pybullet: field, goals, ball, robots.
+
+DIRECT mode, fixed time step, no randomness of its own (scenarios are seeded elsewhere), so
+the same inputs step to the same states. Robots are kinematic (mass 0, posed every step);
+the ball is a real rigid body that rolls and bounces off them.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pybullet as p
+
+from recorder.errors import RendererError, UsageError
+
+__all__ = [
+    "BALL_MASS_KG",
+    "BALL_RADIUS_M",
+    "BALL_RGB",
+    "FIELDS",
+    "PHYSICS_HZ",
+    "ROBOT_HEIGHT_M",
+    "ROBOT_SIZE_M",
+    "FieldSpec",
+    "World",
+    "field_spec",
+]
+
+PHYSICS_HZ = 240
+"""Physics steps per second (fixed time step 1/240 s)."""
+BALL_RADIUS_M = 0.11
+BALL_MASS_KG = 0.41
+BALL_RGB = (255, 110, 0)
+"""Strong orange, so a colour threshold finds it."""
+ROBOT_SIZE_M = 0.49
+"""Footprint side of a robot (square)."""
+ROBOT_HEIGHT_M = 0.80
+ROBOT_RGB = (22, 22, 22)
+TEAM_BAND_RGB = (0, 170, 220)
+"""Cyan band on our robots (MSL team marker)."""
+OPPONENT_BAND_RGB = (200, 0, 160)
+"""Magenta band on opponents."""
+CARPET_RGB = (30, 125, 45)
+FLOOR_RGB = (95, 95, 100)
+LINE_RGB = (245, 245, 245)
+LINE_WIDTH_M = 0.125
+TEXTURE_PX_PER_M = 100
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """Field dimensions in metres (lines' centres; origin at the centre, x to the opponent)."""
+
+    name: str
+    length_m: float
+    width_m: float
+    goal_area_depth_m: float
+    goal_area_half_width_m: float
+    penalty_area_depth_m: float
+    penalty_area_half_width_m: float
+    centre_circle_radius_m: float = 2.0
+    border_m: float = 1.5
+    goal_half_width_m: float = 1.0
+    goal_height_m: float = 1.0
+    goal_depth_m: float = 0.6
+
+    @property
+    def half_length_m(self) -> float:
+        return self.length_m / 2.0
+
+    @property
+    def half_width_m(self) -> float:
+        return self.width_m / 2.0
+
+
+FIELDS: dict[str, FieldSpec] = {
+    # The paper's (older MSL) field: goals at x = +-9. Area sizes as the older MSL rules.
+    "18x12": FieldSpec("18x12", 18.0, 12.0, 0.75, 1.75, 2.25, 3.25),
+    # simatch's current field (NOTES.md): goal area x = +-10.25 / y = +-1.95,
+    # penalty area x = +-8.75 / y = +-3.45.
+    "22x14": FieldSpec("22x14", 22.0, 14.0, 0.75, 1.95, 2.25, 3.45),
+}
+
+
+def field_spec(name: str) -> FieldSpec:
+    try:
+        return FIELDS[name]
+    except KeyError:
+        raise UsageError(f"unknown field {name!r}; choose one of {', '.join(FIELDS)}") from None
+
+
+def field_texture(spec: FieldSpec, px_per_m: int = TEXTURE_PX_PER_M) -> np.ndarray:
+    """Top view of the carpet with its lines, BGR; row 0 = +y edge, column 0 = -x edge."""
+    full_l = spec.length_m + 2 * spec.border_m
+    full_w = spec.width_m + 2 * spec.border_m
+    w_px, h_px = round(full_l * px_per_m), round(full_w * px_per_m)
+    img = np.empty((h_px, w_px, 3), np.uint8)
+    img[:] = CARPET_RGB[::-1]
+    shift = 4  # sub-pixel precision for cv2 drawing
+    scale = px_per_m * (1 << shift)
+
+    def pt(x: float, y: float) -> tuple[int, int]:
+        return (
+            round((x + full_l / 2) * scale - 0.5 * (1 << shift)),
+            round((full_w / 2 - y) * scale - 0.5 * (1 << shift)),
+        )
+
+    thick = max(1, round(LINE_WIDTH_M * px_per_m))
+    col = LINE_RGB[::-1]
+
+    def rect(x0: float, y0: float, x1: float, y1: float) -> None:
+        cv2.rectangle(img, pt(x0, y0), pt(x1, y1), col, thick, cv2.LINE_AA, shift)
+
+    hl, hw = spec.half_length_m, spec.half_width_m
+    rect(-hl, -hw, hl, hw)
+    cv2.line(img, pt(0, -hw), pt(0, hw), col, thick, cv2.LINE_AA, shift)
+    cv2.circle(img, pt(0, 0), round(spec.centre_circle_radius_m * scale), col, thick,
+               cv2.LINE_AA, shift)
+    cv2.circle(img, pt(0, 0), round(0.1 * scale), col, -1, cv2.LINE_AA, shift)
+    for s in (-1.0, 1.0):
+        rect(s * hl, -spec.penalty_area_half_width_m, s * (hl - spec.penalty_area_depth_m),
+             spec.penalty_area_half_width_m)
+        rect(s * hl, -spec.goal_area_half_width_m, s * (hl - spec.goal_area_depth_m),
+             spec.goal_area_half_width_m)
+        cv2.circle(img, pt(s * (hl - 3.0), 0), round(0.1 * scale), col, -1, cv2.LINE_AA, shift)
+    return img
+
+
+def _rgba(rgb: tuple[int, int, int]) -> list[float]:
+    return [rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0, 1.0]
+
+
+class World:
+    """One pybullet DIRECT client holding the field, goals, ball and robots.
+
+    ``renderer`` is "auto" (EGL if its plugin loads, else TinyRenderer), "egl" or "tiny";
+    the environment variable ``DSP_RENDERER`` overrides "auto". ``self.renderer`` says
+    which one is in use.
+    """
+
+    def __init__(self, field: FieldSpec, *, renderer: str = "auto") -> None:
+        self.field = field
+        self._client = p.connect(p.DIRECT)
+        self._plugin = -1
+        self._tmp = tempfile.TemporaryDirectory(prefix="dsp-world-")
+        try:
+            self.renderer = self._setup_renderer(renderer)
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+        self._robots: dict[str, int] = {}
+        self._parked: set[int] = set()
+
+    # --- setup -------------------------------------------------------------------------------
+    def _setup_renderer(self, renderer: str) -> str:
+        if renderer == "auto":
+            renderer = os.environ.get("DSP_RENDERER", "auto").strip().lower() or "auto"
+        if renderer not in ("auto", "egl", "tiny"):
+            raise UsageError(f"unknown renderer {renderer!r}; choose auto, egl or tiny")
+        if renderer == "tiny":
+            return "tiny"
+        spec = importlib.util.find_spec("eglRenderer")
+        plugin = -1
+        if spec is not None and spec.origin:
+            try:
+                plugin = p.loadPlugin(
+                    spec.origin,
+                    "_eglRendererPlugin",
+                    physicsClientId=self._client,
+                )
+            except Exception:
+                plugin = -1
+        if plugin < 0:
+            if renderer == "egl":
+                raise RendererError(
+                    "the EGL renderer plugin did not load; install Mesa EGL or use "
+                    "--renderer tiny"
+                )
+            return "tiny"
+        self._plugin = plugin
+        return "egl"
+
+    @property
+    def render_mode(self) -> int:
+        return p.ER_BULLET_HARDWARE_OPENGL if self.renderer == "egl" else p.ER_TINY_RENDERER
+
+    def _build(self) -> None:
+        c = self._client
+        p.setGravity(0, 0, -9.81, physicsClientId=c)
+        p.setPhysicsEngineParameter(
+            fixedTimeStep=1.0 / PHYSICS_HZ,
+            numSolverIterations=50,
+            deterministicOverlappingPairs=1,
+            physicsClientId=c,
+        )
+        spec = self.field
+        full_l = spec.length_m + 2 * spec.border_m
+        full_w = spec.width_m + 2 * spec.border_m
+        # carpet: a textured quad (OBJ with UVs; both renderers load it)
+        tex_path = Path(self._tmp.name) / "field.png"
+        cv2.imwrite(str(tex_path), field_texture(spec))
+        obj_path = Path(self._tmp.name) / "field.obj"
+        hl, hw = full_l / 2, full_w / 2
+        obj_path.write_text(
+            f"v {-hl} {-hw} 0\nv {hl} {-hw} 0\nv {hl} {hw} 0\nv {-hl} {hw} 0\n"
+            "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
+            "f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n"
+        )
+        # the hall's floor around the carpet (a frame of four quads, grey, no texture)
+        big = 60.0
+        floor_path = Path(self._tmp.name) / "floor.obj"
+        floor_path.write_text(
+            f"v {-hl} {-hw} 0\nv {hl} {-hw} 0\nv {hl} {hw} 0\nv {-hl} {hw} 0\n"
+            f"v {-big} {-big} 0\nv {big} {-big} 0\nv {big} {big} 0\nv {-big} {big} 0\n"
+            "vn 0 0 1\n"
+            "f 5//1 6//1 2//1\nf 5//1 2//1 1//1\nf 6//1 7//1 3//1\nf 6//1 3//1 2//1\n"
+            "f 7//1 8//1 4//1\nf 7//1 4//1 3//1\nf 8//1 5//1 1//1\nf 8//1 1//1 4//1\n"
+        )
+        floor_vis = p.createVisualShape(p.GEOM_MESH, fileName=str(floor_path),
+                                        rgbaColor=_rgba(FLOOR_RGB), specularColor=[0, 0, 0],
+                                        physicsClientId=c)
+        p.createMultiBody(0, -1, floor_vis, physicsClientId=c)
+        ground_col = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=c)
+        ground_vis = p.createVisualShape(p.GEOM_MESH, fileName=str(obj_path), physicsClientId=c)
+        self.ground = p.createMultiBody(0, ground_col, ground_vis, physicsClientId=c)
+        tex = p.loadTexture(str(tex_path), physicsClientId=c)
+        p.changeVisualShape(self.ground, -1, textureUniqueId=tex, rgbaColor=[1, 1, 1, 1],
+                            physicsClientId=c)
+        p.changeDynamics(self.ground, -1, restitution=0.5, lateralFriction=0.6,
+                         physicsClientId=c)
+        for s in (-1.0, 1.0):
+            self._add_goal(s)
+        # the ball
+        col = p.createCollisionShape(p.GEOM_SPHERE, radius=BALL_RADIUS_M, physicsClientId=c)
+        vis = p.createVisualShape(p.GEOM_SPHERE, radius=BALL_RADIUS_M,
+                                  rgbaColor=_rgba(BALL_RGB), specularColor=[0, 0, 0],
+                                  physicsClientId=c)
+        self.ball = p.createMultiBody(BALL_MASS_KG, col, vis, [0, 0, BALL_RADIUS_M],
+                                      physicsClientId=c)
+        p.changeDynamics(self.ball, -1, restitution=0.6, lateralFriction=0.6,
+                         rollingFriction=0.0005, spinningFriction=0.0005,
+                         linearDamping=0.05, angularDamping=0.05, physicsClientId=c)
+
+    def _add_goal(self, side: float) -> None:
+        """A goal behind the line x = side * half length: white posts, crossbar, net frame."""
+        c = self._client
+        spec = self.field
+        x0 = side * spec.half_length_m
+        post, gw, gh, gd = 0.0625, spec.goal_half_width_m, spec.goal_height_m, spec.goal_depth_m
+        white = _rgba((250, 250, 250))
+        bar = 0.02  # the net's ground frame; the net itself is left out (see-through)
+        parts = [  # (half extents, centre, colour)
+            ((post, post, gh / 2), (x0 + side * post, gw + post, gh / 2), white),
+            ((post, post, gh / 2), (x0 + side * post, -gw - post, gh / 2), white),
+            ((post, gw + 2 * post, post), (x0 + side * post, 0.0, gh + post), white),
+            ((bar, gw, bar), (x0 + side * gd, 0.0, bar), white),
+            ((gd / 2, bar, bar), (x0 + side * gd / 2, gw, bar), white),
+            ((gd / 2, bar, bar), (x0 + side * gd / 2, -gw, bar), white),
+        ]
+        for half, centre, rgba in parts:
+            vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=rgba,
+                                      specularColor=[0, 0, 0], physicsClientId=c)
+            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
+            p.createMultiBody(0, col, vis, centre, physicsClientId=c)
+
+    def add_robot(self, name: str, *, opponent: bool = False) -> int:
+        """A dark 0.49 x 0.49 x 0.8 m robot with a team band and a camera on top."""
+        c = self._client
+        h = ROBOT_SIZE_M / 2
+        band = OPPONENT_BAND_RGB if opponent else TEAM_BAND_RGB
+        vis = p.createVisualShapeArray(
+            shapeTypes=[p.GEOM_BOX, p.GEOM_BOX, p.GEOM_BOX, p.GEOM_CYLINDER],
+            halfExtents=[[h, h, ROBOT_HEIGHT_M / 2], [h + 0.005, h + 0.005, 0.04],
+                         [0.03, 0.12, 0.03], [0, 0, 0]],
+            radii=[0, 0, 0, 0.05],
+            lengths=[0, 0, 0, 0.1],
+            rgbaColors=[_rgba(ROBOT_RGB), _rgba(band), _rgba((90, 90, 90)),
+                        _rgba((60, 60, 60))],
+            visualFramePositions=[[0, 0, ROBOT_HEIGHT_M / 2], [0, 0, 0.62],
+                                  [h - 0.02, 0, 0.1], [0, 0, ROBOT_HEIGHT_M + 0.05]],
+            physicsClientId=c,
+        )
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[h, h, ROBOT_HEIGHT_M / 2],
+                                     collisionFramePosition=[0, 0, ROBOT_HEIGHT_M / 2],
+                                     physicsClientId=c)
+        body = p.createMultiBody(0, col, vis, [0, 0, 0], physicsClientId=c)
+        p.changeDynamics(body, -1, restitution=0.5, lateralFriction=0.5, physicsClientId=c)
+        self._robots[name] = body
+        return body
+
+    # --- state -------------------------------------------------------------------------------
+    def set_robot_pose(self, name: str, x_m: float, y_m: float, yaw_rad: float) -> None:
+        q = p.getQuaternionFromEuler([0, 0, yaw_rad])
+        p.resetBasePositionAndOrientation(self._robots[name], [x_m, y_m, 0.0], q,
+                                          physicsClientId=self._client)
+
+    def set_ball(self, x_m: float, y_m: float, vx_mps: float = 0.0, vy_mps: float = 0.0) -> None:
+        """Put the ball on the ground at (x, y), rolling with (vx, vy) without slipping."""
+        c = self._client
+        p.resetBasePositionAndOrientation(self.ball, [x_m, y_m, BALL_RADIUS_M], [0, 0, 0, 1],
+                                          physicsClientId=c)
+        w = [-vy_mps / BALL_RADIUS_M, vx_mps / BALL_RADIUS_M, 0.0]
+        p.resetBaseVelocity(self.ball, [vx_mps, vy_mps, 0.0], w, physicsClientId=c)
+
+    def ball_position(self) -> tuple[float, float, float]:
+        pos, _ = p.getBasePositionAndOrientation(self.ball, physicsClientId=self._client)
+        return (float(pos[0]), float(pos[1]), float(pos[2]))
+
+    def step(self, n: int = 1) -> None:
+        for _ in range(n):
+            p.stepSimulation(physicsClientId=self._client)
+
+    @contextmanager
+    def hidden(self, name: str) -> Iterator[None]:
+        """Temporarily park a robot far below the field (so its own camera sees past it)."""
+        body = self._robots[name]
+        c = self._client
+        pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
+        p.resetBasePositionAndOrientation(body, [pos[0], pos[1], -50.0], orn,
+                                          physicsClientId=c)
+        try:
+            yield
+        finally:
+            p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=c)
+
+    # --- rendering ---------------------------------------------------------------------------
+    def render(self, width: int, height: int, view: list[float] | tuple[float, ...],
+               proj: list[float] | tuple[float, ...]) -> np.ndarray:
+        """One RGB image (height x width x 3, uint8, row 0 = top) from a view/projection."""
+        _, _, rgba, _, _ = p.getCameraImage(
+            width, height, view, proj,
+            renderer=self.render_mode,
+            flags=p.ER_NO_SEGMENTATION_MASK,
+            shadow=0,
+            lightDirection=[0.3, 0.2, 1.0],
+            lightColor=[1, 1, 1],
+            lightAmbientCoeff=0.65,
+            lightDiffuseCoeff=0.45,
+            lightSpecularCoeff=0.0,
+            physicsClientId=self._client,
+        )
+        img = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
+        return np.ascontiguousarray(img[:, :, :3])
+
+    def close(self) -> None:
+        if self._client >= 0:
+            try:
+                if self._plugin >= 0:
+                    p.unloadPlugin(self._plugin, physicsClientId=self._client)
+                p.disconnect(physicsClientId=self._client)
+            finally:
+                self._client = -1
+                self._tmp.cleanup()
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of a rotation by yaw about z."""
+    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))

@@ -364,10 +364,11 @@ class LogReader:
         for channel, message in raw:
             kind, robot = self._topic_kind[channel.topic]
             try:
-                decoded = self._decode(channel, message)
-                yield _convert(kind, robot, decoded, message)
-            except _READ_ERRORS + (AttributeError, TypeError, IndexError, KeyError):
+                record = _convert(kind, robot, self._decode(channel, message), message)
+            except (*_READ_ERRORS, AttributeError, TypeError, IndexError, KeyError):
                 self.undecodable += 1
+                continue
+            yield record
 
     def _indexed(
         self, topics: list[str], start_ns: int | None

@@ -1,0 +1,138 @@
+"""``dsp-replay``: replay a log through the estimator (thin: parse, call, report).
+
+    dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL | --serve]
+               [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
+               [--out results.json] [--out-mcap estimates.mcap] [--force] ...
+
+Known problems (:class:`~replay.errors.ReplayError`) end in one line on stderr and a
+non-zero exit code, without a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from recorder import contract
+from replay.errors import ReplayError
+from replay.runner import METHODS, ReplayOptions, ReplaySummary, RerunTarget, replay
+
+__all__ = ["build_parser", "format_summary", "main"]
+
+FUSIONS = ("mean", "nearest", "weighted", "robust")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="dsp-replay",
+        description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
+        "evaluate against ground truth, and show it in Rerun.",
+    )
+    p.add_argument("log", type=Path, help="the MCAP log to replay")
+    viewer = p.add_mutually_exclusive_group()
+    viewer.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
+    viewer.add_argument("--save", type=Path, metavar="RRD", help="save a Rerun .rrd file")
+    viewer.add_argument("--connect", metavar="URL", nargs="?", const="",
+                        help="connect to a running viewer over gRPC "
+                        "(default rerun+http://127.0.0.1:9876/proxy)")
+    viewer.add_argument("--serve", action="store_true", help="serve the Rerun web viewer")
+    p.add_argument("--method", choices=METHODS, default="corrected",
+                   help="paper: eq. 3-14 as published; corrected: calibration on the range "
+                   "(default)")
+    p.add_argument("--fusion", choices=FUSIONS, default="mean", help="fusion (default mean)")
+    p.add_argument("--calibration", type=Path, metavar="FILE",
+                   help="calibration JSON (default: the log's camera metadata, else the paper's)")
+    p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
+                   help="image topic pattern, {robot} = robot name (default %(default)s)")
+    p.add_argument("--pose-topic", default=contract.POSE_TOPIC,
+                   help="pose topic pattern (default %(default)s)")
+    p.add_argument("--robots", help="comma-separated subset of robots (default all)")
+    p.add_argument("--start", type=float, metavar="S", help="first sim second to replay")
+    p.add_argument("--end", type=float, metavar="S", help="last sim second to replay")
+    p.add_argument("--pose-tolerance", type=float, default=0.1, metavar="S",
+                   help="skip an image whose nearest pose is further away (default 0.1 s)")
+    p.add_argument("--window", type=float, default=0.05, metavar="S",
+                   help="fusion window grouping the robots' images (default 0.05 s)")
+    p.add_argument("--recover", action="store_true",
+                   help="replay every complete chunk of a truncated or damaged log")
+    p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
+    p.add_argument("--out-mcap", type=Path, metavar="MCAP", help="write estimates as MCAP")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    bar = p.add_mutually_exclusive_group()
+    bar.add_argument("--progress", dest="progress", action="store_true", default=None,
+                     help="always show a progress bar")
+    bar.add_argument("--no-progress", dest="progress", action="store_false",
+                     help="never show a progress bar (default: on a terminal)")
+    return p
+
+
+def options_from_args(args: argparse.Namespace) -> ReplayOptions:
+    rerun = None
+    if args.rerun:
+        rerun = RerunTarget("spawn")
+    elif args.save is not None:
+        rerun = RerunTarget("save", str(args.save))
+    elif args.connect is not None:
+        rerun = RerunTarget("connect", args.connect or None)
+    elif args.serve:
+        rerun = RerunTarget("serve")
+    robots = None
+    if args.robots:
+        robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
+    return ReplayOptions(
+        method=args.method, fusion=args.fusion, calibration=args.calibration,
+        image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
+        start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
+        window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
+        force=args.force, rerun=rerun, progress=args.progress,
+    )
+
+
+def _m(v: float | None) -> str:
+    return "-" if v is None else f"{v:.3f}"
+
+
+def format_summary(s: ReplaySummary) -> str:
+    """A plain-text table of the replay."""
+    lines = [f"replayed {s.path.name}: {s.frames} frames, {s.steps} steps "
+             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({s.frames_per_s:.1f} frames/s)"]
+    if s.estimator_ms is not None:
+        lines.append(f"estimator time: {s.estimator_ms:.2f} ms/frame (decode + detect + locate)")
+    lines.append(f"{'':10} {'frames':>7} {'detect':>7} {'estim':>7} {'rmse_m':>8} "
+                 f"{'mean_m':>8} {'max_m':>8}")
+    for name, r in [*s.per_robot.items(), ("fused", s.fused)]:
+        lines.append(f"{name:10} {r.frames:7d} {r.detections:7d} {r.estimates:7d} "
+                     f"{_m(r.rmse_m):>8} {_m(r.mean_error_m):>8} {_m(r.max_error_m):>8}")
+    if s.skipped:
+        lines.append("skipped frames: " + ", ".join(f"{k} {v}" for k, v in s.skipped.items()))
+    if s.undecodable_messages:
+        lines.append(f"undecodable messages: {s.undecodable_messages}")
+    if s.recovered is not None:
+        rec = s.recovered
+        lines.append(
+            f"recovered: lost {rec['lost_bytes']} of {rec['file_bytes']} bytes"
+            f"{' (truncated)' if rec['truncated'] else ''}, {rec['bad_chunks']} bad chunks"
+        )
+    for out in s.outputs:
+        lines.append(f"wrote {out}")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        summary = replay(args.log, options_from_args(args))
+    except ReplayError as err:
+        print(f"dsp-replay: error: {err}", file=sys.stderr)
+        return err.exit_code
+    except KeyboardInterrupt:
+        print("dsp-replay: interrupted", file=sys.stderr)
+        return 130
+    print(format_summary(summary))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

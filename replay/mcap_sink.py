@@ -1,0 +1,103 @@
+"""Sink writing the estimates as a ROS 2 MCAP log.
+
+- ``/estimate/{robot}/ball``: geometry_msgs/msg/PointStamped, one per robot estimate;
+- ``/estimate/ball``: geometry_msgs/msg/PoseWithCovarianceStamped, the fused estimate, with
+  the 2x2 position covariance in the x/y block of the 6x6 row-major matrix (other entries 0).
+
+Schemas come from ``recorder.contract.MESSAGE_DEFINITIONS``; ``log_time`` = ``publish_time``
+= the estimate's stamp (sim time), never the wall clock. Written to a temporary name and
+renamed on success.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import IO, Any
+
+from mcap_ros2.writer import Writer
+
+from recorder import contract
+from replay.results import FrameResult, StepResult, atomic_output
+
+__all__ = ["FUSED_TOPIC", "ROBOT_TOPIC", "McapSink"]
+
+ROBOT_TOPIC = "/estimate/{robot}/ball"
+FUSED_TOPIC = "/estimate/ball"
+
+
+class McapSink:
+    """Writes estimates to ``path`` (refuses an existing file unless ``force``)."""
+
+    def __init__(self, path: Path, *, force: bool = False) -> None:
+        self.path = Path(path)
+        self.force = force
+        self._cm: contextlib.AbstractContextManager[Path] | None = None
+        self._file: IO[bytes] | None = None
+        self._writer: Writer | None = None
+        self._schemas: dict[str, Any] = {}
+
+    def open(self) -> None:
+        self._cm = atomic_output(self.path, force=self.force)
+        tmp = self._cm.__enter__()
+        self._file = tmp.open("wb")
+        self._writer = Writer(self._file)
+        for name in (contract.POINT_STAMPED, contract.POSE_WITH_COVARIANCE_STAMPED):
+            self._schemas[name] = self._writer.register_msgdef(
+                name, contract.MESSAGE_DEFINITIONS[name]
+            )
+
+    def frame(self, result: FrameResult) -> None:
+        est = result.estimate
+        if est is None or self._writer is None:
+            return
+        t = result.stamp_ns
+        self._writer.write_message(
+            contract.topic_for(ROBOT_TOPIC, result.robot),
+            self._schemas[contract.POINT_STAMPED],
+            {
+                "header": {"stamp": contract.stamp_from_ns(t), "frame_id": contract.FIELD_FRAME},
+                "point": {"x": float(est.x_m), "y": float(est.y_m), "z": 0.0},
+            },
+            log_time=t,
+            publish_time=t,
+        )
+
+    def step(self, result: StepResult) -> None:
+        fused = result.fused
+        if fused is None or self._writer is None:
+            return
+        t = result.stamp_ns
+        cov = [0.0] * 36
+        (cxx, cxy), (cyx, cyy) = fused.covariance
+        cov[0], cov[1], cov[6], cov[7] = float(cxx), float(cxy), float(cyx), float(cyy)
+        self._writer.write_message(
+            FUSED_TOPIC,
+            self._schemas[contract.POSE_WITH_COVARIANCE_STAMPED],
+            {
+                "header": {"stamp": contract.stamp_from_ns(t), "frame_id": contract.FIELD_FRAME},
+                "pose": {
+                    "pose": {
+                        "position": {"x": float(fused.x_m), "y": float(fused.y_m), "z": 0.0},
+                        "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
+                    },
+                    "covariance": cov,
+                },
+            },
+            log_time=t,
+            publish_time=t,
+        )
+
+    def close(self, ok: bool) -> None:
+        try:
+            if self._writer is not None and ok:
+                self._writer.finish()
+        finally:
+            if self._file is not None:
+                self._file.close()
+            if self._cm is not None:
+                if ok:
+                    self._cm.__exit__(None, None, None)
+                else:
+                    self._cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
+            self._writer = self._file = self._cm = None

@@ -1,0 +1,281 @@
+"""Result records and the deterministic results-file writer.
+
+The results file is JSON with sorted keys and floats rounded to :data:`DECIMALS` places; it
+holds nothing machine-dependent (no wall-clock time, no absolute paths, no timings), so the
+same log and options give the same bytes. Frames and fused steps are spooled to temporary
+files while replaying, so memory stays flat however long the log.
+
+Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
+
+    {"format", "version",
+     "log": {"file": basename, "sha256", "robots": [...], "recovered": {...} | null},
+     "options": {"method", "fusion", "calibration", "pose_tolerance_s", "window_s", ...},
+     "frames": [{"frame", "robot", "stamp_ns", "t_s", "status",
+                 "detection": {"cx_px", "cy_px", "r_px", "area_px", "bbox_px",
+                               "circularity"} | null,
+                 "pose": {"x_m", "y_m", "yaw_rad", "gap_s", "interpolated"} | null,
+                 "estimate": {"x_m", "y_m", "range_m", "bearing_rad"} | null,
+                 "truth": {"x_m", "y_m"} | null, "error_m": float | null}, ...],
+     "fused": [{"step", "stamp_ns", "t_s", "robots": [...], "x_m", "y_m",
+                "covariance": [[xx, xy], [yx, yy]], "truth": {...} | null,
+                "error_m": float | null}, ...],
+     "summary": {"frames", "steps", "fused_steps", "skipped": {reason: n},
+                 "robots": {name: {"frames", "detections", "estimates", "rmse_m", "mean_error_m",
+                                   "max_error_m", "errors"}},
+                 "fused": {"estimates", "rmse_m", "mean_error_m", "max_error_m", "errors"},
+                 "undecodable_messages"}}
+
+``status`` is one of :data:`FRAME_STATUSES`. Errors are Euclidean distances [m] to the
+ground truth interpolated at the frame's (step's) stamp; RMSE = sqrt(mean(error^2)).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from replay.errors import OutputExistsError
+
+__all__ = [
+    "DECIMALS",
+    "FRAME_STATUSES",
+    "ErrorStats",
+    "FrameResult",
+    "ResultsWriter",
+    "RobotEstimate",
+    "StepResult",
+    "atomic_output",
+    "normalise",
+]
+
+DECIMALS = 6
+FRAME_STATUSES = ("ok", "no_detection", "no_pose", "bad_image", "out_of_range")
+
+
+@dataclass(frozen=True)
+class RobotEstimate:
+    """One robot's ball estimate in the field frame [m]; bearing in the robot frame [rad]."""
+
+    robot: str
+    x_m: float
+    y_m: float
+    range_m: float
+    bearing_rad: float
+    robot_x_m: float
+    robot_y_m: float
+    robot_yaw_rad: float
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """What replay made of one image."""
+
+    frame: int
+    robot: str
+    stamp_ns: int
+    status: str
+    detection: Any = None  # estimator.detection.Detection | None
+    r_px: float | None = None
+    centre_px: tuple[float, float] = (539.0, 539.0)
+    pose: Any = None  # estimator.geometry.RobotPose | None
+    pose_gap_ns: int | None = None
+    pose_interpolated: bool = False
+    estimate: RobotEstimate | None = None
+    truth: tuple[float, float] | None = None
+    error_m: float | None = None
+    estimator_s: float = 0.0
+    """Wall time of detection + estimation [s]: for display only, never in results files."""
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """One fusion step: the robots' frames within the window and their fused estimate."""
+
+    step: int
+    stamp_ns: int
+    frames: tuple[FrameResult, ...]
+    fused: Any = None  # estimator.fusion.FusedEstimate | None
+    truth: tuple[float, float] | None = None
+    error_m: float | None = None
+
+
+@dataclass
+class ErrorStats:
+    """Running error statistics (constant memory)."""
+
+    n: int = 0
+    sum_sq: float = 0.0
+    sum_abs: float = 0.0
+    max_abs: float = 0.0
+
+    def add(self, e: float) -> None:
+        self.n += 1
+        self.sum_sq += e * e
+        self.sum_abs += e
+        self.max_abs = max(self.max_abs, e)
+
+    @property
+    def rmse_m(self) -> float | None:
+        return math.sqrt(self.sum_sq / self.n) if self.n else None
+
+    @property
+    def mean_m(self) -> float | None:
+        return self.sum_abs / self.n if self.n else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"errors": self.n, "rmse_m": self.rmse_m, "mean_error_m": self.mean_m,
+                "max_error_m": self.max_abs if self.n else None}
+
+
+def normalise(value: Any) -> Any:
+    """Round floats to DECIMALS places (-0.0 -> 0.0, non-finite -> None), recursively."""
+    if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
+        return value
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return None
+        r = round(value, DECIMALS)
+        return 0.0 if r == 0 else r
+    if isinstance(value, dict):
+        return {str(k): normalise(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [normalise(v) for v in value]
+    if hasattr(value, "item"):  # numpy scalar
+        return normalise(value.item())
+    raise TypeError(f"cannot write {type(value).__name__} to a results file")
+
+
+def _dumps(value: Any) -> str:
+    return json.dumps(normalise(value), sort_keys=True, separators=(", ", ": "),
+                      ensure_ascii=True, allow_nan=False)
+
+
+@contextlib.contextmanager
+def atomic_output(path: Path, *, force: bool) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` when the block
+    succeeds, remove it otherwise. Refuses an existing ``path`` unless ``force``."""
+    path = Path(path)
+    if path.exists() and not force:
+        raise OutputExistsError(path)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, path)
+
+
+def frame_to_dict(f: FrameResult) -> dict[str, Any]:
+    det = f.detection
+    est = f.estimate
+    return {
+        "frame": f.frame,
+        "robot": f.robot,
+        "stamp_ns": f.stamp_ns,
+        "t_s": f.stamp_ns / 1e9,
+        "status": f.status,
+        "detection": None if det is None else {
+            "cx_px": float(det.cx_px), "cy_px": float(det.cy_px), "r_px": f.r_px,
+            "area_px": float(det.area_px), "bbox_px": [int(v) for v in det.bbox_px],
+            "circularity": float(det.circularity),
+        },
+        "pose": None if f.pose is None else {
+            "x_m": f.pose.x_m, "y_m": f.pose.y_m, "yaw_rad": f.pose.yaw_rad,
+            "gap_s": (f.pose_gap_ns or 0) / 1e9, "interpolated": f.pose_interpolated,
+        },
+        "estimate": None if est is None else {
+            "x_m": est.x_m, "y_m": est.y_m, "range_m": est.range_m,
+            "bearing_rad": est.bearing_rad,
+        },
+        "truth": None if f.truth is None else {"x_m": f.truth[0], "y_m": f.truth[1]},
+        "error_m": f.error_m,
+    }
+
+
+def step_to_dict(s: StepResult) -> dict[str, Any]:
+    fused = s.fused
+    return {
+        "step": s.step,
+        "stamp_ns": s.stamp_ns,
+        "t_s": s.stamp_ns / 1e9,
+        "robots": sorted(f.robot for f in s.frames if f.estimate is not None),
+        "fused_robots": None if fused is None else sorted(fused.robots),
+        "x_m": None if fused is None else fused.x_m,
+        "y_m": None if fused is None else fused.y_m,
+        "covariance": None if fused is None else [list(row) for row in fused.covariance],
+        "truth": None if s.truth is None else {"x_m": s.truth[0], "y_m": s.truth[1]},
+        "error_m": s.error_m,
+    }
+
+
+@dataclass
+class ResultsWriter:
+    """Sink writing the results JSON; frames and steps are spooled to temporary files."""
+
+    path: Path
+    force: bool = False
+    _spools: dict[str, IO[str]] = field(default_factory=dict)
+    _counts: dict[str, int] = field(default_factory=dict)
+    _cm: Any = None
+    _tmp: Path | None = None
+
+    def open(self) -> None:
+        self._cm = atomic_output(self.path, force=self.force)
+        self._tmp = self._cm.__enter__()
+        for key in ("frames", "fused"):
+            self._spools[key] = tempfile.TemporaryFile("w+", encoding="ascii")
+            self._counts[key] = 0
+
+    def _spool(self, key: str, item: dict[str, Any]) -> None:
+        f = self._spools[key]
+        f.write(("  " if self._counts[key] == 0 else ",\n  ") + _dumps(item))
+        self._counts[key] += 1
+
+    def frame(self, result: FrameResult) -> None:
+        self._spool("frames", frame_to_dict(result))
+
+    def step(self, result: StepResult) -> None:
+        self._spool("fused", step_to_dict(result))
+
+    def close(self, header: dict[str, Any] | None) -> None:
+        """Assemble the file (``header`` holds log, options, summary) or, with None,
+        discard it."""
+        try:
+            if header is None:
+                if self._cm is not None:
+                    self._cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
+                return
+            assert self._tmp is not None
+            doc = {"format": "dsp-replay-results", "version": 1, **header,
+                   "frames": None, "fused": None}
+            with self._tmp.open("w", encoding="ascii", newline="\n") as out:
+                out.write("{\n")
+                keys = sorted(doc)
+                for i, key in enumerate(keys):
+                    out.write(f"{json.dumps(key)}: ")
+                    if key in self._spools:
+                        spool = self._spools[key]
+                        spool.seek(0)
+                        out.write("[\n")
+                        while chunk := spool.read(1 << 16):
+                            out.write(chunk)
+                        out.write("\n]" if self._counts[key] else "]")
+                    else:
+                        out.write(_dumps(doc[key]))
+                    out.write(",\n" if i < len(keys) - 1 else "\n")
+                out.write("}\n")
+            self._cm.__exit__(None, None, None)
+        finally:
+            for spool in self._spools.values():
+                spool.close()
+            self._spools.clear()

@@ -1,0 +1,179 @@
+"""Time synchronisation: poses at an image's stamp, ground truth at a step's stamp, and the
+grouping of the robots' estimates into fusion steps.
+
+Streaming with a fixed look-ahead: :class:`DelayLine` holds images until the log has moved
+``lookahead_ns`` past their stamp, so every pose (and ground-truth sample) that could bracket
+the image has been seen. Histories keep only what the look-ahead can still need, so memory
+is bounded by the look-ahead, not by the log's length.
+"""
+
+from __future__ import annotations
+
+import bisect
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+from estimator.geometry import RobotPose, slerp, yaw_from_quaternion
+from replay.reader import ImageMessage, PoseMessage, TruthMessage
+
+__all__ = [
+    "DelayLine",
+    "FusionGrouper",
+    "History",
+    "PoseMatch",
+    "interpolate_pose",
+    "interpolate_truth",
+]
+
+T = TypeVar("T", PoseMessage, TruthMessage)
+
+
+class History(Generic[T]):
+    """Time-ordered samples of one stream, pruned to a horizon behind the newest."""
+
+    def __init__(self, horizon_ns: int) -> None:
+        self.horizon_ns = horizon_ns
+        self._stamps: deque[int] = deque()
+        self._items: deque[T] = deque()
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def add(self, item: T) -> None:
+        if self._stamps and item.stamp_ns < self._stamps[-1]:
+            # out of order (header stamps may disagree with log time): insert in place
+            i = bisect.bisect_right(list(self._stamps), item.stamp_ns)
+            self._stamps.insert(i, item.stamp_ns)
+            self._items.insert(i, item)
+        else:
+            self._stamps.append(item.stamp_ns)
+            self._items.append(item)
+        limit = self._stamps[-1] - self.horizon_ns
+        # keep one sample at or before the limit so a late image can still be bracketed
+        while len(self._stamps) > 1 and self._stamps[1] <= limit:
+            self._stamps.popleft()
+            self._items.popleft()
+
+    def neighbours(self, t_ns: int) -> tuple[T | None, T | None]:
+        """The last sample at or before ``t_ns`` and the first at or after it."""
+        stamps = self._stamps
+        # search from the right: the image is usually near the newest samples
+        i = len(stamps)
+        while i > 0 and stamps[i - 1] > t_ns:
+            i -= 1
+        before = self._items[i - 1] if i > 0 else None
+        if before is not None and before.stamp_ns == t_ns:
+            return before, before
+        after = self._items[i] if i < len(stamps) else None
+        return before, after
+
+
+@dataclass(frozen=True)
+class PoseMatch:
+    """A robot's pose at an image's stamp, and how far the nearest real pose was."""
+
+    pose: RobotPose
+    gap_ns: int
+    """Distance from the image stamp to the nearest pose sample [ns]."""
+    interpolated: bool
+
+
+def interpolate_pose(history: History[PoseMessage], t_ns: int, tolerance_ns: int) -> (
+    PoseMatch | None
+):
+    """The pose at ``t_ns``: position linear, orientation slerped between the neighbouring
+    poses; the nearest one alone when only one side exists. None when the nearest pose is
+    further than ``tolerance_ns`` away."""
+    before, after = history.neighbours(t_ns)
+    gaps = [abs(t_ns - p.stamp_ns) for p in (before, after) if p is not None]
+    if not gaps or min(gaps) > tolerance_ns:
+        return None
+    gap = min(gaps)
+    if before is not None and after is not None and after.stamp_ns != before.stamp_ns:
+        s = (t_ns - before.stamp_ns) / (after.stamp_ns - before.stamp_ns)
+        x = before.x_m + s * (after.x_m - before.x_m)
+        y = before.y_m + s * (after.y_m - before.y_m)
+        q = slerp((before.qx, before.qy, before.qz, before.qw),
+                  (after.qx, after.qy, after.qz, after.qw), s)
+        return PoseMatch(RobotPose(x, y, yaw_from_quaternion(*q)), gap, True)
+    p = before if before is not None else after
+    assert p is not None
+    return PoseMatch(RobotPose(p.x_m, p.y_m, yaw_from_quaternion(p.qx, p.qy, p.qz, p.qw)),
+                     gap, False)
+
+
+def interpolate_truth(history: History[TruthMessage], t_ns: int, tolerance_ns: int) -> (
+    tuple[float, float] | None
+):
+    """The true ball position at ``t_ns`` (linear), None when no sample is near enough."""
+    before, after = history.neighbours(t_ns)
+    gaps = [abs(t_ns - p.stamp_ns) for p in (before, after) if p is not None]
+    if not gaps or min(gaps) > tolerance_ns:
+        return None
+    if before is not None and after is not None and after.stamp_ns != before.stamp_ns:
+        s = (t_ns - before.stamp_ns) / (after.stamp_ns - before.stamp_ns)
+        return (before.x_m + s * (after.x_m - before.x_m),
+                before.y_m + s * (after.y_m - before.y_m))
+    p = before if before is not None else after
+    assert p is not None
+    return (p.x_m, p.y_m)
+
+
+class DelayLine:
+    """Holds images until the log time has passed their stamp by ``lookahead_ns``."""
+
+    def __init__(self, lookahead_ns: int, max_images: int = 4096) -> None:
+        self.lookahead_ns = lookahead_ns
+        self.max_images = max_images
+        self._queue: deque[ImageMessage] = deque()
+
+    def __len__(self) -> int:
+        return len(self._queue)
+
+    def push(self, image: ImageMessage) -> None:
+        self._queue.append(image)
+
+    def ready(self, now_ns: int) -> Iterator[ImageMessage]:
+        """Images whose look-ahead has passed at log time ``now_ns`` (or that overflow the
+        bound), in arrival order."""
+        q = self._queue
+        while q and (q[0].stamp_ns + self.lookahead_ns < now_ns or len(q) > self.max_images):
+            yield q.popleft()
+
+    def drain(self) -> Iterator[ImageMessage]:
+        while self._queue:
+            yield self._queue.popleft()
+
+
+E = TypeVar("E")
+
+
+class FusionGrouper(Generic[E]):
+    """Groups per-robot items (in stamp order) into steps: a step starts at the first item's
+    stamp t0 and takes every item with stamp < t0 + window; a robot seen twice in one step
+    keeps its latest item. Items arriving late join the open step."""
+
+    def __init__(self, window_ns: int) -> None:
+        self.window_ns = max(1, window_ns)
+        self._t0: int | None = None
+        self._items: dict[str, E] = {}
+
+    def add(self, robot: str, stamp_ns: int, item: E) -> list[tuple[int, dict[str, E]]]:
+        """Add an item; returns the steps it closed (0 or 1)."""
+        closed = []
+        if self._t0 is not None and stamp_ns >= self._t0 + self.window_ns:
+            closed.append((self._t0, self._items))
+            self._t0, self._items = None, {}
+        if self._t0 is None:
+            self._t0 = stamp_ns
+        self._items[robot] = item
+        return closed
+
+    def flush(self) -> list[tuple[int, dict[str, E]]]:
+        if self._t0 is None:
+            return []
+        out = [(self._t0, self._items)]
+        self._t0, self._items = None, {}
+        return out

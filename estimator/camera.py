@@ -15,7 +15,9 @@ Conventions (docs/api.md, stated once here):
 Models:
 
 - ``ideal``: the paper's "ideal calibrated image": the ground distance of the point a ray
-  hits on z = 0 is linear in r, d = k * r with k = 8.4 m / 499 px.
+  hits on z = 0 is linear in r, d = k * r. k is chosen so that the ball's *centre* (0.11 m
+  above the ground) 8.4 m away appears at r = 499 px, as in the paper's worked example:
+  k = 8.4 m * h / (h - 0.11 m) / 499 px (h = 0.85 m: k = 0.019336 m/px).
 - ``fisheye``: equidistant lens looking down, n = r / f with f = r_max / (pi/2).
 - ``mirror``: catadioptric (NuBot's form): ground distance d = a * tan(b * r); the horizon
   is at r = pi / (2 b). Pixels inside ``self_radius_px`` show the camera's own reflection.
@@ -127,7 +129,7 @@ class _RadialCamera:
 class IdealCamera(_RadialCamera):
     """Ground distance linear in pixel radius: d = k * r (the paper's ideal image)."""
 
-    k_m_per_px: float = 8.4 / 499.0
+    k_m_per_px: float = 8.4 * 0.85 / (0.85 - 0.11) / 499.0
     height_m: float = 0.85
     width_px: int = 1080
     height_px: int = 1080

@@ -82,8 +82,10 @@ def test_directions(name: str) -> None:
 def test_ideal_is_linear_on_the_ground() -> None:
     cam = make_camera("ideal")
     r = np.array([0.0, 100.0, 250.0, 499.0])
-    assert np.allclose(ground_range_m(cam, r), 8.4 / 499.0 * r)
-    assert ground_range_m(cam, 499.0) == pytest.approx(8.4)
+    assert np.allclose(ground_range_m(cam, r), cam.k_m_per_px * r)
+    # the ball's centre (0.11 m up) 8.4 m away appears at r = 499 px (the paper's example)
+    tan_n = np.tan(cam.nadir_angle_rad(499.0))
+    assert (cam.height_m - 0.11) * tan_n == pytest.approx(8.4)
 
 
 def test_fisheye_is_equidistant() -> None:

@@ -17,7 +17,11 @@ Models:
 - ``ideal``: the paper's "ideal calibrated image": the ground distance of the point a ray
   hits on z = 0 is linear in r, d = k * r. k is chosen so that the ball's *centre* (0.11 m
   above the ground) 8.4 m away appears at r = 499 px, as in the paper's worked example:
-  k = 8.4 m * h / (h - 0.11 m) / 499 px (h = 0.85 m: k = 0.019336 m/px).
+  k = 8.4 m * h / (h - 0.11 m) / 499 px. A ground-linear mapping stretches anything above
+  the ground radially by about h / (h - z): from a real robot's height (0.85 m) a ball 8 m
+  away would be a streak 100 px long, half outside the image. So the ideal camera is an
+  idealised top-down view from a virtual optical centre ``height_m`` = 12 m above the
+  robot's centre, where the ball stays round (stretch 1.02) and the range is linear in r.
 - ``fisheye``: equidistant lens looking down, n = r / f with f = r_max / (pi/2).
 - ``mirror``: catadioptric (NuBot's form): ground distance d = a * tan(b * r); the horizon
   is at r = pi / (2 b). Pixels inside ``self_radius_px`` show the camera's own reflection.
@@ -129,8 +133,8 @@ class _RadialCamera:
 class IdealCamera(_RadialCamera):
     """Ground distance linear in pixel radius: d = k * r (the paper's ideal image)."""
 
-    k_m_per_px: float = 8.4 * 0.85 / (0.85 - 0.11) / 499.0
-    height_m: float = 0.85
+    k_m_per_px: float = 8.4 * 12.0 / (12.0 - 0.11) / 499.0
+    height_m: float = 12.0
     width_px: int = 1080
     height_px: int = 1080
     cu_px: float = 539.0

@@ -26,7 +26,8 @@ def test_protocol_and_basics(name: str) -> None:
     assert cam.name == name
     assert (cam.width_px, cam.height_px) == (1080, 1080)
     assert cam.centre_px == (539.0, 539.0)
-    assert 0.8 <= cam.height_m <= 0.9
+    # real lenses sit on top of the 0.8 m robot; the ideal view is a virtual top-down one
+    assert cam.height_m == (12.0 if name == "ideal" else 0.85)
     assert cam.max_radius_px == 539.0
 
 

@@ -62,7 +62,8 @@ def quaternion_from_yaw(yaw: float) -> dict[str, float]:
 
 
 def ball_pixel(
-    robot: tuple[float, float, float], ball: tuple[float, float]
+    robot: tuple[float, float, float], ball: tuple[float, float],
+    centre_px: tuple[float, float] = CENTRE_PX,
 ) -> tuple[float, float]:
     """Where the paper's ideal camera on ``robot`` (x, y, yaw) sees the ball centre."""
     rx, ry, yaw = robot
@@ -71,7 +72,7 @@ def ball_pixel(
     r = (d - B_M) / K_M_PER_PX
     theta = math.atan2(dy, dx) - yaw  # bearing in the robot frame
     du, dv = -r * math.sin(theta), -r * math.cos(theta)
-    return CENTRE_PX[0] + du, CENTRE_PX[1] + dv
+    return centre_px[0] + du, centre_px[1] + dv
 
 
 def render(u: float, v: float, size: int = SIZE_PX) -> np.ndarray:
@@ -114,6 +115,7 @@ def write_log(
     chunk_size: int = 256 * 1024,
     compression: CompressionType = CompressionType.ZSTD,
     image_offset_ns: int = 0,
+    centre_px: tuple[float, float] = CENTRE_PX,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -158,10 +160,12 @@ def write_log(
                 {"field_length_m": 18.0, "field_width_m": 12.0}, sort_keys=True)},
         )
         if with_cameras:
+            from estimator.camera import make_camera
+
+            cam = make_camera("ideal", cu_px=centre_px[0], cv_px=centre_px[1]).to_dict()
             writer.add_metadata(
                 contract.CAMERAS_METADATA,
-                {name: json.dumps({"model": "ideal", "centre_px": list(CENTRE_PX)})
-                 for name in robots},
+                {name: json.dumps(cam, sort_keys=True) for name in robots},
             )
         image_index = 0
         for t, _order, kind, name in events:
@@ -185,7 +189,7 @@ def write_log(
                     _pose_msg(t, bx, by, 0.0), log_time=t, publish_time=t,
                 )
             else:
-                u, v = ball_pixel(robot_at(name, t), ball_at(t))
+                u, v = ball_pixel(robot_at(name, t), ball_at(t), centre_px)
                 img = render(u, v)
                 topic = contract.topic_for(contract.IMAGE_TOPIC, name)
                 header = _header(t, contract.camera_frame(name))

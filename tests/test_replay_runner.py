@@ -189,3 +189,20 @@ def test_save_rrd_holds_the_scene(static_log: Path, tmp_path: Path) -> None:
     rrd2 = tmp_path / "again.rrd"
     replay(static_log, replace(opts, rerun=RerunTarget("save", str(rrd2))))
     assert RrdReader(rrd2).recordings()[0].recording_id == recording_id
+
+
+def test_camera_metadata_centre_and_calibration_file(tmp_path: Path) -> None:
+    from estimator.calibration import PAPER_CALIBRATION, calibration_to_json
+
+    log = tmp_path / "cam.mcap"
+    write_log(log, duration_s=0.2, with_cameras=True, centre_px=(551.0, 530.0))
+    cal = tmp_path / "paper.json"
+    cal.write_text(calibration_to_json(PAPER_CALIBRATION))
+    out = tmp_path / "r.json"
+    s = replay(log, ReplayOptions(calibration=cal, out=out, progress=False))
+    assert s.fused.rmse_m is not None and s.fused.rmse_m < 0.03  # centre from the metadata
+    doc = _results(out)
+    assert doc["options"]["calibration"] == "paper.json"
+    f = doc["frames"][0]
+    r = math.hypot(f["detection"]["cx_px"] - 551.0, f["detection"]["cy_px"] - 530.0)
+    assert f["detection"]["r_px"] == pytest.approx(r, abs=1e-5)

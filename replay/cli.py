@@ -34,9 +34,9 @@ def build_parser() -> argparse.ArgumentParser:
     viewer = p.add_mutually_exclusive_group()
     viewer.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
     viewer.add_argument("--save", type=Path, metavar="RRD", help="save a Rerun .rrd file")
-    viewer.add_argument("--connect", metavar="URL", nargs="?", const="",
+    viewer.add_argument("--connect", metavar="URL",
                         help="connect to a running viewer over gRPC "
-                        "(default rerun+http://127.0.0.1:9876/proxy)")
+                        "(e.g. rerun+http://127.0.0.1:9876/proxy)")
     viewer.add_argument("--serve", action="store_true", help="serve the Rerun web viewer")
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
@@ -75,7 +75,7 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
     elif args.save is not None:
         rerun = RerunTarget("save", str(args.save))
     elif args.connect is not None:
-        rerun = RerunTarget("connect", args.connect or None)
+        rerun = RerunTarget("connect", args.connect)
     elif args.serve:
         rerun = RerunTarget("serve")
     robots = None

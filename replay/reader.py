@@ -184,6 +184,7 @@ class LogReader:
         self._truth_topic = truth_topic
         self._robots_wanted = tuple(robots) if robots else None
         self._recover = recover
+        self.recover = recover
         self._validate = validate_crcs
         self._file: IO[bytes] | None = None
         self._cat = _Catalogue()

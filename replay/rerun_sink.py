@@ -30,6 +30,7 @@ import hashlib
 import json
 import math
 import uuid
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -98,10 +99,13 @@ class RerunSink:
     """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
 
     def __init__(self, target: Any, *, info: LogInfo, digest: str, options: Any,
-                 field: dict[str, Any], centres: dict[str, tuple[float, float]]) -> None:
+                 field: dict[str, Any], centres: dict[str, tuple[float, float]],
+                 force: bool = False) -> None:
         from replay.runner import options_dict
 
         self.target = target
+        self.force = force
+        self._save_cm: Any = None
         self.info = info
         self.centres = centres
         self.field = _field_size(field)
@@ -135,7 +139,10 @@ class RerunSink:
         mode, target = self.target.mode, self.target.target
         bp = self.blueprint()
         if mode == "save":
-            self.rec.save(target, default_blueprint=bp)
+            from replay.results import atomic_output
+
+            self._save_cm = atomic_output(Path(target), force=self.force)
+            self.rec.save(self._save_cm.__enter__(), default_blueprint=bp)
         elif mode == "spawn":
             self.rec.spawn(default_blueprint=bp)
         elif mode == "connect":
@@ -249,6 +256,15 @@ class RerunSink:
             rec.log("/plots/error/fused", rr.Scalars(result.error_m))
         rec.reset_time()
 
-    def close(self) -> None:
-        self.rec.flush()
-        self.rec.disconnect()
+    def close(self, ok: bool = True) -> None:
+        """Flush and disconnect; a saved .rrd is renamed into place only when ``ok``."""
+        try:
+            self.rec.flush()
+            self.rec.disconnect()
+        finally:
+            if self._save_cm is not None:
+                if ok:
+                    self._save_cm.__exit__(None, None, None)
+                else:
+                    self._save_cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
+                self._save_cm = None

@@ -56,7 +56,7 @@ __all__ = [
 ]
 
 DECIMALS = 6
-FRAME_STATUSES = ("ok", "no_detection", "no_pose", "bad_image", "out_of_range")
+FRAME_STATUSES = ("ok", "no_detection", "no_pose", "bad_image", "detect_error", "out_of_range")
 
 
 @dataclass(frozen=True)

@@ -287,7 +287,10 @@ def _check_options(options: ReplayOptions) -> None:
         options.end_s < options.start_s
     ):
         raise OptionsError(f"--end {options.end_s} is before --start {options.start_s}")
-    for out in (options.out, options.out_mcap):
+    save = None
+    if options.rerun is not None and options.rerun.mode == "save" and options.rerun.target:
+        save = Path(options.rerun.target)
+    for out in (options.out, options.out_mcap, save):
         if out is not None and Path(out).exists() and not options.force:
             raise OutputExistsError(out)
     if options.out is not None and options.out_mcap is not None and (
@@ -349,7 +352,6 @@ def replay(path: Path | str, options: ReplayOptions | None = None) -> ReplaySumm
                 raise OptionsError(f"--robots {', '.join(unknown)}: not in {path}")
         est = _make_estimation(options, reader)
         digest = file_digest(path)
-        sinks: list[Any] = []
         results = mcap_sink = rerun_sink = None
         try:
             if options.out is not None:
@@ -365,7 +367,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None) -> ReplaySumm
 
                 rerun_sink = RerunSink(options.rerun, info=info, digest=digest,
                                        options=options, field=reader.scenario_metadata(),
-                                       centres=est.centres)
+                                       centres=est.centres, force=options.force)
                 rerun_sink.open()
             stats = _run(reader, info, est, options, tol_ns, window_ns, lookahead_ns,
                          start_ns, end_ns, results, mcap_sink, rerun_sink)
@@ -386,8 +388,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None) -> ReplaySumm
             if mcap_sink is not None:
                 mcap_sink.close(ok)
             if rerun_sink is not None:
-                rerun_sink.close()
-        del sinks
+                rerun_sink.close(ok)
 
     def robot_summary(frames: int, det: int, n_est: int, e: ErrorStats) -> RobotSummary:
         return RobotSummary(frames, det, n_est, e.rmse_m, e.mean_m,
@@ -414,7 +415,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None) -> ReplaySumm
 
 
 def _recovered(reader: LogReader) -> dict[str, Any] | None:
-    if not reader._recover:
+    if not reader.recover:
         return None
     loss = reader.loss
     return {"truncated": loss.truncated, "lost_bytes": loss.lost_bytes,
@@ -432,6 +433,14 @@ def _check_outcome(path: Path, stats: _Stats, info: LogInfo) -> None:
         raise MissingPosesError(
             path, f"none of the {no_pose} images has a pose within the tolerance"
         )
+
+
+def _pose_at(history: History[PoseMessage], t_ns: int, tol_ns: int, est: _Estimation) -> Any:
+    """The interpolated pose, None when none is near enough or the quaternions are bad."""
+    try:
+        return interpolate_pose(history, t_ns, tol_ns)
+    except est.out_of_range:  # estimator.errors.GeometryError: a zero or NaN quaternion
+        return None
 
 
 def _progress(options: ReplayOptions, info: LogInfo) -> Any:
@@ -504,13 +513,16 @@ def _run(
             status = "bad_image"
         else:
             stats.decoded += 1
-            det = est.detect(image)
-            if det is None:
+            try:
+                det = est.detect(image)
+            except est.out_of_range:
+                det, status = None, "detect_error"
+            if det is None and status == "ok":
                 status = "no_detection"
-            else:
+            elif det is not None:
                 stats.robot_detections[img.robot] += 1
                 r_px = math.hypot(det.cx_px - centre[0], det.cy_px - centre[1])
-                pose_match = interpolate_pose(poses[img.robot], img.stamp_ns, tol_ns)
+                pose_match = _pose_at(poses[img.robot], img.stamp_ns, tol_ns, est)
                 if pose_match is None:
                     status = "no_pose"
                 else:
@@ -520,11 +532,11 @@ def _run(
                     except est.out_of_range:
                         status = "out_of_range"
         if status in ("ok", "no_detection") and pose_match is None:
-            pose_match = interpolate_pose(poses[img.robot], img.stamp_ns, tol_ns)
+            pose_match = _pose_at(poses[img.robot], img.stamp_ns, tol_ns, est)
             if pose_match is None:
                 status = "no_pose"
         elapsed = time.perf_counter() - t_start
-        if status != "ok":
+        if status not in ("ok", "no_detection"):  # a frame without a ball is not skipped
             stats.skipped[status] = stats.skipped.get(status, 0) + 1
         if image is not None:
             stats.estimator_s += elapsed

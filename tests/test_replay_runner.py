@@ -206,3 +206,15 @@ def test_camera_metadata_centre_and_calibration_file(tmp_path: Path) -> None:
     f = doc["frames"][0]
     r = math.hypot(f["detection"]["cx_px"] - 551.0, f["detection"]["cy_px"] - 530.0)
     assert f["detection"]["r_px"] == pytest.approx(r, abs=1e-5)
+
+
+def test_frames_without_a_ball_are_not_skipped(tmp_path: Path) -> None:
+    log = tmp_path / "far.mcap"
+    write_log(log, duration_s=0.2, ball=(30.0, 0.0))  # out of every robot's image
+    out = tmp_path / "r.json"
+    s = replay(log, ReplayOptions(out=out, progress=False))
+    assert s.frames == 9 and s.skipped == {} and s.fused_steps == 0
+    assert all(r.detections == 0 for r in s.per_robot.values())
+    doc = _results(out)
+    assert {f["status"] for f in doc["frames"]} == {"no_detection"}
+    assert doc["summary"]["fused"]["rmse_m"] is None

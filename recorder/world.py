@@ -135,6 +135,26 @@ def field_texture(spec: FieldSpec, px_per_m: int = TEXTURE_PX_PER_M) -> np.ndarr
     return img
 
 
+def _sphere_obj(radius_m: float, n_lat: int, n_lon: int) -> str:
+    """A UV sphere as OBJ text with smooth vertex normals."""
+    lines = []
+    for i in range(n_lat + 1):
+        th = math.pi * i / n_lat
+        for j in range(n_lon):
+            ph = 2 * math.pi * j / n_lon
+            n = (math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th))
+            lines.append(f"v {radius_m * n[0]:.6f} {radius_m * n[1]:.6f} {radius_m * n[2]:.6f}")
+            lines.append(f"vn {n[0]:.6f} {n[1]:.6f} {n[2]:.6f}")
+    for i in range(n_lat):
+        for j in range(n_lon):
+            a = i * n_lon + j + 1
+            b = i * n_lon + (j + 1) % n_lon + 1
+            c, d = a + n_lon, b + n_lon
+            lines.append(f"f {a}//{a} {c}//{c} {d}//{d}")
+            lines.append(f"f {a}//{a} {d}//{d} {b}//{b}")
+    return "\n".join(lines) + "\n"
+
+
 def _rgba(rgb: tuple[int, int, int]) -> list[float]:
     return [rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0, 1.0]
 
@@ -242,7 +262,11 @@ class World:
             self._add_goal(s)
         # the ball
         col = p.createCollisionShape(p.GEOM_SPHERE, radius=BALL_RADIUS_M, physicsClientId=c)
-        vis = p.createVisualShape(p.GEOM_SPHERE, radius=BALL_RADIUS_M,
+        # a finely tessellated sphere mesh: pybullet's own sphere is coarse enough to move
+        # the blob centroid of a near ball by half a pixel
+        ball_path = Path(self._tmp.name) / "ball.obj"
+        ball_path.write_text(_sphere_obj(BALL_RADIUS_M, 48, 96))
+        vis = p.createVisualShape(p.GEOM_MESH, fileName=str(ball_path),
                                   rgbaColor=_rgba(BALL_RGB), specularColor=[0, 0, 0],
                                   physicsClientId=c)
         self.ball = p.createMultiBody(BALL_MASS_KG, col, vis, [0, 0, BALL_RADIUS_M],

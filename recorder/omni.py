@@ -105,12 +105,13 @@ class OmniRenderer:
     """
 
     def __init__(self, camera: CameraModel, *, face_px: int = DEFAULT_FACE_PX,
-                 renderer: str = "egl") -> None:
+                 renderer: str | None = None) -> None:
+        """``renderer`` ("egl" or "tiny") only builds its tables now; ``render`` builds the
+        tables of the world's renderer on first use anyway."""
         if face_px < 16:
             raise ValueError(f"face size must be >= 16 px, got {face_px}")
-        if renderer not in RENDER_OFFSET_PX:
+        if renderer is not None and renderer not in RENDER_OFFSET_PX:
             raise ValueError(f"unknown renderer {renderer!r}")
-        self.renderer = renderer
         self.camera = camera
         self.face_px = int(face_px)
         self.tile_px = self.face_px + 2 * _MARGIN_PX
@@ -120,8 +121,22 @@ class OmniRenderer:
             2.0 * math.atan(self._half_tan * self.tile_px / self.face_px)
         )
         self._proj = _perspective(self.tile_fov_deg, _NEAR_M, _FAR_M)
+        self._maps: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        if renderer is not None:
+            self._maps_for(renderer)
+
+    def _maps_for(self, renderer: str) -> tuple[np.ndarray, np.ndarray]:
+        """Fixed-point remap tables with the renderer's pixel offset, built once each."""
+        if renderer not in self._maps:
+            off_u, off_v = RENDER_OFFSET_PX[renderer]
+            self._maps[renderer] = cv2.convertMaps(self._map_x + np.float32(off_u),
+                                                   self._map_y + np.float32(off_v),
+                                                   cv2.CV_16SC2)
+        return self._maps[renderer]
+
+    def _splits(self, renderer: str) -> int:
         limit = MAX_RENDER_PX.get(renderer)
-        self._splits = 1 if limit is None else -(-self.tile_px // limit)
+        return 1 if limit is None else -(-self.tile_px // limit)
 
     @property
     def face_names(self) -> tuple[str, ...]:
@@ -149,7 +164,6 @@ class OmniRenderer:
         map_y = np.zeros((h, w), np.float32)
         scale = self.face_px / 2.0 / self._half_tan
         centre = self.tile_px / 2.0 - 0.5  # pixel i has coordinate i, its centre at i
-        off_u, off_v = RENDER_OFFSET_PX[self.renderer]
         for slot, k in enumerate(used):
             face = faces[k]
             sel = best == k
@@ -157,9 +171,9 @@ class OmniRenderer:
             depth = d @ face.forward
             a = (d @ face.right) / depth
             b = (d @ face.up) / depth
-            map_x[sel] = (slot * self.tile_px + centre + off_u + a * scale).astype(np.float32)
-            map_y[sel] = (centre + off_v - b * scale).astype(np.float32)
-        self._map1, self._map2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+            map_x[sel] = (slot * self.tile_px + centre + a * scale).astype(np.float32)
+            map_y[sel] = (centre - b * scale).astype(np.float32)
+        self._map_x, self._map_y = map_x, map_y
         # masks: outside the image circle (black), own body footprint (dark), mirror self
         black = ~valid
         if isinstance(cam, MirrorCamera):
@@ -185,7 +199,7 @@ class OmniRenderer:
         else:
             with world.hidden(robot):
                 atlas = self.render_atlas(world, x_m, y_m, yaw_rad)
-        return self.remap(atlas)
+        return self.remap(atlas, world.renderer)
 
     def render_atlas(self, world: World, x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
         """The needed faces side by side (RGB), each ``tile_px`` square.
@@ -198,12 +212,13 @@ class OmniRenderer:
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         eye = np.array([x_m, y_m, self.camera.height_m])
         n = self.tile_px
-        edges = np.linspace(0, n, self._splits + 1).round().astype(int)
+        splits = self._splits(world.renderer)
+        edges = np.linspace(0, n, splits + 1).round().astype(int)
         t = self._half_tan * n / self.face_px  # tangent half-extent of a whole tile
         tiles = []
         for face in self._faces:
             view = _look_at(eye, rot @ face.forward, rot @ face.up)
-            if self._splits == 1:
+            if splits == 1:
                 tiles.append(world.render(n, n, view, self._proj))
                 continue
             tile = np.empty((n, n, 3), np.uint8)
@@ -217,8 +232,10 @@ class OmniRenderer:
             tiles.append(tile)
         return np.hstack(tiles)
 
-    def remap(self, atlas_rgb: np.ndarray) -> np.ndarray:
-        out = cv2.remap(atlas_rgb, self._map1, self._map2, cv2.INTER_LINEAR,
+    def remap(self, atlas_rgb: np.ndarray, renderer: str) -> np.ndarray:
+        """The omni image (BGR) from an atlas that ``renderer`` drew."""
+        map1, map2 = self._maps_for(renderer)
+        out = cv2.remap(atlas_rgb, map1, map2, cv2.INTER_LINEAR,
                         borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
         out = cv2.cvtColor(out, cv2.COLOR_RGB2BGR)
         out[self._body] = ROBOT_RGB[::-1]

@@ -7,9 +7,11 @@ the ball is a real rigid body that rolls and bounces off them.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import math
 import os
+import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,10 +19,42 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import pybullet as p
 
 from recorder.errors import RendererError, UsageError
 from recorder.field import FIELDS, FieldSpec, field_spec, field_texture
+
+
+@contextmanager
+def silenced() -> Iterator[None]:
+    """Send the C-level stdout/stderr to /dev/null (pybullet and its EGL plugin print
+    banners and driver names straight to the file descriptors)."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved = []
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+    except OSError:
+        yield
+        return
+    try:
+        for fd in (1, 2):
+            try:
+                saved.append((fd, os.dup(fd)))
+                os.dup2(devnull, fd)
+            except OSError:
+                continue
+        yield
+    finally:
+        for fd, copy in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+        os.close(devnull)
+
+
+with silenced():
+    import pybullet as p
+
 
 __all__ = [
     "BALL_MASS_KG",
@@ -86,7 +120,8 @@ class World:
 
     def __init__(self, field: FieldSpec, *, renderer: str = "auto") -> None:
         self.field = field
-        self._client = p.connect(p.DIRECT)
+        with silenced():
+            self._client = p.connect(p.DIRECT)
         self._plugin = -1
         self._tmp = tempfile.TemporaryDirectory(prefix="dsp-world-")
         try:
@@ -110,11 +145,12 @@ class World:
         plugin = -1
         if spec is not None and spec.origin:
             try:
-                plugin = p.loadPlugin(
-                    spec.origin,
-                    "_eglRendererPlugin",
-                    physicsClientId=self._client,
-                )
+                with silenced():
+                    plugin = p.loadPlugin(
+                        spec.origin,
+                        "_eglRendererPlugin",
+                        physicsClientId=self._client,
+                    )
             except Exception:
                 plugin = -1
         if plugin < 0:
@@ -278,27 +314,29 @@ class World:
     def render(self, width: int, height: int, view: list[float] | tuple[float, ...],
                proj: list[float] | tuple[float, ...]) -> np.ndarray:
         """One RGB image (height x width x 3, uint8, row 0 = top) from a view/projection."""
-        _, _, rgba, _, _ = p.getCameraImage(
-            width, height, view, proj,
-            renderer=self.render_mode,
-            flags=p.ER_NO_SEGMENTATION_MASK,
-            shadow=0,
-            lightDirection=[0.3, 0.2, 1.0],
-            lightColor=[1, 1, 1],
-            lightAmbientCoeff=0.65,
-            lightDiffuseCoeff=0.45,
-            lightSpecularCoeff=0.0,
-            physicsClientId=self._client,
-        )
+        with silenced():
+            _, _, rgba, _, _ = p.getCameraImage(
+                width, height, view, proj,
+                renderer=self.render_mode,
+                flags=p.ER_NO_SEGMENTATION_MASK,
+                shadow=0,
+                lightDirection=[0.3, 0.2, 1.0],
+                lightColor=[1, 1, 1],
+                lightAmbientCoeff=0.65,
+                lightDiffuseCoeff=0.45,
+                lightSpecularCoeff=0.0,
+                physicsClientId=self._client,
+            )
         img = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
         return np.ascontiguousarray(img[:, :, :3])
 
     def close(self) -> None:
         if self._client >= 0:
             try:
-                if self._plugin >= 0:
-                    p.unloadPlugin(self._plugin, physicsClientId=self._client)
-                p.disconnect(physicsClientId=self._client)
+                with silenced():
+                    if self._plugin >= 0:
+                        p.unloadPlugin(self._plugin, physicsClientId=self._client)
+                    p.disconnect(physicsClientId=self._client)
             finally:
                 self._client = -1
                 self._tmp.cleanup()

@@ -156,8 +156,8 @@ def record(
         raise UsageError(f"JPEG quality must be 1..100, got {jpeg_quality}")
     if pose_noise_m < 0 or yaw_noise_deg < 0:
         raise UsageError("pose noise must be >= 0")
-    if face_px < 64:
-        raise UsageError(f"--face-px must be >= 64, got {face_px}")
+    if face_px < 256:
+        raise UsageError(f"--face-px must be >= 256 (smaller loses far balls), got {face_px}")
     sc = make_scenario(name, seed, robots=robots, field=field)
     rate = sc.default_rate_hz if rate_hz is None else rate_hz
     if not 0 < rate <= 1000:

@@ -215,10 +215,11 @@ class World:
             self._add_goal(s)
         # the ball
         col = p.createCollisionShape(p.GEOM_SPHERE, radius=BALL_RADIUS_M, physicsClientId=c)
-        # a finely tessellated sphere mesh: pybullet's own sphere is coarse enough to move
-        # the blob centroid of a near ball by half a pixel
+        # a finer sphere mesh than pybullet's own (whose facets move a near ball's blob
+        # centroid by half a pixel), but not so fine that TinyRenderer drops its sub-pixel
+        # triangles when the ball is only a few pixels wide
         ball_path = Path(self._tmp.name) / "ball.obj"
-        ball_path.write_text(_sphere_obj(BALL_RADIUS_M, 48, 96))
+        ball_path.write_text(_sphere_obj(BALL_RADIUS_M, 24, 48))
         vis = p.createVisualShape(p.GEOM_MESH, fileName=str(ball_path),
                                   rgbaColor=_rgba(BALL_RGB), specularColor=[0, 0, 0],
                                   physicsClientId=c)

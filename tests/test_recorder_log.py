@@ -207,7 +207,7 @@ def test_refuses_to_overwrite(log: tuple[Path, RecordSummary], capsys: pytest.Ca
 def test_force_overwrites(tmp_path: Path) -> None:
     path = tmp_path / "scenario3.mcap"
     path.write_bytes(b"not a log")
-    assert main([str(path), "--frames", "1", "--face-px", "128", "--force"]) == 0
+    assert main([str(path), "--frames", "1", "--face-px", "256", "--force"]) == 0
     _, meta = read_all(path)
     assert meta[c.SCENARIO_METADATA]["name"] == "scenario3"
 

@@ -1,0 +1,85 @@
+"""Omni frames per second per camera model and renderer, beside the floor: one plain
+1080 x 1080 pybullet render.
+
+    python benchmarks/bench_record.py [--runs 5] [--face-px 1024] [--renderers egl,tiny]
+
+Each figure is the median over ``--runs`` timed runs (after one warm-up) of rendering one
+robot's omni image in the scenario-1 world (three robots, the ball at the centre), with and
+without PNG encoding (what the recorder writes per robot and frame).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import cv2
+import numpy as np
+
+from estimator.camera import CAMERA_MODELS, make_camera
+from recorder.omni import DEFAULT_FACE_PX, OmniRenderer, _look_at, _perspective
+from recorder.scenarios import make_scenario
+from recorder.world import World, field_spec
+
+
+def _median_s(fn, runs: int) -> float:  # type: ignore[no-untyped-def]
+    fn()
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def bench(renderer: str, face_px: int, runs: int) -> list[str]:
+    sc = make_scenario("scenario1")
+    rows = []
+    with World(field_spec(sc.field), renderer=renderer) as world:
+        if world.renderer != renderer:
+            return [f"{renderer:5s} not available (got {world.renderer})"]
+        for tr in sc.robots:
+            world.add_robot(tr.name)
+            world.set_robot_pose(tr.name, *tr.pose_at(0.0))
+        world.set_ball(*sc.ball_xy_m)
+        r2 = sc.robots[1]
+        x, y, yaw = r2.pose_at(0.0)
+        eye = np.array([x, y, 0.85])
+        view = _look_at(eye, np.array([1.0, 0.0, -0.3]), np.array([0.0, 0.0, 1.0]))
+        proj = _perspective(90.0, 0.02, 80.0)
+        floor = _median_s(lambda: world.render(1080, 1080, view, proj), runs)
+        rows.append(f"{renderer:5s} floor: one plain 1080x1080 render {floor * 1e3:7.1f} ms "
+                    f"({1 / floor:5.1f} /s)")
+        for name in CAMERA_MODELS:
+            t0 = time.perf_counter()
+            omni = OmniRenderer(make_camera(name), face_px=face_px, renderer=world.renderer)
+            build = time.perf_counter() - t0
+            render = _median_s(lambda omni=omni: omni.render(world, r2.name, x, y, yaw), runs)
+            img = omni.render(world, r2.name, x, y, yaw)
+            png = _median_s(lambda img=img: cv2.imencode(
+                ".png", img, [cv2.IMWRITE_PNG_COMPRESSION, 3]), runs)
+            rows.append(
+                f"{renderer:5s} {name:8s} faces {'+'.join(omni.face_names):27s} "
+                f"omni {render * 1e3:7.1f} ms ({1 / render:5.2f} fps), +png "
+                f"{png * 1e3:5.1f} ms -> {1 / (render + png):5.2f} fps; tables built once "
+                f"in {build:.2f} s"
+            )
+    return rows
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--runs", type=int, default=5)
+    p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX)
+    p.add_argument("--renderers", default="egl,tiny")
+    args = p.parse_args()
+    print(f"face {args.face_px} px, median of {args.runs} runs, cv2 threads "
+          f"{cv2.getNumThreads()}")
+    for r in args.renderers.split(","):
+        for row in bench(r.strip(), args.face_px, args.runs):
+            print(row)
+
+
+if __name__ == "__main__":
+    main()

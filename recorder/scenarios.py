@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
+from dataclasses import field as dc_field
 from pathlib import Path
 from typing import Any
 
@@ -81,7 +82,7 @@ class Scenario:
     opponents: tuple[RobotTrack, ...] = ()
     default_duration_s: float = 1.0
     default_rate_hz: float = 5.0
-    notes: dict[str, Any] = field(default_factory=dict)
+    notes: dict[str, Any] = dc_field(default_factory=dict)
 
     def params(self) -> dict[str, Any]:
         """JSON-able parameters (for the log's dsp.scenario metadata)."""

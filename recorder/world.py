@@ -165,7 +165,7 @@ class World:
 
     @property
     def render_mode(self) -> int:
-        return p.ER_BULLET_HARDWARE_OPENGL if self.renderer == "egl" else p.ER_TINY_RENDERER
+        return int(p.ER_BULLET_HARDWARE_OPENGL if self.renderer == "egl" else p.ER_TINY_RENDERER)
 
     def _build(self) -> None:
         c = self._client
@@ -274,7 +274,7 @@ class World:
         body = p.createMultiBody(0, col, vis, [0, 0, 0], physicsClientId=c)
         p.changeDynamics(body, -1, restitution=0.5, lateralFriction=0.5, physicsClientId=c)
         self._robots[name] = body
-        return body
+        return int(body)
 
     # --- state -------------------------------------------------------------------------------
     def set_robot_pose(self, name: str, x_m: float, y_m: float, yaw_rad: float) -> None:

@@ -84,7 +84,7 @@ class LogWriter:
         self._write(c.TF_TOPIC, c.TF_MESSAGE, {"transforms": transforms}, t_ns)
 
     def finish(self) -> None:
-        self._w.finish()
+        self._w.finish()  # type: ignore[no-untyped-call]
 
     def __enter__(self) -> LogWriter:
         return self

@@ -63,9 +63,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from recorder.omni import DEFAULT_FACE_PX
+    from recorder.record import RecordingInterrupted, record
+
     try:
-        from recorder.omni import DEFAULT_FACE_PX
-        from recorder.record import record
 
         summary = record(
             args.output,
@@ -86,6 +87,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             force=args.force,
             progress=sys.stderr.isatty(),
         )
+    except RecordingInterrupted as err:
+        print(f"dsp-record: {err}", file=sys.stderr)
+        return err.exit_code
     except RecorderError as err:
         print(f"dsp-record: error: {err}", file=sys.stderr)
         return err.exit_code

@@ -541,14 +541,14 @@ def _run(
         if image is not None:
             stats.estimator_s += elapsed
             stats.estimator_n += 1
-        gt = err = None
+        err = None
+        # the truth goes with every frame, so a missed ball can be told from an absent one
+        gt = interpolate_truth(truth, img.stamp_ns, tol_ns) if info.has_truth else None
         if estimate is not None:
             stats.robot_estimates[img.robot] += 1
-            if info.has_truth:
-                gt = interpolate_truth(truth, img.stamp_ns, tol_ns)
-                if gt is not None:
-                    err = math.hypot(estimate.x_m - gt[0], estimate.y_m - gt[1])
-                    stats.robot_errors[img.robot].add(err)
+            if gt is not None:
+                err = math.hypot(estimate.x_m - gt[0], estimate.y_m - gt[1])
+                stats.robot_errors[img.robot].add(err)
         result = FrameResult(
             frame=index, robot=img.robot, stamp_ns=img.stamp_ns, status=status,
             detection=det, r_px=r_px, centre_px=centre,

@@ -169,7 +169,7 @@ def calibrate(camera: CameraModel, samples: Sequence[Sample]) -> CalibrationRun:
     if len(r) < 6:
         raise UsageError(
             f"only {len(r)} of {len(samples)} ball placements were detected; need at least "
-            "6 to fit (check the camera model and the distance range)"
+            "6 to fit (give more placements: a smaller --step or more --directions)"
         )
     fits: dict[str, FitResult] = {}
     holdout: dict[str, float] = {}

@@ -172,6 +172,10 @@ def atomic_output(path: Path, *, force: bool) -> Iterator[Path]:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    # mkstemp makes the file private (0600); give it the mode any new file would get
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o666 & ~umask)
     os.replace(tmp, path)
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 from dataclasses import replace
 from pathlib import Path
 
@@ -120,6 +122,15 @@ def test_outputs_are_not_overwritten_without_force(static_log: Path, tmp_path: P
     replay(static_log, ReplayOptions(out=out, force=True, progress=False))
     assert _results(out)["format"] == "dsp-replay-results"
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_outputs_get_the_mode_of_any_new_file(static_log: Path, tmp_path: Path) -> None:
+    old = os.umask(0o022)
+    try:
+        replay(static_log, ReplayOptions(out=tmp_path / "r.json", progress=False))
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "r.json").stat().st_mode) == 0o644
 
 
 def test_estimates_mcap_reads_back(static_log: Path, tmp_path: Path) -> None:

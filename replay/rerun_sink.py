@@ -120,10 +120,13 @@ class RerunSink:
     def blueprint(self) -> rrb.Blueprint:
         cams = [rrb.Spatial2DView(origin=f"/robots/{r}/camera", name=f"{r} camera")
                 for r in self.info.robots]
+        # straight down from high enough that the whole field and its 1.5 m border fit the
+        # (narrow, tall) field panel
+        eye_height_m = 1.35 * (self.field[0] + 3.0)
         field_view = rrb.Spatial3DView(
             origin="/field", name="field (top-down)",
-            eye_controls=rrb.EyeControls3D(position=(0.0, -0.5, 24.0), look_target=(0.0, 0.0, 0.0),
-                                           eye_up=(0.0, 1.0, 0.0)),
+            eye_controls=rrb.EyeControls3D(position=(0.0, -0.5, eye_height_m),
+                                           look_target=(0.0, 0.0, 0.0), eye_up=(0.0, 1.0, 0.0)),
         )
         plots = rrb.Vertical(
             rrb.TimeSeriesView(origin="/plots/error", name="error vs ground truth [m]"),

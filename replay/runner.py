@@ -48,6 +48,7 @@ from replay.sync import DelayLine, FusionGrouper, History, interpolate_pose, int
 __all__ = [
     "METHODS",
     "ReplayOptions",
+    "RerunTarget",
     "ReplaySummary",
     "RobotSummary",
     "Sink",

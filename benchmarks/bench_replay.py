@@ -1,6 +1,11 @@
-"""Benchmark replay: peak RSS and wall time on a short synthetic log and one 10x longer.
+"""Benchmark replay: peak RSS and wall time on a short log and one 10x longer.
 
     python benchmarks/bench_replay.py [--seconds 2] [--factor 10]
+    python benchmarks/bench_replay.py --recorded [--seconds 1.2]
+
+By default the logs are synthetic (tests/synthetic.py: tiny PNGs, fast to make); with
+``--recorded`` they are simulator recordings of the ``rolling`` scenario (full 1080 x 1080
+omni images at 10 Hz, three robots), so the figures include real image decoding.
 
 Each replay runs in a fresh child process (so peak RSS is that replay's alone, measured with
 resource.getrusage in the child); results JSON and estimates MCAP are written as well. Memory
@@ -43,6 +48,8 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seconds", type=float, default=2.0, help="short log length [s]")
     p.add_argument("--factor", type=int, default=10, help="how much longer the long log is")
+    p.add_argument("--recorded", action="store_true",
+                   help="record the rolling scenario instead of writing synthetic logs")
     args = p.parse_args()
     sys.path.insert(0, str(ROOT / "tests"))
     from synthetic import write_log
@@ -53,7 +60,12 @@ def main() -> int:
         long_s = args.seconds * args.factor
         for name, secs in (("short", args.seconds), (f"{args.factor}x", long_s)):
             log = d / f"{name}.mcap"
-            write_log(log, duration_s=secs)
+            if args.recorded:
+                from recorder.record import record
+
+                record(log, scenario="rolling", duration_s=secs)
+            else:
+                write_log(log, duration_s=secs)
             r = measure(log, d)
             r.update(name=name, seconds=secs, log_mib=log.stat().st_size / 2**20)
             rows.append(r)

@@ -22,7 +22,7 @@ from estimator.calibration import (
     fit_lookup,
     fit_mirror,
 )
-from estimator.corrected import BallEstimate, estimate_ball
+from estimator.corrected import BallEstimate, ball_visibility, estimate_ball
 from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
 from estimator.errors import (
     CalibrationError,
@@ -85,6 +85,7 @@ __all__ = [
     "RobustFusion",
     "UnknownFusionError",
     "WeightedFusion",
+    "ball_visibility",
     "calibration_from_dict",
     "calibration_from_json",
     "calibration_to_json",

@@ -42,6 +42,7 @@ __all__ = [
     "FisheyeCamera",
     "IdealCamera",
     "MirrorCamera",
+    "ball_image_area_px",
     "camera_from_dict",
     "ground_range_m",
     "make_camera",
@@ -266,3 +267,31 @@ def ground_range_m(camera: CameraModel, r_px: ArrayLike) -> FloatArray:
     with np.errstate(invalid="ignore"):
         out = camera.height_m * np.tan(n)
     return np.where(n < math.pi / 2, out, np.inf)
+
+
+def ball_image_area_px(
+    camera: CameraModel, range_m: float, ball_radius_m: float = 0.11, *, points: int = 90
+) -> float:
+    """The area [px^2] of the image of a whole, unoccluded ball resting on the ground at a
+    horizontal ``range_m`` from the robot: the polygon of its silhouette, the cone of rays
+    tangent to the sphere, mapped through the model. NaN where the model cannot see it.
+
+    Every model is radially symmetric, so the direction does not matter: the ball is put
+    straight ahead.
+    """
+    centre = np.array([range_m, 0.0, ball_radius_m - camera.height_m])
+    dist = float(np.linalg.norm(centre))
+    if dist <= ball_radius_m:
+        return math.nan
+    axis = centre / dist
+    e1 = np.cross(axis, [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    alpha = math.asin(ball_radius_m / dist)  # half-angle of the tangent cone
+    phi = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
+    rays = math.cos(alpha) * axis + math.sin(alpha) * (np.cos(phi) * e1 + np.sin(phi) * e2)
+    uv = np.asarray(camera.ray_to_pixel(rays), dtype=np.float64)
+    if not np.all(np.isfinite(uv)):
+        return math.nan
+    u, v = uv[:, 0], uv[:, 1]
+    return float(0.5 * abs(np.dot(u, np.roll(v, 1)) - np.dot(v, np.roll(u, 1))))  # shoelace

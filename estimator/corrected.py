@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from estimator.calibration import PAPER_CALIBRATION, Calibration
 from estimator.geometry import RobotPose
 
-__all__ = ["BallEstimate", "estimate_ball"]
+__all__ = ["BallEstimate", "ball_visibility", "estimate_ball"]
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,18 @@ class BallEstimate:
     """Bearing of the ball in the ROBOT frame [rad]: 0 forward, +pi/2 left."""
     x_m: float
     y_m: float
+    visibility: float = 1.0
+    """How much of the ball the blob shows: detected area / the area a whole ball at this
+    range would have (:func:`ball_visibility`), 1 when unknown. A partly hidden ball's
+    centroid is biased, so fusion trusts it less."""
+
+
+def ball_visibility(area_px: float, expected_area_px: float) -> float:
+    """Detected blob area over the expected area of a whole ball, clipped to [0, 1]; 1 when
+    the expected area is unknown (NaN or not positive)."""
+    if not (math.isfinite(expected_area_px) and expected_area_px > 0.0):
+        return 1.0
+    return min(max(area_px / expected_area_px, 0.0), 1.0)
 
 
 def estimate_ball(

@@ -13,7 +13,9 @@ tangential sigma ``d sigma_b`` across it::
 
     Sigma_i = R(phi) diag(sigma_r^2, (d sigma_b)^2) R(phi)^T
 
-Both sigmas are floored at ``min_sigma_m`` so Sigma_i is never singular (d = 0).
+Both sigmas are floored at ``min_sigma_m`` so Sigma_i is never singular (d = 0), then
+divided by the estimate's ``visibility`` (the fraction of the ball its blob shows, floored
+at ``min_visibility``): a partly hidden ball's centroid is pulled towards its visible part.
 All methods are deterministic: no randomness, ties broken by input order, and the
 ``robots`` of a result are listed in input order.
 """
@@ -69,6 +71,8 @@ class NoiseModel:
     """(c2, c1, c0) of sigma_r(d) = c2 d^2 + c1 d + c0 [m]."""
     bearing_sigma_rad: float = 0.01
     min_sigma_m: float = 1e-3
+    min_visibility: float = 0.05
+    """Sigmas grow as 1 / visibility, at most 1 / min_visibility times."""
 
     def __post_init__(self) -> None:
         if not (self.bearing_sigma_rad >= 0.0 and self.min_sigma_m > 0.0):
@@ -82,6 +86,10 @@ class NoiseModel:
         d = estimate.range_m
         sigma_r = max(abs(range_sigma_m(d, self.range_sigma_coefficients)), self.min_sigma_m)
         sigma_t = max(abs(d) * self.bearing_sigma_rad, self.min_sigma_m)
+        # a partly hidden ball: its centroid moves towards the visible part, so both
+        # sigmas grow as the visible fraction shrinks
+        scale = 1.0 / max(estimate.visibility, self.min_visibility)
+        sigma_r, sigma_t = sigma_r * scale, sigma_t * scale
         dx = estimate.x_m - estimate.robot_x_m
         dy = estimate.y_m - estimate.robot_y_m
         phi = math.atan2(dy, dx) if (dx or dy) else 0.0  # field bearing robot -> ball

@@ -14,7 +14,7 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                  "detection": {"cx_px", "cy_px", "r_px", "area_px", "bbox_px",
                                "circularity"} | null,
                  "pose": {"x_m", "y_m", "yaw_rad", "gap_s", "interpolated"} | null,
-                 "estimate": {"x_m", "y_m", "range_m", "bearing_rad"} | null,
+                 "estimate": {"x_m", "y_m", "range_m", "bearing_rad", "visibility"} | null,
                  "truth": {"x_m", "y_m"} | null, "error_m": float | null}, ...],
      "fused": [{"step", "stamp_ns", "t_s", "robots": [...], "x_m", "y_m",
                 "covariance": [[xx, xy], [yx, yy]], "truth": {...} | null,
@@ -71,6 +71,8 @@ class RobotEstimate:
     robot_x_m: float
     robot_y_m: float
     robot_yaw_rad: float
+    visibility: float = 1.0
+    """Detected blob area / a whole ball's expected area at this range (1: unknown)."""
 
 
 @dataclass(frozen=True)
@@ -199,7 +201,7 @@ def frame_to_dict(f: FrameResult) -> dict[str, Any]:
         },
         "estimate": None if est is None else {
             "x_m": est.x_m, "y_m": est.y_m, "range_m": est.range_m,
-            "bearing_rad": est.bearing_rad,
+            "bearing_rad": est.bearing_rad, "visibility": est.visibility,
         },
         "truth": None if f.truth is None else {"x_m": f.truth[0], "y_m": f.truth[1]},
         "error_m": f.error_m,

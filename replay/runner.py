@@ -48,8 +48,8 @@ from replay.sync import DelayLine, FusionGrouper, History, interpolate_pose, int
 __all__ = [
     "METHODS",
     "ReplayOptions",
-    "RerunTarget",
     "ReplaySummary",
+    "RerunTarget",
     "RobotSummary",
     "Sink",
     "decode_image",
@@ -194,7 +194,8 @@ class _Estimation:
 
     method: str
     detect: Callable[[np.ndarray], Any]
-    locate: Callable[[str, float, float, Any], RobotEstimate]
+    locate: Callable[[str, Any, Any], RobotEstimate]
+    """(robot, detection, pose) -> the robot's estimate."""
     fuse: Callable[[list[RobotEstimate]], Any]
     centres: dict[str, tuple[float, float]] = field(default_factory=dict)
     out_of_range: tuple[type[BaseException], ...] = ()
@@ -218,6 +219,7 @@ def _make_estimation(options: ReplayOptions, reader: LogReader) -> _Estimation:
 
     centres: dict[str, tuple[float, float]] = {}
     calibrations: dict[str, Any] = {}
+    camera_models: dict[str, Any] = {}
     cameras = reader.camera_metadata()
     for robot in reader.info.robots:
         centres[robot] = DEFAULT_CENTRE_PX
@@ -227,6 +229,7 @@ def _make_estimation(options: ReplayOptions, reader: LogReader) -> _Estimation:
                 model = cam.camera_from_dict(dict(cameras[robot]))
                 centres[robot] = (float(model.centre_px[0]), float(model.centre_px[1]))
                 calibrations[robot] = cal.CameraCalibration(model)
+                camera_models[robot] = model
             except (ValueError, TypeError, EstimatorError) as err:
                 raise CalibrationError(
                     f"{reader.path} metadata {contract.CAMERAS_METADATA}[{robot}]", str(err)
@@ -243,26 +246,35 @@ def _make_estimation(options: ReplayOptions, reader: LogReader) -> _Estimation:
             raise CalibrationError(path, str(err)) from err
         calibrations = {robot: model for robot in reader.info.robots}
 
-    def locate_paper(robot: str, cx: float, cy: float, pose: Any) -> RobotEstimate:
-        x, y = paper.locate_ball(cx, cy, pose.x_m, pose.y_m, pose.yaw_rad,
-                                 centre_px=centres[robot])
+    def visibility(robot: str, det: Any, range_m: float) -> float:
+        """How much of the ball the blob shows, when the log names the camera model."""
+        model = camera_models.get(robot)
+        if model is None:
+            return 1.0
+        expected = cam.ball_image_area_px(model, range_m)
+        return corrected.ball_visibility(float(det.area_px), expected)
+
+    def locate_paper(robot: str, det: Any, pose: Any) -> RobotEstimate:
+        x, y = paper.locate_ball(float(det.cx_px), float(det.cy_px), pose.x_m, pose.y_m,
+                                 pose.yaw_rad, centre_px=centres[robot])
         dx, dy = x - pose.x_m, y - pose.y_m
         bearing = math.atan2(dy, dx) - pose.yaw_rad
         bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-        return RobotEstimate(robot, x, y, math.hypot(dx, dy), bearing,
-                             pose.x_m, pose.y_m, pose.yaw_rad)
+        rng = math.hypot(dx, dy)
+        return RobotEstimate(robot, x, y, rng, bearing, pose.x_m, pose.y_m, pose.yaw_rad,
+                             visibility(robot, det, rng))
 
-    def locate_corrected(robot: str, cx: float, cy: float, pose: Any) -> RobotEstimate:
-        e = corrected.estimate_ball(cx, cy, pose, calibrations[robot],
-                                    centre_px=centres[robot], robot=robot)
+    def locate_corrected(robot: str, det: Any, pose: Any) -> RobotEstimate:
+        e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
+                                    calibrations[robot], centre_px=centres[robot], robot=robot)
         return RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad,
-                             pose.x_m, pose.y_m, pose.yaw_rad)
+                             pose.x_m, pose.y_m, pose.yaw_rad, visibility(robot, det, e.range_m))
 
     def fuse(estimates: list[RobotEstimate]) -> Any:
         return fuser.fuse([
             corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
                                    range_m=e.range_m, bearing_rad=e.bearing_rad,
-                                   x_m=e.x_m, y_m=e.y_m)
+                                   x_m=e.x_m, y_m=e.y_m, visibility=e.visibility)
             for e in estimates
         ])
 
@@ -528,8 +540,7 @@ def _run(
                     status = "no_pose"
                 else:
                     try:
-                        estimate = est.locate(img.robot, float(det.cx_px), float(det.cy_px),
-                                              pose_match.pose)
+                        estimate = est.locate(img.robot, det, pose_match.pose)
                     except est.out_of_range:
                         status = "out_of_range"
         if status in ("ok", "no_detection") and pose_match is None:

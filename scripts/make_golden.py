@@ -59,9 +59,10 @@ CONFIGS: tuple[tuple[str, str], ...] = (
 )
 """(method, fusion) pairs replayed for every scene (each expected file is ~5 kB)."""
 
-DECIMALS: dict[str, int] = {"m": 4, "px": 3, "rad": 5, "m2": 6}
+DECIMALS: dict[str, int] = {"m": 4, "px": 3, "rad": 5, "m2": 6, "ratio": 4}
 """Rounding of the normalised outputs by unit: metres 4 places (0.1 mm), pixels (and the
-blob area in px^2) 3 places, radians 5 places, covariances (m^2) 6 places."""
+blob area in px^2) 3 places, radians 5 places, covariances (m^2) 6 places, ratios (the
+visibility of the ball) 4 places."""
 
 TOLERANCES: dict[str, float] = {
     # replaying a golden log must give the expected file exactly, to DECIMALS
@@ -98,7 +99,7 @@ def log_name(scene: str) -> str:
 
 _FRAME_KEYS = ("frame", "robot", "stamp_ns", "status", "detection", "estimate")
 _DETECTION_KEYS = ("cx_px", "cy_px", "area_px", "r_px")
-_ESTIMATE_KEYS = ("x_m", "y_m", "range_m", "bearing_rad")
+_ESTIMATE_KEYS = ("x_m", "y_m", "range_m", "bearing_rad", "visibility")
 _STEP_KEYS = ("step", "stamp_ns", "robots", "fused_robots", "x_m", "y_m", "covariance")
 _ROBOT_SUMMARY_KEYS = ("frames", "detections", "estimates", "errors", "rmse_m", "max_error_m")
 _FUSED_SUMMARY_KEYS = ("estimates", "errors", "rmse_m", "max_error_m")
@@ -107,6 +108,8 @@ _FUSED_SUMMARY_KEYS = ("estimates", "errors", "rmse_m", "max_error_m")
 def _unit(key: str) -> str:
     if key == "covariance":
         return "m2"
+    if key == "visibility":
+        return "ratio"
     for suffix in ("px", "rad", "m"):
         if key.endswith("_" + suffix):
             return suffix

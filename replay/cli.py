@@ -41,7 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
                    "(default)")
-    p.add_argument("--fusion", choices=FUSIONS, default="mean", help="fusion (default mean)")
+    p.add_argument("--fusion", choices=FUSIONS,
+                   help="how the robots' estimates are fused (default: mean in paper mode, "
+                   "as the paper does; weighted for the corrected estimator)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,

@@ -229,3 +229,13 @@ def test_frames_without_a_ball_are_not_skipped(tmp_path: Path) -> None:
     doc = _results(out)
     assert {f["status"] for f in doc["frames"]} == {"no_detection"}
     assert doc["summary"]["fused"]["rmse_m"] is None
+
+
+@pytest.mark.parametrize(("method", "fusion", "expected"), [
+    ("paper", None, "mean"), ("corrected", None, "weighted"), ("corrected", "nearest", "nearest"),
+])
+def test_default_fusion_follows_the_method(static_log: Path, tmp_path: Path, method: str,
+                                           fusion: str | None, expected: str) -> None:
+    out = tmp_path / "r.json"
+    replay(static_log, ReplayOptions(method=method, fusion=fusion, out=out, progress=False))
+    assert _results(out)["options"]["fusion"] == expected

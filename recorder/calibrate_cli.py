@@ -142,7 +142,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if plot is not None:
             _write_atomic(plot, plot_png(run))
     except (RecorderError, ValueError) as err:
-        print(f"dsp-calibrate: {err}", file=sys.stderr)
+        print(f"dsp-calibrate: error: {err}", file=sys.stderr)
         return getattr(err, "exit_code", 2)
     except KeyboardInterrupt:
         print("dsp-calibrate: interrupted; nothing written", file=sys.stderr)

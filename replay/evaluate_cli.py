@@ -17,7 +17,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from estimator.calibration import calibration_from_json
 from estimator.camera import CAMERA_MODELS
+from estimator.errors import EstimatorError
 from recorder.errors import RecorderError
 from replay.errors import ReplayError
 from replay.evaluate import (
@@ -73,8 +75,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.count < 1:
             raise ValueError(f"--count {args.count}: give at least 1 scene")
-        if args.calibration is not None and not args.calibration.is_file():
-            raise ValueError(f"{args.calibration}: calibration file not found")
+        if args.calibration is not None:
+            if not args.calibration.is_file():
+                raise ValueError(f"{args.calibration}: calibration file not found")
+            try:  # before recording anything: a bad file would only show at the replay
+                calibration_from_json(args.calibration.read_text(encoding="utf-8"))
+            except (EstimatorError, UnicodeDecodeError) as err:
+                raise ValueError(f"{args.calibration}: unusable calibration: {err}") from err
         out_dir.mkdir(parents=True, exist_ok=True)
         record = _recorder(args.camera, args.renderer)
         stem = f"{args.suite}-{args.camera}"

@@ -7,9 +7,9 @@ By default the logs are synthetic (tests/synthetic.py: tiny PNGs, fast to make);
 ``--recorded`` they are simulator recordings of the ``rolling`` scenario (full 1080 x 1080
 omni images at 10 Hz, three robots), so the figures include real image decoding.
 
-Each replay runs in a fresh child process (so peak RSS is that replay's alone, measured with
-resource.getrusage in the child); results JSON and estimates MCAP are written as well. Memory
-should stay flat: the long log's peak RSS about the short one's.
+Each replay runs in a fresh child process, so peak RSS is that replay's alone (the child's
+VmHWM from /proc, else resource.getrusage); results JSON and estimates MCAP are written as
+well. Memory should stay flat: the long log's peak RSS about the short one's.
 """
 
 from __future__ import annotations
@@ -32,7 +32,14 @@ t0 = time.perf_counter()
 s = replay(log, ReplayOptions(out=out / "r.json", out_mcap=out / "e.mcap", force=True,
                               progress=False))
 wall = time.perf_counter() - t0
-rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+# Peak RSS of this program alone: VmHWM belongs to the address space exec made, while
+# ru_maxrss also counts the parent's pages the child had before exec (the parent may hold
+# a whole pybullet world after recording).
+try:
+    hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM:")]
+    rss_kib = int(hwm[0].split()[1])
+except (OSError, IndexError, ValueError):
+    rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
 print(json.dumps({"frames": s.frames, "wall_s": wall, "peak_rss_mib": rss_kib / 1024,
                   "frames_per_s": s.frames / wall, "fused_rmse_m": s.fused.rmse_m}))
 """

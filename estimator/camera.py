@@ -112,6 +112,12 @@ class _RadialCamera:
     def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:  # pragma: no cover
         raise NotImplementedError
 
+    def to_dict(self) -> dict[str, Any]:
+        """The model's fields (every subclass is a dataclass) and its ``"model"`` name."""
+        d: dict[str, Any] = {"model": self.name}
+        d.update({k: v for k, v in asdict(self).items() if k != "name"})  # type: ignore[call-overload]
+        return d
+
     def pixel_to_ray(self, u: ArrayLike, v: ArrayLike) -> FloatArray:
         du = np.asarray(u, dtype=np.float64) - self.cu_px
         dv = np.asarray(v, dtype=np.float64) - self.cv_px
@@ -154,9 +160,6 @@ class IdealCamera(_RadialCamera):
             r = self.height_m * np.tan(np.where(ok, n, 0.0)) / self.k_m_per_px
         return np.where(ok, r, np.nan)
 
-    def to_dict(self) -> dict[str, Any]:
-        return _as_dict(self)
-
 
 @dataclass(frozen=True)
 class FisheyeCamera(_RadialCamera):
@@ -181,9 +184,6 @@ class FisheyeCamera(_RadialCamera):
     def radius_px(self, nadir_angle_rad: ArrayLike) -> FloatArray:
         n = np.asarray(nadir_angle_rad, dtype=np.float64)
         return np.where(n >= 0, n * self.f_px_per_rad, np.nan)
-
-    def to_dict(self) -> dict[str, Any]:
-        return _as_dict(self)
 
 
 @dataclass(frozen=True)
@@ -222,21 +222,12 @@ class MirrorCamera(_RadialCamera):
         d = self.height_m * np.tan(np.where(ok, n, 0.0))
         return np.where(ok, np.arctan(d / self.a_m) / self.b_rad_per_px, np.nan)
 
-    def to_dict(self) -> dict[str, Any]:
-        return _as_dict(self)
-
 
 _CLASSES: dict[str, type[IdealCamera] | type[FisheyeCamera] | type[MirrorCamera]] = {
     "ideal": IdealCamera,
     "fisheye": FisheyeCamera,
     "mirror": MirrorCamera,
 }
-
-
-def _as_dict(cam: IdealCamera | FisheyeCamera | MirrorCamera) -> dict[str, Any]:
-    d: dict[str, Any] = {"model": cam.name}
-    d.update({k: v for k, v in asdict(cam).items() if k != "name"})
-    return d
 
 
 def make_camera(name: str, **params: Any) -> IdealCamera | FisheyeCamera | MirrorCamera:

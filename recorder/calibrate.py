@@ -238,7 +238,9 @@ def plot_png(run: CalibrationRun) -> bytes:
         for k in range(6):
             yv = ylo + (yhi - ylo) * k / 5
             px = to_px(box, 0, yv, ylo, yhi)
-            cv2.putText(img, f"{yv:.2f}", (5, px[1] + 4), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+            digits = 3 if yhi - ylo < 0.2 else 2
+            cv2.putText(img, f"{yv:.{digits}f}", (5, px[1] + 4), font, 0.4, (0, 0, 0), 1,
+                        cv2.LINE_AA)
             xv = r_max * k / 5
             qx = to_px(box, xv, ylo, ylo, yhi)
             cv2.putText(img, f"{xv:.0f}", (qx[0] - 10, box[3] + 16), font, 0.4, (0, 0, 0), 1,
@@ -269,7 +271,7 @@ def plot_png(run: CalibrationRun) -> bytes:
             cv2.polylines(img, [np.array(pts, np.int32)], False, colour, 1, cv2.LINE_AA)
     cam = str(run.camera.get("model", "?"))
     cv2.putText(img, f"camera {cam}: samples by direction, fitted models, paper's line",
-                (top[0], 25), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+                (top[0] + 90, 25), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
     y = top[1] + 20
     for i, direction in enumerate(directions):
         cv2.circle(img, (top[0] + 15, y - 4), 4, _COLOURS[i % len(_COLOURS)], -1)
@@ -280,8 +282,8 @@ def plot_png(run: CalibrationRun) -> bytes:
         cv2.line(img, (top[0] + 8, y - 4), (top[0] + 22, y - 4), colour, 2)
         cv2.putText(img, label, (top[0] + 25, y), font, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
         y += 18
-    cv2.putText(img, f"residuals of the best model ({best.name})", (bot[0], bot[1] - 10), font,
-                0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"residuals of the best model ({best.name})", (bot[0] + 90, bot[1] - 10),
+                font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
     ok, buf = cv2.imencode(".png", img)
     if not ok:  # pragma: no cover - OpenCV always encodes a uint8 BGR image
         raise RuntimeError("PNG encoding failed")

@@ -108,9 +108,10 @@ class PaperSuite:
         return math.sqrt(sum(v for v in se if v is not None) / len(se))  # eq. 19
 
     def best(self) -> str:
-        ranked = [(r, lbl) for lbl in self.scores if (r := self.rmse_m(lbl)) is not None
-                  and lbl.startswith("corrected/")]
-        return min(ranked)[1] if ranked else ""
+        """The corrected configuration with the lowest RMSE; on a tie, the first run."""
+        ranked = [(r, i, lbl) for i, lbl in enumerate(self.scores)
+                  if (r := self.rmse_m(lbl)) is not None and lbl.startswith("corrected/")]
+        return min(ranked)[2] if ranked else ""
 
     def to_dict(self) -> dict[str, Any]:
         return _rounded({

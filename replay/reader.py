@@ -421,7 +421,10 @@ def _convert(
 ) -> ImageMessage | PoseMessage | TruthMessage:
     stamp = contract.stamp_to_ns(msg.header.stamp)
     if kind == "pose":
-        p, q = msg.pose.position, msg.pose.orientation
+        pose = msg.pose
+        if hasattr(pose, "pose"):  # PoseWithCovarianceStamped (AMCL), nav_msgs/Odometry
+            pose = pose.pose
+        p, q = pose.position, pose.orientation
         return PoseMessage(robot, stamp, float(p.x), float(p.y), float(q.x), float(q.y),
                            float(q.z), float(q.w))
     if kind == "truth":

@@ -116,10 +116,14 @@ def write_log(
     compression: CompressionType = CompressionType.ZSTD,
     image_offset_ns: int = 0,
     centre_px: tuple[float, float] = CENTRE_PX,
+    pose_schema: str = contract.POSE_STAMPED,
+    pose_topic: str = contract.POSE_TOPIC,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
-    bytes are garbage; ``image_encoding`` is "png", "jpeg" or "bgr8"/"rgb8"/"mono8" (raw)."""
+    bytes are garbage; ``image_encoding`` is "png", "jpeg" or "bgr8"/"rgb8"/"mono8" (raw).
+    ``pose_schema`` POSE_WITH_COVARIANCE_STAMPED writes poses as a localiser (AMCL) does,
+    on ``pose_topic``."""
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -176,9 +180,13 @@ def write_log(
                 if span is not None and span[0] * NS <= t < span[1] * NS:
                     continue
                 x, y, yaw = robot_at(name, t)
+                msg = _pose_msg(t, x, y, yaw)
+                if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
+                    msg = {"header": msg["header"],
+                           "pose": {"pose": msg["pose"], "covariance": [0.0] * 36}}
                 writer.write_message(
-                    contract.topic_for(contract.POSE_TOPIC, name), schemas[contract.POSE_STAMPED],
-                    _pose_msg(t, x, y, yaw), log_time=t, publish_time=t,
+                    contract.topic_for(pose_topic, name), schemas[pose_schema],
+                    msg, log_time=t, publish_time=t,
                 )
                 if name == next(iter(robots)):
                     log.pose_stamps_ns.append(t)

@@ -239,3 +239,15 @@ def test_default_fusion_follows_the_method(static_log: Path, tmp_path: Path, met
     out = tmp_path / "r.json"
     replay(static_log, ReplayOptions(method=method, fusion=fusion, out=out, progress=False))
     assert _results(out)["options"]["fusion"] == expected
+
+
+def test_a_localisers_pose_topic_with_covariance_replays(tmp_path: Path) -> None:
+    """Real robots often publish geometry_msgs/PoseWithCovarianceStamped (AMCL)."""
+    from recorder import contract
+
+    log = tmp_path / "amcl.mcap"
+    write_log(log, duration_s=0.3, pose_schema=contract.POSE_WITH_COVARIANCE_STAMPED,
+              pose_topic="/{robot}/amcl_pose")
+    s = replay(log, ReplayOptions(pose_topic="/{robot}/amcl_pose", progress=False))
+    assert s.robots == tuple(DEFAULT_ROBOTS)
+    assert s.fused.rmse_m is not None and s.fused.rmse_m < 0.01

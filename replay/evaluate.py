@@ -339,8 +339,12 @@ def random_markdown(suite: RandomSuite) -> str:
         rate = "-" if b["detection_rate"] is None else f"{100 * b['detection_rate']:.1f}%"
         lines.append(f"| {rng} | {b['images']} | {rate} | {b['estimates']} | "
                      f"{_fmt(b['median_m'])} | {_fmt(b['p95_m'])} | {_fmt(b['max_m'])} |")
+    fused_scenes = max((len(e) for e in suite.fused_errors.values()), default=0)
+    missed = suite.dual_sight_scenes - fused_scenes
     lines += ["", f"Fused, over the {suite.dual_sight_scenes} scenes whose ball is within "
-              f"{DUAL_SIGHT_RANGE_M:g} m of at least two robots:", "",
+              f"{DUAL_SIGHT_RANGE_M:g} m of at least two robots"
+              + (f" ({missed} of them with no estimate to fuse: every robot missed the "
+                 "ball)" if missed else "") + ":", "",
               "| method | scenes | RMSE [m] | median [m] | p95 [m] | max [m] |",
               "|---|---|---|---|---|---|"]
     for label, s in suite.fused_stats().items():

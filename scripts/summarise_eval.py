@@ -7,7 +7,8 @@ Each DIR is a dsp-eval ``--out-dir`` holding ``paper-<camera>.json`` and
 the file the suite names, looked up beside DIR (as ``dsp-calibrate -o ../cal-<camera>.json``
 leaves it). For every camera: the calibration model dsp-calibrate chose and its held-out
 RMS, Table 1's RMSE (paper mode, and the corrected estimator with each fusion), and the
-random suite's fused RMSE / p95 / max over the scenes with two robots within 9 m.
+random suite's fused RMSE / p95 / max over the scenes with two robots within 9 m (and how
+many of those had an estimate to fuse).
 """
 
 from __future__ import annotations
@@ -53,7 +54,9 @@ def summarise(dirs: list[Path]) -> str:
             if randoms:
                 r = _load(randoms[-1])
                 f = r["fused"]
-                scenes = f"{r['dual_sight_scenes']} of {r['count']} (seed {r['seed']})"
+                fused_n = f["corrected/weighted"]["scenes"]
+                scenes = (f"{r['dual_sight_scenes']} of {r['count']} (seed {r['seed']}); "
+                          f"{fused_n} fused")
                 fused = " / ".join(_mm(f[f"corrected/{x}"]["rmse_m"]) for x in FUSIONS)
                 w = f["corrected/weighted"]
                 tail = f"{_mm(w['p95_m'])} / {_mm(w['max_m'])}"

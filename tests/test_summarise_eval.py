@@ -29,15 +29,15 @@ def test_one_row_per_camera_with_the_largest_random_suite(tmp_path: Path) -> Non
     _write(d / "paper-mirror.json", {"camera": "mirror", "calibration": "cal-mirror.json",
                                      "configs": configs})
     for count, rmse in ((200, 0.5), (330, 0.0135)):
-        fused = {f"corrected/{f}": {"rmse_m": rmse, "p95_m": 0.03, "max_m": 0.07}
-                 for f in FUSIONS}
+        fused = {f"corrected/{f}": {"rmse_m": rmse, "p95_m": 0.03, "max_m": 0.07,
+                                    "scenes": count // 2 - 2} for f in FUSIONS}
         _write(d / f"random-mirror-{count}-seed1.json",
                {"count": count, "seed": 1, "dual_sight_scenes": count // 2, "fused": fused})
     table = summarise_eval.summarise([d]).splitlines()
     assert len(table) == 3
     assert table[2] == ("| mirror | mirror (0.0106 m) | 2.3461 | 0.0010 / 0.0020 / 0.0030 / "
-                        "0.0040 | 165 of 330 (seed 1) | 0.0135 / 0.0135 / 0.0135 / 0.0135 | "
-                        "0.0300 / 0.0700 |")
+                        "0.0040 | 165 of 330 (seed 1); 163 fused | 0.0135 / 0.0135 / 0.0135 "
+                        "/ 0.0135 | 0.0300 / 0.0700 |")
 
 
 def test_a_missing_folder_is_one_line(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]

@@ -1,6 +1,6 @@
 """Scenarios: who stands where, where the ball is and how everything moves.
 
-``scenario1`` .. ``scenario4`` are the paper's (Section II.J, /work/shared/paper/NOTES.md),
+``scenario1`` .. ``scenario4`` are the paper's (Section II.J, ../shared/paper/NOTES.md),
 ball at rest. ``random`` draws robot poses and a ball from the seed, sometimes with the ball
 hidden behind an opponent or out of robot 1's range. ``rolling`` rolls the ball across the
 field while the robots drive. Pure data and arithmetic: no pybullet here.

@@ -92,15 +92,19 @@ class CameraModel(Protocol):
         ...
 
 
+@dataclass(frozen=True)
 class _RadialCamera:
-    """Shared pixel <-> ray code; subclasses define the radial law."""
+    """Shared image geometry and pixel <-> ray code; subclasses define the radial law
+    (and their own ``height_m`` and ``name``)."""
 
-    name: str
-    width_px: int
-    height_px: int
-    cu_px: float
-    cv_px: float
-    height_m: float
+    width_px: int = 1080
+    height_px: int = 1080
+    cu_px: float = 539.0
+    cv_px: float = 539.0
+    max_radius_px: float = 539.0
+    height_m: float = 0.85
+    """Optical centre above the ground [m] (a subclass may set its own default)."""
+    name: str = ""
 
     @property
     def centre_px(self) -> tuple[float, float]:
@@ -115,7 +119,7 @@ class _RadialCamera:
     def to_dict(self) -> dict[str, Any]:
         """The model's fields (every subclass is a dataclass) and its ``"model"`` name."""
         d: dict[str, Any] = {"model": self.name}
-        d.update({k: v for k, v in asdict(self).items() if k != "name"})  # type: ignore[call-overload]
+        d.update({k: v for k, v in asdict(self).items() if k != "name"})
         return d
 
     def pixel_to_ray(self, u: ArrayLike, v: ArrayLike) -> FloatArray:
@@ -142,11 +146,6 @@ class IdealCamera(_RadialCamera):
 
     k_m_per_px: float = 8.4 * 12.0 / (12.0 - 0.11) / 499.0
     height_m: float = 12.0
-    width_px: int = 1080
-    height_px: int = 1080
-    cu_px: float = 539.0
-    cv_px: float = 539.0
-    max_radius_px: float = 539.0
     name: str = "ideal"
 
     def nadir_angle_rad(self, r_px: ArrayLike) -> FloatArray:
@@ -166,12 +165,6 @@ class FisheyeCamera(_RadialCamera):
     """Equidistant fisheye looking down: n = r / f, r = max_radius_px <-> 90 deg."""
 
     fov_deg: float = 180.0
-    height_m: float = 0.85
-    width_px: int = 1080
-    height_px: int = 1080
-    cu_px: float = 539.0
-    cv_px: float = 539.0
-    max_radius_px: float = 539.0
     name: str = "fisheye"
 
     @property
@@ -198,12 +191,6 @@ class MirrorCamera(_RadialCamera):
     a_m: float = 1.2
     b_rad_per_px: float = math.pi / 1100.0
     self_radius_px: float = 30.0
-    height_m: float = 0.85
-    width_px: int = 1080
-    height_px: int = 1080
-    cu_px: float = 539.0
-    cv_px: float = 539.0
-    max_radius_px: float = 539.0
     name: str = "mirror"
 
     @property

@@ -12,7 +12,7 @@ normalised result (:func:`normalise`) as ``<scene>.<method>-<fusion>.json``. The
 ``manifest.json`` pins each log's SHA-256, size, topics and message counts, the record
 options, the renderer and the package versions the logs were made with.
 
-``tests/test_golden.py`` imports this module by path for its constants (GOLDEN_DIR,
+``tests/replay/test_golden.py`` imports this module by path for its constants (GOLDEN_DIR,
 SCENES, CONFIGS, DECIMALS, TOLERANCES, normalise, ...). Importing it is cheap: the recorder
 (pybullet) and replay are imported only inside the functions that need them.
 """

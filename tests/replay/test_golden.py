@@ -22,7 +22,7 @@ import pytest
 from recorder import contract as c
 from replay.runner import ReplayOptions, RerunTarget, replay
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _load_make_golden() -> ModuleType:

@@ -6,7 +6,7 @@ import importlib.util
 import json
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("summarise_eval",
                                                ROOT / "scripts" / "summarise_eval.py")
 assert _spec is not None and _spec.loader is not None

@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CHILD = r"""
 import json, resource, sys, time
 from pathlib import Path
-from replay.runner import ReplayOptions, replay
+from replay import ReplayOptions, replay
 log, out = Path(sys.argv[1]), Path(sys.argv[2])
 t0 = time.perf_counter()
 s = replay(log, ReplayOptions(out=out / "r.json", out_mcap=out / "e.mcap", force=True,

@@ -2,14 +2,18 @@
 
 ``replay(path, options) -> ReplaySummary`` is the one entry point (the ``dsp-replay`` CLI is
 a thin wrapper around it); ``LogReader`` streams a log's images, poses and ground truth.
+docs/api.md maps the modules and how a frame flows from the reader to the sinks.
 """
 
 from replay.errors import ReplayError
+from replay.options import ReplayOptions, RerunTarget
 from replay.reader import LogReader
-from replay.runner import ReplayOptions, ReplaySummary, RerunTarget, replay
+from replay.runner import replay
+from replay.sink import Sink, SinkBase
+from replay.stats import ReplaySummary
 
 run = replay
 """Alias: docs/api.md names the entry point ``replay.run``."""
 
-__all__ = ["LogReader", "ReplayError", "ReplayOptions", "ReplaySummary", "RerunTarget", "replay",
-           "run"]
+__all__ = ["LogReader", "ReplayError", "ReplayOptions", "ReplaySummary", "RerunTarget", "Sink",
+           "SinkBase", "replay", "run"]

@@ -17,7 +17,9 @@ from pathlib import Path
 
 from recorder import contract
 from replay.errors import ReplayError
-from replay.runner import METHODS, ReplayOptions, ReplaySummary, RerunTarget, replay
+from replay.options import METHODS, ReplayOptions, RerunTarget
+from replay.runner import replay
+from replay.stats import ReplaySummary
 
 __all__ = ["build_parser", "format_summary", "main"]
 

@@ -16,9 +16,7 @@ Everything here is deterministic given the logs: the tables hold no timings.
 
 from __future__ import annotations
 
-import json
 import math
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,7 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from replay.runner import ReplayOptions, replay
+from replay.options import ReplayOptions
+from replay.results import ResultsCollector
+from replay.runner import replay
 
 __all__ = [
     "CONFIGS",
@@ -114,7 +114,7 @@ class PaperSuite:
         return min(ranked)[2] if ranked else ""
 
     def to_dict(self) -> dict[str, Any]:
-        return _rounded({
+        return _rounded_doc({
             "suite": "paper", "camera": self.camera, "calibration": self.calibration,
             "paper": {"table1": PAPER_TABLE1, "rmse_m": PAPER_RMSE_M},
             "configs": {
@@ -129,6 +129,12 @@ class PaperSuite:
         })
 
 
+def _rounded_doc(doc: dict[str, Any]) -> dict[str, Any]:
+    """A table's document with its floats rounded (non-finite: None)."""
+    rounded: dict[str, Any] = _rounded(doc)
+    return rounded
+
+
 def _rounded(obj: Any) -> Any:
     if isinstance(obj, float):
         return round(obj, DECIMALS) if math.isfinite(obj) else None
@@ -139,14 +145,12 @@ def _rounded(obj: Any) -> Any:
     return obj
 
 
-def _replay_results(log: Path, config: Config, calibration: Path | None,
-                    workdir: Path) -> dict[str, Any]:
-    out = workdir / f"{log.stem}.{config.method}.{config.fusion}.json"
-    out.unlink(missing_ok=True)
+def _replay_results(log: Path, config: Config, calibration: Path | None) -> dict[str, Any]:
+    """The replay's frames and fused steps, as its results file would hold them."""
+    collected = ResultsCollector()
     replay(log, ReplayOptions(method=config.method, fusion=config.fusion,
-                              calibration=calibration, out=out, progress=False))
-    doc: dict[str, Any] = json.loads(out.read_text(encoding="utf-8"))
-    return doc
+                              calibration=calibration, progress=False), sinks=[collected])
+    return {"frames": collected.frames, "fused": collected.fused}
 
 
 def score_paper_scenario(name: str, results: dict[str, Any]) -> ScenarioScore:
@@ -168,17 +172,16 @@ def run_paper_suite(record: Recorder, workdir: Path, *, camera: str,
                     on_progress: Callable[[str], None] | None = None) -> PaperSuite:
     suite = PaperSuite(camera=camera,
                        calibration=calibration.name if calibration else "camera metadata")
-    with tempfile.TemporaryDirectory(prefix="dsp-eval-") as tmp:
-        for name in PAPER_SCENARIOS:
-            log = workdir / f"{name}-{camera}.mcap"
-            if not log.exists():
-                record(log, name, seed)
-            for config in configs:
-                if on_progress:
-                    on_progress(f"{name} {config.label}")
-                results = _replay_results(log, config, calibration, Path(tmp))
-                suite.scores.setdefault(config.label, []).append(
-                    score_paper_scenario(name, results))
+    for name in PAPER_SCENARIOS:
+        log = workdir / f"{name}-{camera}.mcap"
+        if not log.exists():
+            record(log, name, seed)
+        for config in configs:
+            if on_progress:
+                on_progress(f"{name} {config.label}")
+            results = _replay_results(log, config, calibration)
+            suite.scores.setdefault(config.label, []).append(
+                score_paper_scenario(name, results))
     return suite
 
 
@@ -266,7 +269,7 @@ class RandomSuite:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        return _rounded({
+        return _rounded_doc({
             "suite": "random", "camera": self.camera, "calibration": self.calibration,
             "count": self.count, "seed": self.seed,
             "dual_sight_scenes": self.dual_sight_scenes,
@@ -281,27 +284,26 @@ def run_random_suite(record: Recorder, workdir: Path, *, camera: str, count: int
     suite = RandomSuite(camera=camera,
                         calibration=calibration.name if calibration else "camera metadata",
                         count=count, seed=seed)
-    with tempfile.TemporaryDirectory(prefix="dsp-eval-") as tmp:
-        for i in range(count):
-            log = workdir / f"random-{seed + i}-{camera}.mcap"
-            if not log.exists():
-                record(log, "random", seed + i)
-            dual_sight = False
-            for config in configs:
-                if on_progress:
-                    on_progress(f"scene {i + 1}/{count} {config.label}")
-                res = _replay_results(log, config, calibration, Path(tmp))
-                if config == configs[0]:  # which robots see the ball: the same for all
-                    dual_sight = _scene_has_dual_sight(res)
-                    suite.dual_sight_scenes += int(dual_sight)
-                if config == Config("corrected", "mean"):
-                    _collect_robot_errors(suite, res)
-                if dual_sight:
-                    fused = [f for f in res["fused"] if f.get("error_m") is not None]
-                    if fused:
-                        ex = float(np.mean([f["x_m"] - f["truth"]["x_m"] for f in fused]))
-                        ey = float(np.mean([f["y_m"] - f["truth"]["y_m"] for f in fused]))
-                        suite.fused_errors.setdefault(config.label, []).append(math.hypot(ex, ey))
+    for i in range(count):
+        log = workdir / f"random-{seed + i}-{camera}.mcap"
+        if not log.exists():
+            record(log, "random", seed + i)
+        dual_sight = False
+        for config in configs:
+            if on_progress:
+                on_progress(f"scene {i + 1}/{count} {config.label}")
+            res = _replay_results(log, config, calibration)
+            if config == configs[0]:  # which robots see the ball: the same for all
+                dual_sight = _scene_has_dual_sight(res)
+                suite.dual_sight_scenes += int(dual_sight)
+            if config == Config("corrected", "mean"):
+                _collect_robot_errors(suite, res)
+            if dual_sight:
+                fused = [f for f in res["fused"] if f.get("error_m") is not None]
+                if fused:
+                    ex = float(np.mean([f["x_m"] - f["truth"]["x_m"] for f in fused]))
+                    ey = float(np.mean([f["y_m"] - f["truth"]["y_m"] for f in fused]))
+                    suite.fused_errors.setdefault(config.label, []).append(math.hypot(ex, ey))
     return suite
 
 

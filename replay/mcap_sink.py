@@ -11,14 +11,15 @@ renamed on success.
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
+import numpy as np
 from mcap_ros2.writer import Writer
 
 from recorder import contract
-from replay.results import FrameResult, StepResult, atomic_output
+from replay.results import AtomicFile, FrameResult, StepResult
+from replay.sink import SinkBase
 
 __all__ = ["FUSED_TOPIC", "ROBOT_TOPIC", "McapSink"]
 
@@ -26,28 +27,20 @@ ROBOT_TOPIC = "/estimate/{robot}/ball"
 FUSED_TOPIC = "/estimate/ball"
 
 
-class McapSink:
+class McapSink(SinkBase):
     """Writes estimates to ``path`` (refuses an existing file unless ``force``)."""
 
     def __init__(self, path: Path, *, force: bool = False) -> None:
-        self.path = Path(path)
-        self.force = force
-        self._cm: contextlib.AbstractContextManager[Path] | None = None
-        self._file: IO[bytes] | None = None
-        self._writer: Writer | None = None
-        self._schemas: dict[str, Any] = {}
-
-    def open(self) -> None:
-        self._cm = atomic_output(self.path, force=self.force)
-        tmp = self._cm.__enter__()
-        self._file = tmp.open("wb")
+        self._out = AtomicFile(path, force=force)
+        self._file = self._out.tmp.open("wb")
         self._writer = Writer(self._file)
+        self._schemas: dict[str, Any] = {}
         for name in (contract.POINT_STAMPED, contract.POSE_WITH_COVARIANCE_STAMPED):
             self._schemas[name] = self._writer.register_msgdef(
                 name, contract.MESSAGE_DEFINITIONS[name]
             )
 
-    def frame(self, result: FrameResult) -> None:
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         est = result.estimate
         if est is None or self._writer is None:
             return
@@ -90,14 +83,10 @@ class McapSink:
 
     def close(self, ok: bool) -> None:
         try:
-            if self._writer is not None and ok:
-                self._writer.finish()
-        finally:
-            if self._file is not None:
+            if ok:
+                self._writer.finish()  # type: ignore[no-untyped-call]
                 self._file.close()
-            if self._cm is not None:
-                if ok:
-                    self._cm.__exit__(None, None, None)
-                else:
-                    self._cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
-            self._writer = self._file = self._cm = None
+                self._out.commit()
+        finally:
+            self._file.close()
+            self._out.discard()

@@ -30,6 +30,7 @@ import hashlib
 import json
 import math
 import uuid
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -37,8 +38,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from replay.options import ReplayOptions, RerunTarget
 from replay.reader import LogInfo
-from replay.results import FrameResult, StepResult
+from replay.results import AtomicFile, FrameResult, StepResult
+from replay.sink import SinkBase
 
 __all__ = ["APPLICATION_ID", "RerunSink", "field_lines", "recording_id"]
 
@@ -95,27 +98,25 @@ def _ellipse(x: float, y: float, cov: Any, k: float = 2.0, n: int = 48) -> np.nd
     return np.column_stack([pts, np.zeros(len(pts))])
 
 
-class RerunSink:
+class RerunSink(SinkBase):
     """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
 
-    def __init__(self, target: Any, *, info: LogInfo, digest: str, options: Any,
-                 field: dict[str, Any], centres: dict[str, tuple[float, float]],
-                 force: bool = False) -> None:
-        from replay.runner import options_dict
-
+    def __init__(self, target: RerunTarget, *, info: LogInfo, digest: str,
+                 options: ReplayOptions, field: dict[str, Any],
+                 centres: Mapping[str, tuple[float, float]]) -> None:
         self.target = target
-        self.force = force
-        self._save_cm: Any = None
+        self._save: AtomicFile | None = None
         self.info = info
         self.centres = centres
         self.field = _field_size(field)
-        opts = options_dict(options)
+        opts = options.as_dict()
         for key in ("rerun", "out", "out_mcap", "force", "progress"):
             opts.pop(key, None)
         self.recording_id = recording_id(digest, opts)
         self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
         self.colours = {r: ROBOT_COLOURS[i % len(ROBOT_COLOURS)]
                         for i, r in enumerate(info.robots)}
+        self._open(force=options.force)
 
     def blueprint(self) -> rrb.Blueprint:
         cams = [rrb.Spatial2DView(origin=f"/robots/{r}/camera", name=f"{r} camera")
@@ -138,14 +139,12 @@ class RerunSink:
             collapse_panels=False,
         )
 
-    def open(self) -> None:
+    def _open(self, *, force: bool) -> None:
         mode, target = self.target.mode, self.target.target
         bp = self.blueprint()
         if mode == "save":
-            from replay.results import atomic_output
-
-            self._save_cm = atomic_output(Path(target), force=self.force)
-            self.rec.save(self._save_cm.__enter__(), default_blueprint=bp)
+            self._save = AtomicFile(Path(str(target)), force=force)
+            self.rec.save(self._save.tmp, default_blueprint=bp)
         elif mode == "spawn":
             self.rec.spawn(default_blueprint=bp)
         elif mode == "connect":
@@ -259,15 +258,13 @@ class RerunSink:
             rec.log("/plots/error/fused", rr.Scalars(result.error_m))
         rec.reset_time()
 
-    def close(self, ok: bool = True) -> None:
+    def close(self, ok: bool) -> None:
         """Flush and disconnect; a saved .rrd is renamed into place only when ``ok``."""
         try:
             self.rec.flush()
             self.rec.disconnect()
+            if ok and self._save is not None:
+                self._save.commit()
         finally:
-            if self._save_cm is not None:
-                if ok:
-                    self._save_cm.__exit__(None, None, None)
-                else:
-                    self._save_cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
-                self._save_cm = None
+            if self._save is not None:
+                self._save.discard()

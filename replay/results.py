@@ -32,22 +32,29 @@ ground truth interpolated at the frame's (step's) stamp; RMSE = sqrt(mean(error^
 from __future__ import annotations
 
 import contextlib
+import enum
 import json
 import math
 import os
 import tempfile
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any, Protocol
+
+import numpy as np
 
 from replay.errors import OutputExistsError
+from replay.sink import SinkBase
 
 __all__ = [
     "DECIMALS",
     "FRAME_STATUSES",
-    "ErrorStats",
+    "AtomicFile",
     "FrameResult",
+    "FrameStatus",
+    "ResultsCollector",
+    "ResultsHeader",
     "ResultsWriter",
     "RobotEstimate",
     "StepResult",
@@ -56,7 +63,25 @@ __all__ = [
 ]
 
 DECIMALS = 6
-FRAME_STATUSES = ("ok", "no_detection", "no_pose", "bad_image", "detect_error", "out_of_range")
+
+
+class FrameStatus(str, enum.Enum):
+    """How far an image got through the estimator (the results file's ``status``)."""
+
+    OK = "ok"
+    NO_DETECTION = "no_detection"
+    NO_POSE = "no_pose"
+    BAD_IMAGE = "bad_image"
+    DETECT_ERROR = "detect_error"
+    OUT_OF_RANGE = "out_of_range"
+
+    @property
+    def skipped(self) -> bool:
+        """True when the frame counts as skipped (a frame without a ball is not)."""
+        return self not in (FrameStatus.OK, FrameStatus.NO_DETECTION)
+
+
+FRAME_STATUSES = tuple(s.value for s in FrameStatus)
 
 
 @dataclass(frozen=True)
@@ -82,7 +107,7 @@ class FrameResult:
     frame: int
     robot: str
     stamp_ns: int
-    status: str
+    status: FrameStatus
     detection: Any = None  # estimator.detection.Detection | None
     r_px: float | None = None
     centre_px: tuple[float, float] = (539.0, 539.0)
@@ -108,34 +133,6 @@ class StepResult:
     error_m: float | None = None
 
 
-@dataclass
-class ErrorStats:
-    """Running error statistics (constant memory)."""
-
-    n: int = 0
-    sum_sq: float = 0.0
-    sum_abs: float = 0.0
-    max_abs: float = 0.0
-
-    def add(self, e: float) -> None:
-        self.n += 1
-        self.sum_sq += e * e
-        self.sum_abs += e
-        self.max_abs = max(self.max_abs, e)
-
-    @property
-    def rmse_m(self) -> float | None:
-        return math.sqrt(self.sum_sq / self.n) if self.n else None
-
-    @property
-    def mean_m(self) -> float | None:
-        return self.sum_abs / self.n if self.n else None
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"errors": self.n, "rmse_m": self.rmse_m, "mean_error_m": self.mean_m,
-                "max_error_m": self.max_abs if self.n else None}
-
-
 def normalise(value: Any) -> Any:
     """Round floats to DECIMALS places (-0.0 -> 0.0, non-finite -> None), recursively."""
     if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
@@ -159,26 +156,41 @@ def _dumps(value: Any) -> str:
                       ensure_ascii=True, allow_nan=False)
 
 
+class AtomicFile:
+    """A new file written under a temporary name beside ``path``: :meth:`commit` renames it
+    onto ``path``, :meth:`discard` removes it. Refuses an existing ``path`` unless ``force``."""
+
+    def __init__(self, path: Path, *, force: bool) -> None:
+        self.path = Path(path)
+        if self.path.exists() and not force:
+            raise OutputExistsError(self.path)
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
+                                        dir=self.path.parent or ".")
+        os.close(fd)
+        self.tmp = Path(tmp_name)
+
+    def commit(self) -> None:
+        # mkstemp makes the file private (0600); give it the mode any new file would get
+        umask = os.umask(0)
+        os.umask(umask)
+        self.tmp.chmod(0o666 & ~umask)
+        os.replace(self.tmp, self.path)
+
+    def discard(self) -> None:
+        self.tmp.unlink(missing_ok=True)
+
+
 @contextlib.contextmanager
 def atomic_output(path: Path, *, force: bool) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` when the block
     succeeds, remove it otherwise. Refuses an existing ``path`` unless ``force``."""
-    path = Path(path)
-    if path.exists() and not force:
-        raise OutputExistsError(path)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    os.close(fd)
-    tmp = Path(tmp_name)
+    out = AtomicFile(path, force=force)
     try:
-        yield tmp
+        yield out.tmp
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        out.discard()
         raise
-    # mkstemp makes the file private (0600); give it the mode any new file would get
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp.chmod(0o666 & ~umask)
-    os.replace(tmp, path)
+    out.commit()
 
 
 def frame_to_dict(f: FrameResult) -> dict[str, Any]:
@@ -189,7 +201,7 @@ def frame_to_dict(f: FrameResult) -> dict[str, Any]:
         "robot": f.robot,
         "stamp_ns": f.stamp_ns,
         "t_s": f.stamp_ns / 1e9,
-        "status": f.status,
+        "status": f.status.value,
         "detection": None if det is None else {
             "cx_px": float(det.cx_px), "cy_px": float(det.cy_px), "r_px": f.r_px,
             "area_px": float(det.area_px), "bbox_px": [int(v) for v in det.bbox_px],
@@ -224,64 +236,101 @@ def step_to_dict(s: StepResult) -> dict[str, Any]:
     }
 
 
-@dataclass
-class ResultsWriter:
-    """Sink writing the results JSON; frames and steps are spooled to temporary files."""
+@dataclass(frozen=True)
+class ResultsHeader:
+    """What the results file says of the log and the options."""
 
-    path: Path
-    force: bool = False
-    _spools: dict[str, IO[str]] = field(default_factory=dict)
-    _counts: dict[str, int] = field(default_factory=dict)
-    _cm: Any = None
-    _tmp: Path | None = None
+    file: str
+    """The log's base name."""
+    sha256: str
+    robots: tuple[str, ...]
+    options: dict[str, Any]
+    """:meth:`replay.options.ReplayOptions.results_view`."""
 
-    def open(self) -> None:
-        self._cm = atomic_output(self.path, force=self.force)
-        self._tmp = self._cm.__enter__()
-        for key in ("frames", "fused"):
-            self._spools[key] = tempfile.TemporaryFile("w+", encoding="ascii")
-            self._counts[key] = 0
+
+class ResultsCollector(SinkBase):
+    """Sink keeping the results file's ``frames`` and ``fused`` lists in memory, exactly as
+    the file would hold them (rounded): for callers that score a replay without writing it."""
+
+    def __init__(self) -> None:
+        self.frames: list[dict[str, Any]] = []
+        self.fused: list[dict[str, Any]] = []
+
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
+        self.frames.append(normalise(frame_to_dict(result)))
+
+    def step(self, result: StepResult) -> None:
+        self.fused.append(normalise(step_to_dict(result)))
+
+
+class SummarySource(Protocol):
+    """What the results header needs from the replay's statistics."""
+
+    recovered: dict[str, Any] | None
+
+    def summary_dict(self) -> dict[str, Any]: ...
+
+
+def _head(header: ResultsHeader, stats: SummarySource) -> dict[str, Any]:
+    return {
+        "format": "dsp-replay-results", "version": 1,
+        "log": {"file": header.file, "sha256": header.sha256, "robots": list(header.robots),
+                "recovered": stats.recovered},
+        "options": header.options,
+        "summary": stats.summary_dict(),
+    }
+
+
+class ResultsWriter(SinkBase):
+    """Sink writing the results JSON to ``path`` (refuses an existing file unless ``force``);
+    frames and steps are spooled to temporary files, so memory stays flat."""
+
+    def __init__(self, path: Path, *, header: ResultsHeader, stats: SummarySource,
+                 force: bool = False) -> None:
+        self.header = header
+        self.stats = stats
+        self._out = AtomicFile(path, force=force)
+        self._spools = {key: tempfile.TemporaryFile("w+", encoding="ascii")
+                        for key in ("frames", "fused")}
+        self._counts = dict.fromkeys(self._spools, 0)
 
     def _spool(self, key: str, item: dict[str, Any]) -> None:
         f = self._spools[key]
         f.write(("  " if self._counts[key] == 0 else ",\n  ") + _dumps(item))
         self._counts[key] += 1
 
-    def frame(self, result: FrameResult) -> None:
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         self._spool("frames", frame_to_dict(result))
 
     def step(self, result: StepResult) -> None:
         self._spool("fused", step_to_dict(result))
 
-    def close(self, header: dict[str, Any] | None) -> None:
-        """Assemble the file (``header`` holds log, options, summary) or, with None,
-        discard it."""
+    def close(self, ok: bool) -> None:
+        """Assemble the file when the replay succeeded, else discard it."""
         try:
-            if header is None:
-                if self._cm is not None:
-                    self._cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
-                return
-            assert self._tmp is not None
-            doc = {"format": "dsp-replay-results", "version": 1, **header,
-                   "frames": None, "fused": None}
-            with self._tmp.open("w", encoding="ascii", newline="\n") as out:
-                out.write("{\n")
-                keys = sorted(doc)
-                for i, key in enumerate(keys):
-                    out.write(f"{json.dumps(key)}: ")
-                    if key in self._spools:
-                        spool = self._spools[key]
-                        spool.seek(0)
-                        out.write("[\n")
-                        while chunk := spool.read(1 << 16):
-                            out.write(chunk)
-                        out.write("\n]" if self._counts[key] else "]")
-                    else:
-                        out.write(_dumps(doc[key]))
-                    out.write(",\n" if i < len(keys) - 1 else "\n")
-                out.write("}\n")
-            self._cm.__exit__(None, None, None)
+            if ok:
+                self._write(self._out.tmp)
+                self._out.commit()
         finally:
             for spool in self._spools.values():
                 spool.close()
-            self._spools.clear()
+            self._out.discard()
+
+    def _write(self, path: Path) -> None:
+        doc: dict[str, Any] = {**_head(self.header, self.stats), "frames": None, "fused": None}
+        with path.open("w", encoding="ascii", newline="\n") as out:
+            out.write("{\n")
+            keys = sorted(doc)
+            for i, key in enumerate(keys):
+                out.write(f"{json.dumps(key)}: ")
+                if key in self._spools:
+                    spool = self._spools[key]
+                    spool.seek(0)
+                    out.write("[\n")
+                    while chunk := spool.read(1 << 16):
+                        out.write(chunk)
+                    out.write("\n]" if self._counts[key] else "]")
+                else:
+                    out.write(_dumps(doc[key]))
+                out.write(",\n" if i < len(keys) - 1 else "\n")
+            out.write("}\n")

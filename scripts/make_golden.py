@@ -184,7 +184,7 @@ def sha256_of(path: Path) -> str:
 
 def replay_normalised(log: Path, method: str, fusion: str, workdir: Path) -> dict[str, Any]:
     """Replay ``log`` with one configuration and return the normalised result."""
-    from replay.runner import ReplayOptions, replay
+    from replay import ReplayOptions, replay
 
     out = workdir / f".{log.stem}.{config_label(method, fusion)}.results.json"
     out.unlink(missing_ok=True)

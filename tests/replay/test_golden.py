@@ -20,7 +20,7 @@ import cv2
 import pytest
 
 from recorder import contract as c
-from replay.runner import ReplayOptions, RerunTarget, replay
+from replay import ReplayOptions, RerunTarget, replay
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -10,9 +10,9 @@ from mcap_ros2.writer import Writer
 from synthetic import write_log
 
 from recorder import contract
+from replay.decode import decode_image
 from replay.errors import InputNotFoundError, NoImageTopicsError, NotMcapError, TruncatedLogError
 from replay.reader import ImageMessage, LogReader, PoseMessage
-from replay.runner import decode_image
 
 
 def _write_ties(path: Path) -> list[tuple[str, int, float]]:

@@ -1,0 +1,195 @@
+"""Per-frame estimation: the estimator parts chosen by the options, applied to one image.
+
+:class:`FrameEstimator` is built once per replay from the options and the log's camera
+metadata; :meth:`FrameEstimator.estimate` turns one decoded image (and a way to look up the
+robot's pose at its stamp) into a :class:`FrameOutcome` whose :class:`FrameStatus` says how
+far the image got:
+
+    image --detect--> blob --pose at stamp--> pose --locate--> field estimate
+    (BAD_IMAGE)     (DETECT_ERROR,          (NO_POSE)        (OUT_OF_RANGE)      OK
+                     NO_DETECTION)
+
+A frame without a ball is not a skipped frame: NO_DETECTION still carries the pose.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from estimator import calibration as cal
+from estimator import camera as cam
+from estimator import corrected, detection, fusion, paper
+from estimator.errors import EstimatorError
+from estimator.geometry import RobotPose
+from recorder import contract
+from replay.errors import CalibrationError
+from replay.results import FrameStatus, RobotEstimate
+from replay.sync import PoseMatch
+
+__all__ = ["DEFAULT_CENTRE_PX", "FrameEstimator", "FrameOutcome", "FrameStatus"]
+
+DEFAULT_CENTRE_PX = (539.0, 539.0)
+
+
+@dataclass(frozen=True)
+class FrameOutcome:
+    """What the estimator made of one image."""
+
+    status: FrameStatus
+    detection: detection.Detection | None = None
+    r_px: float | None = None
+    """Pixel radius of the blob from the image centre (eq. 3)."""
+    pose: PoseMatch | None = None
+    estimate: RobotEstimate | None = None
+
+
+class Locator(Protocol):
+    """Turns a robot's blob and pose into its field estimate (paper or corrected mode)."""
+
+    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate: ...
+
+
+@dataclass(frozen=True)
+class _Cameras:
+    """Per robot: image centre, camera model (when the log names one) and calibration."""
+
+    centres: Mapping[str, tuple[float, float]]
+    models: Mapping[str, cam.CameraModel]
+    calibrations: Mapping[str, cal.Calibration]
+
+    def visibility(self, robot: str, det: detection.Detection, range_m: float) -> float:
+        """How much of the ball the blob shows, when the log names the camera model."""
+        model = self.models.get(robot)
+        if model is None:
+            return 1.0
+        expected = cam.ball_image_area_px(model, range_m)
+        return corrected.ball_visibility(float(det.area_px), expected)
+
+
+@dataclass(frozen=True)
+class PaperLocator:
+    """Eq. 3-14 exactly, the paper's calibration folded in."""
+
+    cameras: _Cameras
+
+    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate:
+        x, y = paper.locate_ball(float(det.cx_px), float(det.cy_px), pose.x_m, pose.y_m,
+                                 pose.yaw_rad, centre_px=self.cameras.centres[robot])
+        dx, dy = x - pose.x_m, y - pose.y_m
+        bearing = math.atan2(dy, dx) - pose.yaw_rad
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        rng = math.hypot(dx, dy)
+        return RobotEstimate(robot, x, y, rng, bearing, pose.x_m, pose.y_m, pose.yaw_rad,
+                             self.cameras.visibility(robot, det, rng))
+
+
+@dataclass(frozen=True)
+class CorrectedLocator:
+    """The corrected estimator: calibration on the range, yaw from the full quaternion."""
+
+    cameras: _Cameras
+
+    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate:
+        e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
+                                    self.cameras.calibrations[robot],
+                                    centre_px=self.cameras.centres[robot], robot=robot)
+        return RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m, pose.y_m,
+                             pose.yaw_rad, self.cameras.visibility(robot, det, e.range_m))
+
+
+def _cameras(robots: Sequence[str], metadata: Mapping[str, Mapping[str, Any]], source: str,
+             calibration_file: Path | None) -> _Cameras:
+    """Each robot's camera from the log's metadata (the paper's when it names none), and the
+    calibration file, when given, for every robot."""
+    centres: dict[str, tuple[float, float]] = {}
+    models: dict[str, cam.CameraModel] = {}
+    calibrations: dict[str, cal.Calibration] = {}
+    for robot in robots:
+        centres[robot] = DEFAULT_CENTRE_PX
+        calibrations[robot] = cal.PAPER_CALIBRATION
+        if robot in metadata:
+            try:
+                model = cam.camera_from_dict(dict(metadata[robot]))
+            except (ValueError, TypeError, EstimatorError) as err:
+                raise CalibrationError(
+                    f"{source} metadata {contract.CAMERAS_METADATA}[{robot}]", str(err)
+                ) from err
+            centres[robot] = (float(model.centre_px[0]), float(model.centre_px[1]))
+            calibrations[robot] = cal.CameraCalibration(model)
+            models[robot] = model
+    if calibration_file is not None:
+        model_from_file = _read_calibration(Path(calibration_file))
+        calibrations = dict.fromkeys(robots, model_from_file)
+    return _Cameras(centres, models, calibrations)
+
+
+def _read_calibration(path: Path) -> cal.Calibration:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
+    try:
+        return cal.calibration_from_json(text)
+    except (ValueError, TypeError, KeyError, EstimatorError) as err:
+        raise CalibrationError(path, str(err)) from err
+
+
+class FrameEstimator:
+    """The estimator as the options choose it: detection, the method's locator, the fusion."""
+
+    def __init__(self, *, method: str, fusion_method: str, robots: Sequence[str],
+                 camera_metadata: Mapping[str, Mapping[str, Any]], source: str,
+                 calibration_file: Path | None = None) -> None:
+        self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
+        self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
+                                 else CorrectedLocator(self.cameras))
+        self.fusion = fusion.get_fusion(fusion_method)
+
+    @property
+    def centres(self) -> Mapping[str, tuple[float, float]]:
+        return self.cameras.centres
+
+    def centre(self, robot: str) -> tuple[float, float]:
+        return self.cameras.centres.get(robot, DEFAULT_CENTRE_PX)
+
+    def estimate(self, robot: str, image: np.ndarray | None,
+                 pose_at: Callable[[], PoseMatch | None]) -> FrameOutcome:
+        """One image through detection, pose pairing and location. ``pose_at`` looks up the
+        robot's pose at the image's stamp (None: none within the tolerance)."""
+        if image is None:
+            return FrameOutcome(FrameStatus.BAD_IMAGE)
+        try:
+            det = detection.detect_ball(image)
+        except EstimatorError:
+            return FrameOutcome(FrameStatus.DETECT_ERROR)
+        r_px = None
+        if det is not None:
+            cx, cy = self.centre(robot)
+            r_px = math.hypot(det.cx_px - cx, det.cy_px - cy)
+        pose = pose_at()
+        if pose is None:
+            return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
+        if det is None:
+            return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose)
+        try:
+            estimate = self.locator.locate(robot, det, pose.pose)
+        except EstimatorError:
+            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
+        return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate)
+
+    def fuse(self, estimates: Sequence[RobotEstimate]) -> fusion.FusedEstimate | None:
+        """The robots' estimates of one step, fused; None when there are none."""
+        if not estimates:
+            return None
+        return self.fusion.fuse([
+            corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
+                                   range_m=e.range_m, bearing_rad=e.bearing_rad,
+                                   x_m=e.x_m, y_m=e.y_m, visibility=e.visibility)
+            for e in estimates
+        ])

@@ -1,0 +1,153 @@
+"""What a replay depends on: :class:`ReplayOptions`, validated when it is made.
+
+Seconds at this edge (the CLI's units); the runner turns them into integer nanoseconds once
+(:meth:`ReplayOptions.timing`). Output paths are checked against the file system only when a
+replay starts (:meth:`ReplayOptions.check_outputs`), since files come and go.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from estimator.fusion import FUSION_METHODS
+from recorder import contract
+from replay.errors import OptionsError, OutputExistsError
+
+__all__ = ["DEFAULT_FUSION", "METHODS", "NS", "ReplayOptions", "RerunTarget", "Timing"]
+
+METHODS = ("paper", "corrected")
+DEFAULT_FUSION = {"paper": "mean", "corrected": "weighted"}
+"""Paper mode fuses as the paper does (eq. 20-21); the corrected estimator by inverse
+covariance, the most accurate in dsp-eval's Table 1 and random scenes."""
+NS = 1_000_000_000
+RERUN_MODES = ("spawn", "save", "connect", "serve")
+
+
+@dataclass(frozen=True)
+class RerunTarget:
+    """Where Rerun data goes: ``mode`` one of spawn, save, connect, serve."""
+
+    mode: str
+    target: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.mode not in RERUN_MODES:
+            raise OptionsError(f"Rerun mode {self.mode!r}; choose one of {', '.join(RERUN_MODES)}")
+
+
+@dataclass(frozen=True)
+class Timing:
+    """The options' times in integer nanoseconds, as the runner uses them."""
+
+    tolerance_ns: int
+    window_ns: int
+    start_ns: int | None
+    end_ns: int | None
+
+    @property
+    def lookahead_ns(self) -> int:
+        """How far the log must run past an image before its poses and step are complete."""
+        return self.tolerance_ns + self.window_ns
+
+    @property
+    def read_from_ns(self) -> int | None:
+        """Where reading starts: early enough before ``start`` to have the poses and truth
+        that the first images after it are paired with."""
+        return None if self.start_ns is None else max(0, self.start_ns - 2 * self.lookahead_ns)
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """Everything a replay depends on (keyword arguments of the CLI, in seconds at the edge).
+
+    Raises :class:`~replay.errors.OptionsError` when made with a value out of range."""
+
+    method: str = "corrected"
+    fusion: str | None = None
+    """None: the method's own (:data:`DEFAULT_FUSION`)."""
+    calibration: Path | None = None
+    image_topic: str = contract.IMAGE_TOPIC
+    pose_topic: str = contract.POSE_TOPIC
+    robots: tuple[str, ...] | None = None
+    start_s: float | None = None
+    end_s: float | None = None
+    pose_tolerance_s: float = 0.1
+    window_s: float = 0.05
+    recover: bool = False
+    out: Path | None = None
+    out_mcap: Path | None = None
+    force: bool = False
+    rerun: RerunTarget | None = None
+    progress: bool | None = None
+    """Show a progress bar: None = when stderr is a terminal."""
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise OptionsError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
+        if self.fusion_method not in FUSION_METHODS:
+            raise OptionsError(
+                f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
+            )
+        if not (math.isfinite(self.pose_tolerance_s) and self.pose_tolerance_s >= 0):
+            raise OptionsError(f"--pose-tolerance {self.pose_tolerance_s}; must be >= 0")
+        if not (math.isfinite(self.window_s) and self.window_s > 0):
+            raise OptionsError(f"--window {self.window_s}; must be > 0")
+        for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
+            if value is not None and not math.isfinite(value):
+                raise OptionsError(f"{flag} {value}; must be a finite number of seconds")
+        if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
+            raise OptionsError(f"--end {self.end_s} is before --start {self.start_s}")
+        outputs = [p for p in (self.out, self.out_mcap) if p is not None]
+        if len(outputs) == 2 and Path(outputs[0]).resolve() == Path(outputs[1]).resolve():
+            raise OptionsError("--out and --out-mcap name the same file")
+
+    @property
+    def fusion_method(self) -> str:
+        """The fusion in use: the one asked for, else the method's default."""
+        return self.fusion or DEFAULT_FUSION[self.method]
+
+    @property
+    def save_path(self) -> Path | None:
+        """The .rrd file that ``--save`` writes, if any."""
+        if self.rerun is not None and self.rerun.mode == "save" and self.rerun.target:
+            return Path(self.rerun.target)
+        return None
+
+    def timing(self) -> Timing:
+        return Timing(
+            tolerance_ns=round(self.pose_tolerance_s * NS),
+            window_ns=max(1, round(self.window_s * NS)),
+            start_ns=None if self.start_s is None else round(self.start_s * NS),
+            end_ns=None if self.end_s is None else round(self.end_s * NS),
+        )
+
+    def check_outputs(self) -> None:
+        """Refuse to overwrite an existing output unless ``force``."""
+        for out in (self.out, self.out_mcap, self.save_path):
+            if out is not None and Path(out).exists() and not self.force:
+                raise OutputExistsError(out)
+
+    def results_view(self) -> dict[str, Any]:
+        """The options that shape the results (no output paths, no display switches)."""
+        return {
+            "method": self.method,
+            "fusion": self.fusion_method,
+            "calibration": None if self.calibration is None else Path(self.calibration).name,
+            "image_topic": self.image_topic,
+            "pose_topic": self.pose_topic,
+            "robots": None if self.robots is None else list(self.robots),
+            "start_s": self.start_s,
+            "end_s": self.end_s,
+            "pose_tolerance_s": self.pose_tolerance_s,
+            "window_s": self.window_s,
+            "recover": self.recover,
+        }
+
+    def as_dict(self) -> dict[str, Any]:
+        """All options as plain values (for hashing into a Rerun recording id)."""
+        d = asdict(self)
+        d["fusion"] = self.fusion_method
+        return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

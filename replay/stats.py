@@ -1,0 +1,176 @@
+"""Replay statistics: counts and error statistics gathered from the frames and steps.
+
+:class:`ReplayStats` is a sink like the others: it sees every frame and step, and keeps
+constant memory. Its :meth:`~ReplayStats.summary_dict` is the results file's ``summary``;
+:meth:`~ReplayStats.summary` the :class:`ReplaySummary` that :func:`replay.replay` returns.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from replay.results import FrameResult, StepResult
+from replay.sink import SinkBase
+
+__all__ = ["ErrorStats", "ReplayStats", "ReplaySummary", "RobotSummary"]
+
+
+@dataclass
+class ErrorStats:
+    """Running error statistics (constant memory)."""
+
+    n: int = 0
+    sum_sq: float = 0.0
+    sum_abs: float = 0.0
+    max_abs: float = 0.0
+
+    def add(self, e: float) -> None:
+        self.n += 1
+        self.sum_sq += e * e
+        self.sum_abs += e
+        self.max_abs = max(self.max_abs, e)
+
+    @property
+    def rmse_m(self) -> float | None:
+        return math.sqrt(self.sum_sq / self.n) if self.n else None
+
+    @property
+    def mean_m(self) -> float | None:
+        return self.sum_abs / self.n if self.n else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"errors": self.n, "rmse_m": self.rmse_m, "mean_error_m": self.mean_m,
+                "max_error_m": self.max_abs if self.n else None}
+
+
+@dataclass(frozen=True)
+class RobotSummary:
+    frames: int
+    detections: int
+    estimates: int
+    rmse_m: float | None
+    mean_error_m: float | None
+    max_error_m: float | None
+
+
+@dataclass(frozen=True)
+class ReplaySummary:
+    """What a replay did. ``wall_s``, ``frames_per_s`` and ``estimator_ms`` are machine
+    dependent: they go to the terminal and Rerun, never into results files."""
+
+    path: Path
+    robots: tuple[str, ...]
+    frames: int
+    steps: int
+    fused_steps: int
+    skipped: dict[str, int]
+    per_robot: dict[str, RobotSummary]
+    fused: RobotSummary
+    undecodable_messages: int
+    recovered: dict[str, Any] | None
+    wall_s: float
+    estimator_ms: float | None
+    outputs: tuple[Path, ...] = ()
+
+    @property
+    def frames_per_s(self) -> float:
+        return self.frames / self.wall_s if self.wall_s > 0 else float("nan")
+
+
+@dataclass
+class _RobotCounts:
+    frames: int = 0
+    detections: int = 0
+    estimates: int = 0
+    errors: ErrorStats = field(default_factory=ErrorStats)
+
+    def summary(self) -> RobotSummary:
+        e = self.errors
+        return RobotSummary(self.frames, self.detections, self.estimates, e.rmse_m, e.mean_m,
+                            e.max_abs if e.n else None)
+
+
+class ReplayStats(SinkBase):
+    """Counts per robot and fused, skipped frames by reason, estimator time (display only)."""
+
+    def __init__(self, robots: tuple[str, ...]) -> None:
+        self.robots = robots
+        self.frames = 0
+        self.steps = 0
+        self.fused_steps = 0
+        self.skipped: dict[str, int] = {}
+        self.per_robot = {r: _RobotCounts() for r in robots}
+        self.fused_errors = ErrorStats()
+        self.estimator_s = 0.0
+        self.estimator_n = 0
+        self.undecodable = 0
+        self.recovered: dict[str, Any] | None = None
+
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
+        self.frames += 1
+        counts = self.per_robot[result.robot]
+        counts.frames += 1
+        if result.status.skipped:
+            self.skipped[result.status.value] = self.skipped.get(result.status.value, 0) + 1
+        if image_bgr is not None:
+            self.estimator_s += result.estimator_s
+            self.estimator_n += 1
+        if result.detection is not None:
+            counts.detections += 1
+        if result.estimate is not None:
+            counts.estimates += 1
+            if result.error_m is not None:
+                counts.errors.add(result.error_m)
+
+    def step(self, result: StepResult) -> None:
+        self.steps += 1
+        if result.fused is not None:
+            self.fused_steps += 1
+            if result.error_m is not None:
+                self.fused_errors.add(result.error_m)
+
+    def finish(self, *, undecodable: int, recovered: dict[str, Any] | None) -> None:
+        """What only the reader knows once the log is read."""
+        self.undecodable = undecodable
+        self.recovered = recovered
+
+    def summary_dict(self) -> dict[str, Any]:
+        """The results file's ``summary``."""
+        return {
+            "frames": self.frames,
+            "steps": self.steps,
+            "fused_steps": self.fused_steps,
+            "skipped": dict(sorted(self.skipped.items())),
+            "robots": {
+                r: {"frames": c.frames, "detections": c.detections, "estimates": c.estimates,
+                    **c.errors.to_dict()}
+                for r, c in self.per_robot.items()
+            },
+            "fused": {"estimates": self.fused_steps, **self.fused_errors.to_dict()},
+            "undecodable_messages": self.undecodable,
+        }
+
+    def summary(self, path: Path, *, wall_s: float,
+                outputs: tuple[Path, ...] = ()) -> ReplaySummary:
+        fused = _RobotCounts(self.steps, self.fused_steps, self.fused_steps, self.fused_errors)
+        return ReplaySummary(
+            path=path,
+            robots=self.robots,
+            frames=self.frames,
+            steps=self.steps,
+            fused_steps=self.fused_steps,
+            skipped=dict(sorted(self.skipped.items())),
+            per_robot={r: c.summary() for r, c in self.per_robot.items()},
+            fused=fused.summary(),
+            undecodable_messages=self.undecodable,
+            recovered=self.recovered,
+            wall_s=wall_s,
+            estimator_ms=(1e3 * self.estimator_s / self.estimator_n) if self.estimator_n
+            else None,
+            outputs=outputs,
+        )

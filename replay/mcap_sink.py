@@ -17,8 +17,9 @@ from typing import IO, Any
 
 from mcap_ros2.writer import Writer
 
+from dsp.atomic import atomic_output
 from recorder import contract
-from replay.results import FrameResult, StepResult, atomic_output
+from replay.results import FrameResult, StepResult
 
 __all__ = ["FUSED_TOPIC", "ROBOT_TOPIC", "McapSink"]
 

@@ -142,7 +142,7 @@ class RerunSink:
         mode, target = self.target.mode, self.target.target
         bp = self.blueprint()
         if mode == "save":
-            from replay.results import atomic_output
+            from dsp.atomic import atomic_output
 
             self._save_cm = atomic_output(Path(target), force=self.force)
             self.rec.save(self._save_cm.__enter__(), default_blueprint=bp)

@@ -31,17 +31,14 @@ ground truth interpolated at the frame's (step's) stamp; RMSE = sqrt(mean(error^
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-import os
 import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from replay.errors import OutputExistsError
+from dsp.atomic import atomic_output
 
 __all__ = [
     "DECIMALS",
@@ -51,7 +48,6 @@ __all__ = [
     "ResultsWriter",
     "RobotEstimate",
     "StepResult",
-    "atomic_output",
     "normalise",
 ]
 
@@ -157,28 +153,6 @@ def normalise(value: Any) -> Any:
 def _dumps(value: Any) -> str:
     return json.dumps(normalise(value), sort_keys=True, separators=(", ", ": "),
                       ensure_ascii=True, allow_nan=False)
-
-
-@contextlib.contextmanager
-def atomic_output(path: Path, *, force: bool) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` when the block
-    succeeds, remove it otherwise. Refuses an existing ``path`` unless ``force``."""
-    path = Path(path)
-    if path.exists() and not force:
-        raise OutputExistsError(path)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
-        yield tmp
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    # mkstemp makes the file private (0600); give it the mode any new file would get
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp.chmod(0o666 & ~umask)
-    os.replace(tmp, path)
 
 
 def frame_to_dict(f: FrameResult) -> dict[str, Any]:

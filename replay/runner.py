@@ -26,15 +26,9 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 
+from dsp.errors import CalibrationError, OutputExistsError, UsageError
 from recorder import contract
-from replay.errors import (
-    CalibrationError,
-    EstimatorUnavailableError,
-    ImageDecodeError,
-    MissingPosesError,
-    OptionsError,
-    OutputExistsError,
-)
+from replay.errors import EstimatorUnavailableError, ImageDecodeError, MissingPosesError
 from replay.reader import ImageMessage, LogInfo, LogReader, PoseMessage, TruthMessage
 from replay.results import (
     ErrorStats,
@@ -220,9 +214,9 @@ def _make_estimation(options: ReplayOptions, reader: LogReader) -> _Estimation:
     except ImportError as err:
         raise EstimatorUnavailableError(f"{err} (is estimator/ complete?)") from err
     if options.method not in METHODS:
-        raise OptionsError(f"--method {options.method!r}; choose one of {', '.join(METHODS)}")
+        raise UsageError(f"--method {options.method!r}; choose one of {', '.join(METHODS)}")
     if options.fusion_method not in fusion.FUSION_METHODS:
-        raise OptionsError(
+        raise UsageError(
             f"--fusion {options.fusion!r}; choose one of {', '.join(fusion.FUSION_METHODS)}"
         )
     fuser = fusion.get_fusion(options.fusion_method)
@@ -303,13 +297,13 @@ def _make_estimation(options: ReplayOptions, reader: LogReader) -> _Estimation:
 
 def _check_options(options: ReplayOptions) -> None:
     if not options.pose_tolerance_s >= 0:
-        raise OptionsError(f"--pose-tolerance {options.pose_tolerance_s}; must be >= 0")
+        raise UsageError(f"--pose-tolerance {options.pose_tolerance_s}; must be >= 0")
     if not options.window_s > 0:
-        raise OptionsError(f"--window {options.window_s}; must be > 0")
+        raise UsageError(f"--window {options.window_s}; must be > 0")
     if options.start_s is not None and options.end_s is not None and (
         options.end_s < options.start_s
     ):
-        raise OptionsError(f"--end {options.end_s} is before --start {options.start_s}")
+        raise UsageError(f"--end {options.end_s} is before --start {options.start_s}")
     save = None
     if options.rerun is not None and options.rerun.mode == "save" and options.rerun.target:
         save = Path(options.rerun.target)
@@ -319,7 +313,7 @@ def _check_options(options: ReplayOptions) -> None:
     if options.out is not None and options.out_mcap is not None and (
         Path(options.out).resolve() == Path(options.out_mcap).resolve()
     ):
-        raise OptionsError("--out and --out-mcap name the same file")
+        raise UsageError("--out and --out-mcap name the same file")
 
 
 class _Stats:
@@ -372,7 +366,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None) -> ReplaySumm
         if options.robots is not None:
             unknown = sorted(set(options.robots) - set(info.robots))
             if unknown:
-                raise OptionsError(f"--robots {', '.join(unknown)}: not in {path}")
+                raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
         est = _make_estimation(options, reader)
         digest = file_digest(path)
         results = mcap_sink = rerun_sink = None

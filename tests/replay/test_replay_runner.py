@@ -14,7 +14,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from synthetic import B_M, DEFAULT_BALL, DEFAULT_ROBOTS, write_log
 
-from replay.errors import OutputExistsError
+from dsp.errors import OutputExistsError
 from replay.runner import ReplayOptions, RerunTarget, replay
 
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from dsp.errors import UsageError
 from estimator.calibration import (
     PAPER_CALIBRATION,
     Calibration,
@@ -32,7 +33,6 @@ from estimator.calibration import (
 from estimator.camera import CameraModel
 from estimator.detection import detect_ball
 from estimator.errors import CalibrationError
-from recorder.errors import UsageError
 from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
 from recorder.world import World, field_spec
 

@@ -11,46 +11,49 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import time
 from collections.abc import Sequence
+from contextlib import ExitStack
 from pathlib import Path
 
+from dsp.atomic import atomic_output
+from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
+from dsp.errors import UsageError
 from estimator.calibration import calibration_to_json
-from estimator.camera import CAMERA_MODELS, make_camera
+from estimator.camera import make_camera
 from recorder.calibrate import PAPER_FIT, CalibrationRun, calibrate, distances_m, plot_png
 from recorder.calibrate import sample_ranges as _sample_ranges
-from recorder.errors import OutputExistsError, RecorderError, UsageError
 from recorder.omni import DEFAULT_FACE_PX
 
 __all__ = ["build_parser", "format_report", "main"]
 
+PROG = "dsp-calibrate"
+
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="dsp-calibrate",
+        prog=PROG,
         description="Fit the pixel-radius -> range calibration of a camera model the way the "
         "paper does (ball in front of a robot, 0.4 to 9.0 m in 0.1 m steps), in simulation.",
     )
-    p.add_argument("--camera", choices=CAMERA_MODELS, default="ideal",
-                   help="camera model (default %(default)s)")
-    p.add_argument("-o", "--output", type=Path, required=True, metavar="JSON",
+    p.add_argument("-o", "--out", type=Path, required=True, metavar="JSON",
                    help="calibration file to write (dsp-replay --calibration reads it)")
     p.add_argument("--plot", type=Path, metavar="PNG",
-                   help="figure of samples, fits and residuals (default: OUTPUT with .png)")
+                   help="figure of samples, fits and residuals (default: OUT with .png)")
     p.add_argument("--no-plot", action="store_true", help="write no figure")
-    p.add_argument("--start", type=float, default=0.4, metavar="M", help="first range (0.4 m)")
-    p.add_argument("--stop", type=float, default=9.0, metavar="M", help="last range (9.0 m)")
-    p.add_argument("--step", type=float, default=0.1, metavar="M", help="range step (0.1 m)")
+    p.add_argument("--start-m", type=float, default=0.4, metavar="M",
+                   help="first range in metres (default %(default)s)")
+    p.add_argument("--stop-m", type=float, default=9.0, metavar="M",
+                   help="last range in metres (default %(default)s)")
+    p.add_argument("--step-m", type=float, default=0.1, metavar="M",
+                   help="range step in metres (default %(default)s)")
     p.add_argument("--directions", default="0,90,180,-90,45", metavar="DEG,...",
                    help="ball directions in the robot frame, 0 = forward, 90 = left "
                    "(default %(default)s; the paper used 0 only)")
-    p.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto",
-                   help="pybullet renderer (default: EGL when it loads)")
-    p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX,
+    p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX, metavar="PX",
                    help="cube face size rendered per direction (default %(default)s)")
-    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    add_common_arguments(p, camera="ideal", renderer=True, force=True)
     return p
 
 
@@ -94,63 +97,47 @@ def format_report(run: CalibrationRun, renderer: str) -> str:
     return "\n".join(lines)
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
-    out: Path = args.output
+    out: Path = args.out
     plot: Path | None = None if args.no_plot else (args.plot or out.with_suffix(".png"))
-    try:
-        for path in (out, plot):
-            if path is not None and path.exists() and not args.force:
-                raise OutputExistsError(f"{path}: already exists; pass --force to overwrite")
-            if path is not None and not path.parent.is_dir():
-                raise UsageError(f"{path}: folder {path.parent} does not exist")
+    outputs = [out] if plot is None else [out, plot]
+    for path in outputs:
+        if not path.parent.is_dir():
+            raise UsageError(f"{path}: folder {path.parent} does not exist")
+    if args.face_px < 16:
+        raise UsageError(f"--face-px {args.face_px}: give at least 16 px")
+    with ExitStack() as stack:
+        # claim the outputs before the long rendering: a refusal comes first, not last
+        tmp = [stack.enter_context(atomic_output(path, force=args.force)) for path in outputs]
         camera = make_camera(args.camera)
         directions = _directions(args.directions)
-        distances = distances_m(args.start, args.stop, args.step)
-        total = len(directions) * len(distances)
-        bar = None
-        if sys.stderr.isatty():
-            from tqdm import tqdm
-
-            bar = tqdm(total=total, unit="img", desc="calibrating", file=sys.stderr)
+        distances = distances_m(args.start_m, args.stop_m, args.step_m)
         t0 = time.perf_counter()
-        try:
+        with progress_bar(len(directions) * len(distances), "calibrating",
+                          progress_enabled(args), unit="img") as bar:
             samples, renderer = _sample_ranges(
                 camera, distances, directions, renderer=args.renderer, face_px=args.face_px,
-                on_sample=(lambda _s: bar.update(1)) if bar is not None else None,
+                on_sample=lambda _s: bar.update(1),
             )
-        finally:
-            if bar is not None:
-                bar.close()
         run = calibrate(camera, samples)
         doc = json.loads(calibration_to_json(run.best.model, run.best))
         doc["source_camera"] = run.camera
         doc["samples"] = {"n": len(samples), "detected": run.detected,
-                          "directions_deg": directions,
-                          "start_m": args.start, "stop_m": args.stop, "step_m": args.step}
+                          "directions_deg": directions, "start_m": args.start_m,
+                          "stop_m": args.stop_m, "step_m": args.step_m}
         doc["holdout_rms_m"] = round(run.holdout_rms_m[run.best.model.name], 6)
-        _write_atomic(out, (json.dumps(doc, sort_keys=True, indent=2) + "\n").encode())
+        tmp[0].write_bytes((json.dumps(doc, sort_keys=True, indent=2) + "\n").encode())
         if plot is not None:
-            _write_atomic(plot, plot_png(run))
-    except (RecorderError, ValueError) as err:
-        print(f"dsp-calibrate: error: {err}", file=sys.stderr)
-        return getattr(err, "exit_code", 2)
-    except KeyboardInterrupt:
-        print("dsp-calibrate: interrupted; nothing written", file=sys.stderr)
-        return 130
-    print(format_report(run, renderer))
+            tmp[1].write_bytes(plot_png(run))
+    echo(args, format_report(run, renderer))
     wrote = f"wrote {out}" + (f" and {plot}" if plot is not None else "")
-    print(f"{wrote} in {time.perf_counter() - t0:.1f} s")
+    echo(args, f"{wrote} in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_main(PROG, _main, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,7 +1,8 @@
 """``dsp-record``: record a scenario of the simulated MSL world to a ROS 2 MCAP log.
 
-Thin: parse arguments, call ``recorder.record.record``, map known errors to one line on
-stderr and an exit code (2 usage, 3 output exists, 4 renderer, 130 interrupted).
+Thin: parse arguments, call ``recorder.record.record``; :func:`dsp.cli.run_main` maps known
+errors to one line on stderr and an exit code (1 bad input, 2 usage, 3 output exists,
+4 renderer, 130 interrupted).
 """
 
 from __future__ import annotations
@@ -11,17 +12,18 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from estimator.camera import CAMERA_MODELS
-from recorder.errors import RecorderError
+from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from recorder.field import FIELDS
 from recorder.scenarios import SCENARIOS
 
 __all__ = ["build_parser", "main"]
 
+PROG = "dsp-record"
+
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="dsp-record",
+        prog=PROG,
         description="Record a scenario of the simulated RoboCup MSL world (pybullet) to a "
         "ROS 2 MCAP log: omni images, poses, /tf and ground truth.",
         epilog=f"scenarios: {', '.join(SCENARIOS)}. Without --scenario the file name "
@@ -38,8 +40,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=float, metavar="HZ",
                    help="camera frames per second; poses at twice this "
                    "(default: 5 Hz static, 10 Hz rolling)")
-    p.add_argument("--camera", choices=CAMERA_MODELS, default="ideal",
-                   help="omni camera model (default %(default)s)")
     p.add_argument("--image-format", choices=("png", "jpeg"), default="png",
                    help="CompressedImage encoding (default %(default)s)")
     p.add_argument("--jpeg-quality", type=int, default=90, metavar="Q",
@@ -48,65 +48,51 @@ def build_parser() -> argparse.ArgumentParser:
                    help="std dev of the believed position noise in metres (default 0)")
     p.add_argument("--yaw-noise", type=float, default=0.0, metavar="DEG",
                    help="std dev of the believed heading noise in degrees (default 0)")
-    p.add_argument("--robots", type=int, metavar="N",
-                   help="robots with cameras (random/rolling; default 3)")
+    p.add_argument("--robot-count", type=int, metavar="N",
+                   help="how many robots with cameras (random/rolling; default 3)")
     p.add_argument("--field", choices=tuple(FIELDS), default="18x12",
                    help="field size (default %(default)s, the paper's)")
     p.add_argument("--face-px", type=int, default=None, metavar="PX",
                    help="cube-face resolution for rendering (default 1024: sharp at 8 m)")
-    p.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto",
-                   help="pybullet renderer (default: EGL if it loads, else TinyRenderer; "
-                   "env DSP_RENDERER overrides auto)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing log")
+    add_common_arguments(p, camera="ideal", renderer=True, force=True)
     return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     from recorder.omni import DEFAULT_FACE_PX
-    from recorder.record import RecordingInterrupted, record
+    from recorder.record import record
 
-    try:
-
-        summary = record(
-            args.output,
-            scenario=args.scenario,
-            seed=args.seed,
-            duration_s=args.duration,
-            frames=args.frames,
-            rate_hz=args.rate,
-            camera=args.camera,
-            image_format=args.image_format,
-            jpeg_quality=args.jpeg_quality,
-            pose_noise_m=args.pose_noise,
-            yaw_noise_deg=args.yaw_noise,
-            robots=args.robots,
-            field=args.field,
-            face_px=DEFAULT_FACE_PX if args.face_px is None else args.face_px,
-            renderer=args.renderer,
-            force=args.force,
-            progress=sys.stderr.isatty(),
-        )
-    except RecordingInterrupted as err:
-        print(f"dsp-record: {err}", file=sys.stderr)
-        return err.exit_code
-    except RecorderError as err:
-        print(f"dsp-record: error: {err}", file=sys.stderr)
-        return err.exit_code
-    except KeyboardInterrupt:  # before the recording started: nothing to keep
-        print("dsp-record: interrupted", file=sys.stderr)
-        return 130
-    except OSError as err:
-        print(f"dsp-record: error: {err}", file=sys.stderr)
-        return 1
-    s = summary
-    print(
-        f"{s.path}: {s.scenario} seed {s.seed}, {s.frames} frames x {s.robots} robots "
-        f"({s.camera}, {s.image_format}) at {s.rate_hz:g} Hz, sim {s.sim_duration_ns / 1e9:.2f} s, "
-        f"{s.messages} messages, {s.file_size_bytes / 1e6:.2f} MB, renderer {s.renderer}, "
-        f"wall {s.wall_time_s:.1f} s"
+    s = record(
+        args.output,
+        scenario=args.scenario,
+        seed=args.seed,
+        duration_s=args.duration,
+        frames=args.frames,
+        rate_hz=args.rate,
+        camera=args.camera,
+        image_format=args.image_format,
+        jpeg_quality=args.jpeg_quality,
+        pose_noise_m=args.pose_noise,
+        yaw_noise_deg=args.yaw_noise,
+        robots=args.robot_count,
+        field=args.field,
+        face_px=DEFAULT_FACE_PX if args.face_px is None else args.face_px,
+        renderer=args.renderer,
+        force=args.force,
+        progress=progress_enabled(args),
     )
+    echo(args,
+         f"{s.path}: {s.scenario} seed {s.seed}, {s.frames} frames x {s.robots} robots "
+         f"({s.camera}, {s.image_format}) at {s.rate_hz:g} Hz, "
+         f"sim {s.sim_duration_ns / 1e9:.2f} s, "
+         f"{s.messages} messages, {s.file_size_bytes / 1e6:.2f} MB, renderer {s.renderer}, "
+         f"wall {s.wall_time_s:.1f} s")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_main(PROG, _main, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

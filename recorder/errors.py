@@ -1,36 +1,27 @@
-"""Errors the recorder raises on purpose; the CLI maps each to a one-line message and exit code."""
+"""Errors only the recorder raises; they derive from the project's error tree (:mod:`dsp.errors`).
+
+Bad option values raise :class:`dsp.errors.UsageError` (exit 2) and a refused overwrite
+:class:`dsp.errors.OutputExistsError` (exit 3); the subclasses here add what is the
+recorder's own.
+"""
 
 from __future__ import annotations
 
+from dsp.errors import DspError, UsageError
+
 __all__ = [
-    "OutputExistsError",
     "RecorderError",
     "RendererError",
     "UnknownScenarioError",
-    "UsageError",
 ]
 
 
-class RecorderError(Exception):
-    """Base class: a known, explainable failure of a recording."""
-
-    exit_code = 1
-
-
-class UsageError(RecorderError):
-    """An option value is out of range or inconsistent with another."""
-
-    exit_code = 2
+class RecorderError(DspError):
+    """The simulation or the recording itself failed (exit code 1)."""
 
 
 class UnknownScenarioError(UsageError):
     """The scenario name (given or inferred from the file name) is not one we know."""
-
-
-class OutputExistsError(RecorderError):
-    """The output log exists and overwriting was not asked for (--force)."""
-
-    exit_code = 3
 
 
 class RendererError(RecorderError):

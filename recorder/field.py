@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from recorder.errors import UsageError
+from dsp.errors import UsageError
 
 __all__ = ["FIELDS", "LINE_WIDTH_M", "FieldSpec", "field_spec", "field_texture"]
 

@@ -25,9 +25,10 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from dsp.errors import OutputExistsError, UsageError
 from estimator.camera import CAMERA_MODELS, make_camera
 from recorder import contract as c
-from recorder.errors import OutputExistsError, RecorderError, UnknownScenarioError, UsageError
+from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
 from recorder.scenarios import SCENARIOS, Scenario, make_scenario, scenario_from_path
 from recorder.world import PHYSICS_HZ, World, field_spec
@@ -166,7 +167,7 @@ def record(
     if not path.parent.is_dir():
         raise UsageError(f"folder {str(path.parent)!r} does not exist; create it first")
     if path.exists() and not force:
-        raise OutputExistsError(f"{path} exists; pass --force to overwrite it")
+        raise OutputExistsError(path)
 
     pose_period_ns = max(1, round(_NS / rate / 2))  # poses at twice the camera rate
     cam_model = make_camera(camera)

@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from dsp.errors import UsageError
 from recorder.contract import robot_name
-from recorder.errors import UnknownScenarioError, UsageError
+from recorder.errors import UnknownScenarioError
 from recorder.field import field_spec
 
 __all__ = [
@@ -94,11 +95,11 @@ class Scenario:
 def _check_robots(name: str, robots: int | None, fixed: int | None = None) -> int:
     if fixed is not None:
         if robots not in (None, fixed):
-            raise UsageError(f"{name} has exactly {fixed} robots; drop --robots {robots}")
+            raise UsageError(f"{name} has exactly {fixed} robots; drop --robot-count {robots}")
         return fixed
     n = 3 if robots is None else robots
     if not 1 <= n <= 8:
-        raise UsageError(f"--robots must be between 1 and 8, got {n}")
+        raise UsageError(f"--robot-count must be between 1 and 8, got {n}")
     return n
 
 
@@ -129,7 +130,7 @@ def _free_spot(rng: np.random.Generator, hl: float, hw: float, taken: list[tuple
         y = float(rng.uniform(-hw + 0.5, hw - 0.5))
         if all(math.hypot(x - a, y - b) >= clearance_m for a, b in taken):
             return (round(x, 3), round(y, 3))
-    raise UsageError("could not place every robot apart on this field; use fewer --robots")
+    raise UsageError("could not place every robot apart on this field; use a smaller --robot-count")
 
 
 def _random(seed: int, n: int, field: str, hl: float, hw: float) -> Scenario:

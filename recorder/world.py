@@ -20,7 +20,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from recorder.errors import RendererError, UsageError
+from dsp.errors import UsageError
+from recorder.errors import RendererError
 from recorder.field import FIELDS, FieldSpec, field_spec, field_texture
 
 

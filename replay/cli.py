@@ -4,8 +4,8 @@
                [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
                [--out results.json] [--out-mcap estimates.mcap] [--force] ...
 
-Known problems (:class:`~replay.errors.ReplayError`) end in one line on stderr and a
-non-zero exit code, without a traceback.
+Known problems end in one line on stderr and an exit code, without a traceback
+(:func:`dsp.cli.run_main`: 1 bad input, 2 usage, 3 output exists, 130 interrupted).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from recorder import contract
-from replay.errors import ReplayError
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.runner import replay
 from replay.stats import ReplaySummary
@@ -24,11 +24,12 @@ from replay.stats import ReplaySummary
 __all__ = ["build_parser", "format_summary", "main"]
 
 FUSIONS = ("mean", "nearest", "weighted", "robust")
+PROG = "dsp-replay"
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="dsp-replay",
+        prog=PROG,
         description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
         "evaluate against ground truth, and show it in Rerun.",
     )
@@ -63,12 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="replay every complete chunk of a truncated or damaged log")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
     p.add_argument("--out-mcap", type=Path, metavar="MCAP", help="write estimates as MCAP")
-    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
-    bar = p.add_mutually_exclusive_group()
-    bar.add_argument("--progress", dest="progress", action="store_true", default=None,
-                     help="always show a progress bar")
-    bar.add_argument("--no-progress", dest="progress", action="store_false",
-                     help="never show a progress bar (default: on a terminal)")
+    add_common_arguments(p, force=True)
     return p
 
 
@@ -90,7 +86,7 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
-        force=args.force, rerun=rerun, progress=args.progress,
+        force=args.force, rerun=rerun, progress=progress_enabled(args),
     )
 
 
@@ -124,18 +120,14 @@ def format_summary(s: ReplaySummary) -> str:
     return "\n".join(lines)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        summary = replay(args.log, options_from_args(args))
-    except ReplayError as err:
-        print(f"dsp-replay: error: {err}", file=sys.stderr)
-        return err.exit_code
-    except KeyboardInterrupt:
-        print("dsp-replay: interrupted", file=sys.stderr)
-        return 130
-    print(format_summary(summary))
+    echo(args, format_summary(replay(args.log, options_from_args(args))))
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_main(PROG, _main, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,15 +1,18 @@
-"""Errors of the replay package: one base class, one subclass per known problem.
+"""Errors of the replay package: what a log (or replaying it) can get wrong, one subclass each.
 
-Every message names the offending file (or value) and, where there is one, the fix. The CLI
-maps any :class:`ReplayError` to a one-line message on stderr and a non-zero exit code.
+They derive from the project's error tree (:mod:`dsp.errors`); bad option values raise
+:class:`dsp.errors.UsageError`, a refused overwrite :class:`dsp.errors.OutputExistsError` and
+an unusable calibration :class:`dsp.errors.CalibrationError`. Every message names the
+offending file (or value) and, where there is one, the fix.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from dsp.errors import InputError
+
 __all__ = [
-    "CalibrationError",
     "CorruptLogError",
     "EstimatorUnavailableError",
     "ImageDecodeError",
@@ -17,17 +20,13 @@ __all__ = [
     "MissingPosesError",
     "NoImageTopicsError",
     "NotMcapError",
-    "OptionsError",
-    "OutputExistsError",
     "ReplayError",
     "TruncatedLogError",
 ]
 
 
-class ReplayError(Exception):
-    """Base class of every error the replay package raises on purpose."""
-
-    exit_code = 1
+class ReplayError(InputError):
+    """A log, or something replaying it needs, cannot be used (exit code 1)."""
 
 
 class InputNotFoundError(ReplayError):
@@ -86,29 +85,6 @@ class ImageDecodeError(ReplayError):
 
     def __init__(self, path: Path | str, detail: str) -> None:
         super().__init__(f"{path}: images do not decode: {detail}")
-
-
-class CalibrationError(ReplayError):
-    """The calibration file or the camera metadata cannot be used."""
-
-    def __init__(self, source: Path | str, detail: str) -> None:
-        super().__init__(f"{source}: unusable calibration: {detail}")
-
-
-class OutputExistsError(ReplayError):
-    """An output file exists already and ``--force`` was not given."""
-
-    def __init__(self, path: Path | str) -> None:
-        super().__init__(f"{path}: output exists already (use --force to overwrite)")
-
-
-class OptionsError(ReplayError):
-    """An option value is out of range or inconsistent with the log."""
-
-    exit_code = 2
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(f"invalid option: {detail}")
 
 
 class EstimatorUnavailableError(ReplayError):

@@ -22,13 +22,13 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from dsp.errors import CalibrationError
 from estimator import calibration as cal
 from estimator import camera as cam
 from estimator import corrected, detection, fusion, paper
 from estimator.errors import EstimatorError
 from estimator.geometry import RobotPose
 from recorder import contract
-from replay.errors import CalibrationError
 from replay.results import FrameStatus, RobotEstimate
 from replay.sync import PoseMatch
 

@@ -5,7 +5,7 @@
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
-same command runs again).
+same command runs again; the tables are rewritten each run).
 """
 
 from __future__ import annotations
@@ -14,15 +14,18 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
+from dsp.atomic import atomic_output
+from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
+from dsp.errors import CalibrationError, InputError, UsageError
 from estimator.calibration import calibration_from_json
-from estimator.camera import CAMERA_MODELS
 from estimator.errors import EstimatorError
-from recorder.errors import RecorderError
-from replay.errors import ReplayError
 from replay.evaluate import (
+    CONFIGS,
+    PAPER_SCENARIOS,
     Recorder,
     paper_markdown,
     random_markdown,
@@ -32,10 +35,12 @@ from replay.evaluate import (
 
 __all__ = ["build_parser", "main"]
 
+PROG = "dsp-eval"
+
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="dsp-eval",
+        prog=PROG,
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
@@ -43,15 +48,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the paper's four scenarios (default) or random scenes")
     p.add_argument("--count", type=int, default=200, help="random scenes (default 200)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first scene (default 0)")
-    p.add_argument("--camera", choices=CAMERA_MODELS, default="ideal",
-                   help="camera model (default %(default)s)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration from dsp-calibrate for the corrected estimator "
                    "(default: the camera model in the log's metadata)")
     p.add_argument("--out-dir", type=Path, default=Path("eval"), metavar="DIR",
                    help="logs and tables go here (default ./eval)")
-    p.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto",
-                   help="pybullet renderer for recording (default: EGL when it loads)")
+    add_common_arguments(p, camera="ideal", renderer=True)
     return p
 
 
@@ -64,54 +66,69 @@ def _recorder(camera: str, renderer: str) -> Recorder:
     return run
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def _check(args: argparse.Namespace) -> None:
+    """Refuse bad options and a bad calibration before recording anything."""
+    if args.count < 1:
+        raise UsageError(f"--count {args.count}: give at least 1 scene")
+    if args.calibration is not None:
+        if not args.calibration.is_file():
+            raise InputError(f"{args.calibration}: calibration file not found")
+        try:  # a bad file would otherwise only show at the first replay
+            calibration_from_json(args.calibration.read_text(encoding="utf-8"))
+        except (EstimatorError, UnicodeDecodeError) as err:
+            raise CalibrationError(args.calibration, str(err)) from err
+
+
+def _ticker(bar: Any) -> Callable[[str], None]:
+    """on_progress for the suites: called as each replay starts, so it counts the one before."""
+    started = [False]
+
+    def tick(msg: str) -> None:
+        if started[0]:
+            bar.update(1)
+        started[0] = True
+        bar.set_postfix_str(msg)
+
+    return tick
+
+
+def _run_suite(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
+    """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
+    record = _recorder(args.camera, args.renderer)
+    stem = f"{args.suite}-{args.camera}"
+    scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
+    with progress_bar(scenes * len(CONFIGS), PROG, progress_enabled(args),
+                      unit="replay") as bar:
+        if args.suite == "paper":
+            suite = run_paper_suite(record, args.out_dir, camera=args.camera,
+                                    calibration=args.calibration, seed=args.seed,
+                                    on_progress=_ticker(bar))
+            return stem, paper_markdown(suite), suite.to_dict()
+        rsuite = run_random_suite(record, args.out_dir, camera=args.camera, count=args.count,
+                                  seed=args.seed, calibration=args.calibration,
+                                  on_progress=_ticker(bar))
+    return f"{stem}-{args.count}-seed{args.seed}", random_markdown(rsuite), rsuite.to_dict()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     out_dir: Path = args.out_dir
     t0 = time.perf_counter()
-    progress = None
-    if sys.stderr.isatty():
-        def progress(msg: str) -> None:
-            print(f"\r\033[Kdsp-eval: {msg}", end="", file=sys.stderr, flush=True)
-    try:
-        if args.count < 1:
-            raise ValueError(f"--count {args.count}: give at least 1 scene")
-        if args.calibration is not None:
-            if not args.calibration.is_file():
-                raise ValueError(f"{args.calibration}: calibration file not found")
-            try:  # before recording anything: a bad file would only show at the replay
-                calibration_from_json(args.calibration.read_text(encoding="utf-8"))
-            except (EstimatorError, UnicodeDecodeError) as err:
-                raise ValueError(f"{args.calibration}: unusable calibration: {err}") from err
-        out_dir.mkdir(parents=True, exist_ok=True)
-        record = _recorder(args.camera, args.renderer)
-        stem = f"{args.suite}-{args.camera}"
-        if args.suite == "paper":
-            suite = run_paper_suite(record, out_dir, camera=args.camera,
-                                    calibration=args.calibration, seed=args.seed,
-                                    on_progress=progress)
-            text, doc = paper_markdown(suite), suite.to_dict()
-        else:
-            rsuite = run_random_suite(record, out_dir, camera=args.camera, count=args.count,
-                                      seed=args.seed, calibration=args.calibration,
-                                      on_progress=progress)
-            text, doc = random_markdown(rsuite), rsuite.to_dict()
-            stem += f"-{args.count}-seed{args.seed}"
-    except (ReplayError, RecorderError, ValueError, OSError) as err:
-        if progress:
-            print(file=sys.stderr)
-        print(f"dsp-eval: error: {err}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("\ndsp-eval: interrupted", file=sys.stderr)
-        return 130
-    if progress:
-        print("\r\033[K", end="", file=sys.stderr)
-    (out_dir / f"{stem}.md").write_text(text, encoding="utf-8")
-    (out_dir / f"{stem}.json").write_text(json.dumps(doc, sort_keys=True, indent=2) + "\n",
-                                          encoding="utf-8")
-    print(text)
-    print(f"wrote {out_dir / (stem + '.md')} and .json in {time.perf_counter() - t0:.0f} s")
+    _check(args)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem, text, doc = _run_suite(args)
+    md, js = out_dir / f"{stem}.md", out_dir / f"{stem}.json"
+    with atomic_output(md, force=True) as tmp:  # tables are rewritten on every run
+        tmp.write_text(text, encoding="utf-8")
+    with atomic_output(js, force=True) as tmp:
+        tmp.write_text(json.dumps(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8")
+    echo(args, text)
+    echo(args, f"wrote {md} and .json in {time.perf_counter() - t0:.0f} s")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_main(PROG, _main, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

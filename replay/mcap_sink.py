@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 from mcap_ros2.writer import Writer
 
+from dsp.atomic import AtomicFile
 from recorder import contract
-from replay.results import AtomicFile, FrameResult, StepResult
+from replay.results import FrameResult, StepResult
 from replay.sink import SinkBase
 
 __all__ = ["FUSED_TOPIC", "ROBOT_TOPIC", "McapSink"]

@@ -12,9 +12,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from dsp.errors import OutputExistsError, UsageError
 from estimator.fusion import FUSION_METHODS
 from recorder import contract
-from replay.errors import OptionsError, OutputExistsError
 
 __all__ = ["DEFAULT_FUSION", "METHODS", "NS", "ReplayOptions", "RerunTarget", "Timing"]
 
@@ -35,7 +35,7 @@ class RerunTarget:
 
     def __post_init__(self) -> None:
         if self.mode not in RERUN_MODES:
-            raise OptionsError(f"Rerun mode {self.mode!r}; choose one of {', '.join(RERUN_MODES)}")
+            raise UsageError(f"Rerun mode {self.mode!r}; choose one of {', '.join(RERUN_MODES)}")
 
 
 @dataclass(frozen=True)
@@ -63,7 +63,7 @@ class Timing:
 class ReplayOptions:
     """Everything a replay depends on (keyword arguments of the CLI, in seconds at the edge).
 
-    Raises :class:`~replay.errors.OptionsError` when made with a value out of range."""
+    Raises :class:`~replay.errors.UsageError` when made with a value out of range."""
 
     method: str = "corrected"
     fusion: str | None = None
@@ -86,23 +86,23 @@ class ReplayOptions:
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
-            raise OptionsError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
+            raise UsageError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.fusion_method not in FUSION_METHODS:
-            raise OptionsError(
+            raise UsageError(
                 f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
             )
         if not (math.isfinite(self.pose_tolerance_s) and self.pose_tolerance_s >= 0):
-            raise OptionsError(f"--pose-tolerance {self.pose_tolerance_s}; must be >= 0")
+            raise UsageError(f"--pose-tolerance {self.pose_tolerance_s}; must be >= 0")
         if not (math.isfinite(self.window_s) and self.window_s > 0):
-            raise OptionsError(f"--window {self.window_s}; must be > 0")
+            raise UsageError(f"--window {self.window_s}; must be > 0")
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
             if value is not None and not math.isfinite(value):
-                raise OptionsError(f"{flag} {value}; must be a finite number of seconds")
+                raise UsageError(f"{flag} {value}; must be a finite number of seconds")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
-            raise OptionsError(f"--end {self.end_s} is before --start {self.start_s}")
+            raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
         outputs = [p for p in (self.out, self.out_mcap) if p is not None]
         if len(outputs) == 2 and Path(outputs[0]).resolve() == Path(outputs[1]).resolve():
-            raise OptionsError("--out and --out-mcap name the same file")
+            raise UsageError("--out and --out-mcap name the same file")
 
     @property
     def fusion_method(self) -> str:

@@ -38,9 +38,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from dsp.atomic import AtomicFile
 from replay.options import ReplayOptions, RerunTarget
 from replay.reader import LogInfo
-from replay.results import AtomicFile, FrameResult, StepResult
+from replay.results import FrameResult, StepResult
 from replay.sink import SinkBase
 
 __all__ = ["APPLICATION_ID", "RerunSink", "field_lines", "recording_id"]

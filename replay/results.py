@@ -31,26 +31,22 @@ ground truth interpolated at the frame's (step's) stamp; RMSE = sqrt(mean(error^
 
 from __future__ import annotations
 
-import contextlib
 import enum
 import json
 import math
-import os
 import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
-from replay.errors import OutputExistsError
+from dsp.atomic import AtomicFile
 from replay.sink import SinkBase
 
 __all__ = [
     "DECIMALS",
     "FRAME_STATUSES",
-    "AtomicFile",
     "FrameResult",
     "FrameStatus",
     "ResultsCollector",
@@ -58,7 +54,6 @@ __all__ = [
     "ResultsWriter",
     "RobotEstimate",
     "StepResult",
-    "atomic_output",
     "normalise",
 ]
 
@@ -154,43 +149,6 @@ def normalise(value: Any) -> Any:
 def _dumps(value: Any) -> str:
     return json.dumps(normalise(value), sort_keys=True, separators=(", ", ": "),
                       ensure_ascii=True, allow_nan=False)
-
-
-class AtomicFile:
-    """A new file written under a temporary name beside ``path``: :meth:`commit` renames it
-    onto ``path``, :meth:`discard` removes it. Refuses an existing ``path`` unless ``force``."""
-
-    def __init__(self, path: Path, *, force: bool) -> None:
-        self.path = Path(path)
-        if self.path.exists() and not force:
-            raise OutputExistsError(self.path)
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
-                                        dir=self.path.parent or ".")
-        os.close(fd)
-        self.tmp = Path(tmp_name)
-
-    def commit(self) -> None:
-        # mkstemp makes the file private (0600); give it the mode any new file would get
-        umask = os.umask(0)
-        os.umask(umask)
-        self.tmp.chmod(0o666 & ~umask)
-        os.replace(self.tmp, self.path)
-
-    def discard(self) -> None:
-        self.tmp.unlink(missing_ok=True)
-
-
-@contextlib.contextmanager
-def atomic_output(path: Path, *, force: bool) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` when the block
-    succeeds, remove it otherwise. Refuses an existing ``path`` unless ``force``."""
-    out = AtomicFile(path, force=force)
-    try:
-        yield out.tmp
-    except BaseException:
-        out.discard()
-        raise
-    out.commit()
 
 
 def frame_to_dict(f: FrameResult) -> dict[str, Any]:

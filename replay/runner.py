@@ -28,9 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from dsp.errors import UsageError
 from estimator.errors import EstimatorError
 from replay.decode import decode_image
-from replay.errors import ImageDecodeError, MissingPosesError, OptionsError
+from replay.errors import ImageDecodeError, MissingPosesError
 from replay.estimation import FrameEstimator
 from replay.options import ReplayOptions, Timing
 from replay.reader import ImageMessage, LogReader, PoseMessage, TruthMessage
@@ -79,7 +80,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         if options.robots is not None:
             unknown = sorted(set(options.robots) - set(info.robots))
             if unknown:
-                raise OptionsError(f"--robots {', '.join(unknown)}: not in {path}")
+                raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, robots=info.robots,
             camera_metadata=reader.camera_metadata(), source=str(reader.path),

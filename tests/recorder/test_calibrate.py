@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dsp.errors import UsageError
 from estimator.calibration import LinearCalibration, calibration_from_json
 from estimator.camera import make_camera
 from recorder.calibrate import Sample, calibrate, distances_m, plot_png, sample_ranges
-from recorder.errors import UsageError
 
 
 def test_distances_follow_the_papers_procedure() -> None:
@@ -106,7 +106,7 @@ def test_rendered_ball_radius_grows_with_range_in_every_direction(camera: str) -
 def test_cli_writes_a_calibration_replay_can_read(tmp_path: Path) -> None:
     out = tmp_path / "calib.json"
     cmd = [sys.executable, "-m", "recorder.calibrate_cli", "--camera", "ideal", "-o", str(out),
-           "--start", "0.5", "--stop", "8.5", "--step", "1.0", "--directions", "0",
+           "--start-m", "0.5", "--stop-m", "8.5", "--step-m", "1.0", "--directions", "0",
            "--face-px", "512"]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
@@ -119,5 +119,5 @@ def test_cli_writes_a_calibration_replay_can_read(tmp_path: Path) -> None:
     # a second run refuses to overwrite, in one line, without a traceback
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert again.returncode != 0
-    assert again.stderr.strip().count("\n") == 0 and "already exists" in again.stderr
+    assert again.stderr.strip().count("\n") == 0 and "output exists already" in again.stderr
     assert "Traceback" not in again.stderr

@@ -16,10 +16,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from dsp.errors import OutputExistsError, UsageError
 from estimator.camera import camera_from_dict, make_camera
 from recorder import contract as c
 from recorder.cli import main
-from recorder.errors import OutputExistsError, UnknownScenarioError, UsageError
+from recorder.errors import UnknownScenarioError
 from recorder.record import RecordingInterrupted, RecordSummary, record
 
 SMALL = {"face_px": 256}

@@ -9,7 +9,8 @@ import sys
 import cv2
 import pytest
 
-from recorder.errors import UnknownScenarioError, UsageError
+from dsp.errors import UsageError
+from recorder.errors import UnknownScenarioError
 from recorder.scenarios import (
     PAPER_SCENARIOS,
     SCENARIOS,

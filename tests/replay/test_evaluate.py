@@ -103,18 +103,19 @@ def test_random_suite_bands_and_dual_sight(tmp_path: Path) -> None:
     assert "over the 2 scenes whose ball is within 9 m of at least two robots" in text
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--count", "0", "--suite", "random"], "--count 0: give at least 1 scene"),
-    (["--calibration", "nowhere.json"], "nowhere.json: calibration file not found"),
-    (["--calibration", "bad.json"], "bad.json: unusable calibration: calibration is not valid "
-     "JSON (Expecting value: line 1 column 1 (char 0)); pass the text calibration_to_json "
-     "wrote"),
+@pytest.mark.parametrize(("args", "code", "message"), [
+    (["--count", "0", "--suite", "random"], 2, "--count 0: give at least 1 scene"),
+    (["--calibration", "nowhere.json"], 1, "nowhere.json: calibration file not found"),
+    (["--calibration", "bad.json"], 1, "bad.json: unusable calibration: calibration is not "
+     "valid JSON (Expecting value: line 1 column 1 (char 0)); pass the text "
+     "calibration_to_json wrote"),
 ])
-def test_cli_bad_input_is_one_line(tmp_path: Path, args: list[str], message: str) -> None:
+def test_cli_bad_input_is_one_line(tmp_path: Path, args: list[str], code: int,
+                                   message: str) -> None:
     (tmp_path / "bad.json").write_text("not json")
     done = subprocess.run([sys.executable, "-m", "replay.evaluate_cli", "--out-dir",
                            str(tmp_path), *args], capture_output=True, text=True, timeout=120,
                           cwd=tmp_path)
-    assert done.returncode == 2
+    assert done.returncode == code  # usage 2, bad input 1 (dsp.errors)
     assert done.stderr.strip() == f"dsp-eval: error: {message}"
     assert not list(tmp_path.glob("*.mcap"))  # refused before recording anything

@@ -14,8 +14,8 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from synthetic import B_M, DEFAULT_BALL, DEFAULT_ROBOTS, write_log
 
+from dsp.errors import OutputExistsError
 from replay import ReplayOptions, RerunTarget, replay
-from replay.errors import OutputExistsError
 
 
 @pytest.fixture(scope="module")

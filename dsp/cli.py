@@ -1,0 +1,152 @@
+"""The command-line toolkit every ``dsp-*`` command is built from.
+
+One place for what the four commands share:
+
+- :func:`add_common_arguments`: ``--version`` always; ``--camera`` (choices: the estimator's
+  camera models), ``--renderer`` (choices :data:`RENDERERS`), ``--force`` and the progress
+  flags ``--progress`` / ``--no-progress`` / ``-q, --quiet`` where asked for.
+- One progress rule, :func:`progress_enabled`: an explicit ``--progress`` / ``--no-progress``
+  wins; otherwise ``--quiet`` means no bar; otherwise a bar when stderr is a terminal.
+  ``--quiet`` also silences the summary (:func:`echo`). :func:`progress_bar` makes the bar.
+- :func:`run_main`: the one ``main`` wrapper. Exit codes: 0 done; 1 bad input
+  (:class:`~dsp.errors.InputError`, an ``OSError``); 2 usage (argparse's own and
+  :class:`~dsp.errors.UsageError`); 3 refused overwrite (:class:`~dsp.errors.OutputExistsError`);
+  130 interrupted (Ctrl-C). Any :class:`~dsp.errors.DspError` ends in one line
+  ``prog: error: message`` on stderr, without a traceback.
+
+Importing this module imports neither pybullet nor mcap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+from importlib import metadata
+from typing import IO, Any
+
+from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError
+
+__all__ = [
+    "DISTRIBUTION",
+    "RENDERERS",
+    "add_common_arguments",
+    "echo",
+    "progress_bar",
+    "progress_enabled",
+    "run_main",
+    "version",
+]
+
+DISTRIBUTION = "dual-sight"
+"""The installed distribution whose version ``--version`` prints."""
+
+RENDERERS = ("auto", "egl", "tiny")
+"""pybullet renderers: auto = EGL when it loads, else TinyRenderer (env DSP_RENDERER overrides)."""
+
+
+def version() -> str:
+    """The installed version of the project ("unknown" when it is not installed)."""
+    try:
+        return metadata.version(DISTRIBUTION)
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def add_common_arguments(
+    parser: argparse.ArgumentParser,
+    *,
+    camera: str | None = None,
+    renderer: bool = False,
+    force: bool = False,
+    progress: bool = True,
+) -> None:
+    """Add the shared options to ``parser``: ``--version`` always, and
+
+    - ``--camera`` when ``camera`` names its default model,
+    - ``--renderer`` when ``renderer``,
+    - ``--force`` (overwrite existing outputs) when ``force``,
+    - ``--progress`` / ``--no-progress`` and ``-q, --quiet`` when ``progress``.
+    """
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
+    if camera is not None:
+        from estimator.camera import CAMERA_MODELS
+
+        if camera not in CAMERA_MODELS:
+            raise ValueError(f"default camera {camera!r} is not one of {CAMERA_MODELS}")
+        parser.add_argument("--camera", choices=CAMERA_MODELS, default=camera,
+                            help="omni camera model (default %(default)s)")
+    if renderer:
+        parser.add_argument("--renderer", choices=RENDERERS, default="auto",
+                            help="pybullet renderer (default: EGL if it loads, else "
+                            "TinyRenderer; env DSP_RENDERER overrides auto)")
+    if force:
+        parser.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    if progress:
+        bar = parser.add_mutually_exclusive_group()
+        bar.add_argument("--progress", dest="progress", action="store_true", default=None,
+                         help="always show a progress bar on stderr")
+        bar.add_argument("--no-progress", dest="progress", action="store_false",
+                         help="never show a progress bar (default: when stderr is a terminal "
+                         "and not --quiet)")
+        parser.add_argument("-q", "--quiet", action="store_true",
+                            help="print no summary; no progress bar unless --progress")
+
+
+def progress_enabled(args: argparse.Namespace, stream: IO[str] | None = None) -> bool:
+    """The one rule: ``--progress`` / ``--no-progress`` if given; else none with ``--quiet``;
+    else a bar when ``stream`` (default stderr) is a terminal."""
+    explicit: bool | None = getattr(args, "progress", None)
+    if explicit is not None:
+        return explicit
+    if getattr(args, "quiet", False):
+        return False
+    stream = sys.stderr if stream is None else stream
+    isatty = getattr(stream, "isatty", None)
+    return bool(isatty()) if isatty is not None else False
+
+
+def echo(args: argparse.Namespace, text: str) -> None:
+    """Print ``text`` (a summary, a "wrote ..." line) on stdout unless ``--quiet``."""
+    if not getattr(args, "quiet", False):
+        print(text)
+
+
+def progress_bar(total: int | None, desc: str, enabled: bool, *, unit: str = "it") -> Any:
+    """A tqdm bar on stderr (a no-op one when not ``enabled``); use it as a context manager.
+
+    The bar is removed when it closes, so the summary that follows stands alone."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, disable=not enabled, leave=False,
+                file=sys.stderr, dynamic_ncols=True)
+
+
+def _fail(prog: str, message: str) -> None:
+    print(f"{prog}: {message}", file=sys.stderr)
+
+
+def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],
+             argv: Sequence[str] | None = None) -> int:
+    """Run a command's ``fn(argv)`` and turn how it ended into an exit code (see the module
+    docstring); never lets a known error or Ctrl-C end in a traceback."""
+    try:
+        code = fn(argv)
+    except SystemExit as exc:  # argparse: --help / --version (0), bad arguments (2)
+        if exc.code is None or isinstance(exc.code, int):
+            return exc.code or 0
+        _fail(prog, f"error: {exc.code}")
+        return EXIT_INPUT
+    except DspError as err:
+        if err.exit_code == EXIT_INTERRUPTED:
+            _fail(prog, str(err))
+        else:
+            _fail(prog, f"error: {err}")
+        return err.exit_code
+    except KeyboardInterrupt:
+        _fail(prog, "interrupted")
+        return EXIT_INTERRUPTED
+    except OSError as err:
+        _fail(prog, f"error: {err}")
+        return EXIT_INPUT
+    return 0 if code is None else code

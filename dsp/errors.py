@@ -1,0 +1,66 @@
+"""The project's one error tree: every error raised on purpose carries its exit code.
+
+The commands' main wrapper (:func:`dsp.cli.run_main`) prints any :class:`DspError` as one
+line ``prog: error: message`` and exits with its :attr:`~DspError.exit_code`. Packages add
+subclasses only where a name adds meaning (``replay.errors.NotMcapError``, ...). The
+estimator keeps its own small base (``estimator.errors.EstimatorError``) so it stays pure.
+
+Exit codes: 1 bad input, 2 usage (bad option values or combinations, as argparse's own),
+3 refused overwrite, 130 interrupted (Ctrl-C).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = [
+    "EXIT_INPUT",
+    "EXIT_INTERRUPTED",
+    "EXIT_OUTPUT_EXISTS",
+    "EXIT_USAGE",
+    "CalibrationError",
+    "DspError",
+    "InputError",
+    "OutputExistsError",
+    "UsageError",
+]
+
+EXIT_INPUT = 1
+EXIT_USAGE = 2
+EXIT_OUTPUT_EXISTS = 3
+EXIT_INTERRUPTED = 130
+
+
+class DspError(Exception):
+    """Base class: a known, explainable failure; the message names the value and the fix."""
+
+    exit_code = EXIT_INPUT
+
+
+class UsageError(DspError):
+    """An option value is out of range or inconsistent with another option or the input."""
+
+    exit_code = EXIT_USAGE
+
+
+class InputError(DspError):
+    """An input file is missing or cannot be used."""
+
+    exit_code = EXIT_INPUT
+
+
+class CalibrationError(InputError):
+    """A calibration file or a log's camera metadata cannot be used."""
+
+    def __init__(self, source: Path | str, detail: str) -> None:
+        super().__init__(f"{source}: unusable calibration: {detail}")
+
+
+class OutputExistsError(DspError):
+    """An output file exists already and ``--force`` was not given."""
+
+    exit_code = EXIT_OUTPUT_EXISTS
+
+    def __init__(self, path: Path | str) -> None:
+        super().__init__(f"{path}: output exists already (use --force to overwrite)")
+        self.path = Path(path)

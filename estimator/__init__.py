@@ -2,8 +2,9 @@
 
 Detection (:mod:`estimator.detection`), paper mode (:mod:`estimator.paper`), the corrected
 estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`),
-fusion of several robots (:mod:`estimator.fusion`), geometry and errors. Camera models
-live in :mod:`estimator.camera` (imported on demand, not re-exported here).
+fusion of several robots (:mod:`estimator.fusion`), geometry, errors and the paper's
+numbers (:mod:`estimator.constants`). Camera models live in :mod:`estimator.camera`
+(imported on demand, not re-exported here).
 """
 
 from estimator.calibration import (
@@ -21,6 +22,14 @@ from estimator.calibration import (
     fit_linear,
     fit_lookup,
     fit_mirror,
+)
+from estimator.constants import (
+    BALL_RADIUS_M,
+    PAPER_B_M,
+    PAPER_CENTRE_PX,
+    PAPER_IMAGE_SIZE_PX,
+    PAPER_K_M_PER_PX,
+    PAPER_R2,
 )
 from estimator.corrected import BallEstimate, ball_visibility, estimate_ball
 from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
@@ -57,8 +66,14 @@ from estimator.geometry import (
 from estimator.paper import locate_ball, rpy_from_quaternion
 
 __all__ = [
+    "BALL_RADIUS_M",
     "FUSION_METHODS",
+    "PAPER_B_M",
     "PAPER_CALIBRATION",
+    "PAPER_CENTRE_PX",
+    "PAPER_IMAGE_SIZE_PX",
+    "PAPER_K_M_PER_PX",
+    "PAPER_R2",
     "BallEstimate",
     "Calibration",
     "CalibrationError",

@@ -4,7 +4,7 @@ A calibration maps the pixel radius r [px] of the ball's centroid (its distance 
 image centre) to the horizontal range d [m] from the robot's centre to the ball's centre.
 Every model implements the :class:`Calibration` protocol:
 
-- :class:`LinearCalibration` ``d = a r + b``, the paper's eq. 4 (a = 0.0163, b = 0.2786);
+- :class:`LinearCalibration` ``d = a r + b``, the paper's eq. 4 (:data:`PAPER_CALIBRATION`);
 - :class:`LookupCalibration`, a monotone piecewise-linear table;
 - :class:`MirrorCalibration` ``d = a tan(b r)``, NuBot's catadioptric mirror;
 - :class:`CameraCalibration`, from a camera model with the ball-height correction.
@@ -24,6 +24,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
+from estimator.constants import BALL_RADIUS_M, PAPER_B_M, PAPER_K_M_PER_PX
 from estimator.errors import CalibrationError, CalibrationFormatError, FitError, OutOfRangeError
 
 __all__ = [
@@ -81,7 +82,7 @@ def _check_finite(name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class LinearCalibration:
-    """``d = a r + b`` (the paper's eq. 4 with a = 0.0163 m/px, b = 0.2786 m)."""
+    """``d = a r + b``, the paper's eq. 4 (its own fit is :data:`PAPER_CALIBRATION`)."""
 
     a_m_per_px: float
     b_m: float
@@ -101,7 +102,7 @@ class LinearCalibration:
         return {"model": self.name, "a_m_per_px": self.a_m_per_px, "b_m": self.b_m}
 
 
-PAPER_CALIBRATION = LinearCalibration(a_m_per_px=0.0163, b_m=0.2786)
+PAPER_CALIBRATION = LinearCalibration(a_m_per_px=PAPER_K_M_PER_PX, b_m=PAPER_B_M)
 """The paper's eq. 4: d = 0.0163 r + 0.2786 (R^2 = 0.9932)."""
 
 
@@ -222,7 +223,7 @@ class CameraCalibration:
     """
 
     camera: CameraLike
-    ball_radius_m: float = 0.11
+    ball_radius_m: float = BALL_RADIUS_M
 
     def __post_init__(self) -> None:
         radius = _check_finite("ball_radius_m", self.ball_radius_m)

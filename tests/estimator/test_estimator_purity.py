@@ -13,6 +13,7 @@ MODULES = [
     "estimator.geometry",
     "estimator.detection",
     "estimator.paper",
+    "estimator.constants",
     "estimator.calibration",
     "estimator.corrected",
     "estimator.fusion",

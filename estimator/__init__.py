@@ -1,10 +1,11 @@
 """The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O.
 
 Detection (:mod:`estimator.detection`), paper mode (:mod:`estimator.paper`), the corrected
-estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`),
-fusion of several robots (:mod:`estimator.fusion`), geometry, errors and the paper's
-numbers (:mod:`estimator.constants`). Camera models live in :mod:`estimator.camera`
-(imported on demand, not re-exported here).
+estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`:
+models, fitting and JSON form in ``calibration_models``, ``calibration_fit`` and
+``calibration_json``), fusion of several robots (:mod:`estimator.fusion`), geometry,
+errors and the paper's numbers (:mod:`estimator.constants`). Camera models live in
+:mod:`estimator.camera` (imported on demand, not re-exported here).
 """
 
 from estimator.calibration import (

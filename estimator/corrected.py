@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from estimator.calibration import PAPER_CALIBRATION, Calibration
+from estimator.calibration_models import PAPER_CALIBRATION, Calibration
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.geometry import RobotPose
 

@@ -15,6 +15,9 @@ MODULES = [
     "estimator.paper",
     "estimator.constants",
     "estimator.calibration",
+    "estimator.calibration_models",
+    "estimator.calibration_fit",
+    "estimator.calibration_json",
     "estimator.corrected",
     "estimator.fusion",
 ]

@@ -47,6 +47,7 @@ from estimator.errors import (
 )
 from estimator.fusion import (
     FUSION_METHODS,
+    RANGE_SIGMA_COEFFICIENTS,
     FusedEstimate,
     Fusion,
     MeanFusion,
@@ -75,6 +76,7 @@ __all__ = [
     "PAPER_IMAGE_SIZE_PX",
     "PAPER_K_M_PER_PX",
     "PAPER_R2",
+    "RANGE_SIGMA_COEFFICIENTS",
     "BallEstimate",
     "Calibration",
     "CalibrationError",

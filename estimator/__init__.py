@@ -60,6 +60,7 @@ from estimator.fusion import (
 )
 from estimator.geometry import (
     RobotPose,
+    normalise_quaternion,
     quaternion_from_yaw,
     slerp,
     wrap_angle,
@@ -116,6 +117,7 @@ __all__ = [
     "fit_mirror",
     "get_fusion",
     "locate_ball",
+    "normalise_quaternion",
     "quaternion_from_yaw",
     "range_sigma_m",
     "rpy_from_quaternion",

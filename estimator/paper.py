@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from estimator.constants import PAPER_B_M, PAPER_CENTRE_PX, PAPER_K_M_PER_PX
-from estimator.errors import GeometryError
+from estimator.geometry import normalise_quaternion
 
 __all__ = ["locate_ball", "rpy_from_quaternion"]
 
@@ -71,13 +71,7 @@ def rpy_from_quaternion(x: float, y: float, z: float, w: float) -> tuple[float, 
     tf2's ``Matrix3x3::getRPY`` (solution 1), gimbal lock included. The quaternion is
     normalised first.
     """
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if not math.isfinite(n) or n == 0.0:
-        raise GeometryError(
-            f"quaternion (x, y, z, w) = ({x}, {y}, {z}, {w}) has length {n}; "
-            "pass a finite, non-zero quaternion (the identity is (0, 0, 0, 1))"
-        )
-    x, y, z, w = x / n, y / n, z / n, w / n
+    x, y, z, w = normalise_quaternion(x, y, z, w)
     # m(q): the rotation matrix of the unit quaternion; only the entries getRPY reads.
     m00 = 1.0 - 2.0 * (y * y + z * z)
     m10 = 2.0 * (x * y + w * z)

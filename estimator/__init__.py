@@ -1,9 +1,11 @@
 """The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O.
 
 Detection (:mod:`estimator.detection`), paper mode (:mod:`estimator.paper`), the corrected
-estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`),
-fusion of several robots (:mod:`estimator.fusion`), geometry and errors. Camera models
-live in :mod:`estimator.camera` (imported on demand, not re-exported here).
+estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`:
+models, fitting and JSON form in ``calibration_models``, ``calibration_fit`` and
+``calibration_json``), fusion of several robots (:mod:`estimator.fusion`), geometry,
+errors and the paper's numbers (:mod:`estimator.constants`). Camera models live in
+:mod:`estimator.camera` (imported on demand, not re-exported here).
 """
 
 from estimator.calibration import (
@@ -22,6 +24,14 @@ from estimator.calibration import (
     fit_lookup,
     fit_mirror,
 )
+from estimator.constants import (
+    BALL_RADIUS_M,
+    PAPER_B_M,
+    PAPER_CENTRE_PX,
+    PAPER_IMAGE_SIZE_PX,
+    PAPER_K_M_PER_PX,
+    PAPER_R2,
+)
 from estimator.corrected import BallEstimate, ball_visibility, estimate_ball
 from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
 from estimator.errors import (
@@ -37,6 +47,7 @@ from estimator.errors import (
 )
 from estimator.fusion import (
     FUSION_METHODS,
+    RANGE_SIGMA_COEFFICIENTS,
     FusedEstimate,
     Fusion,
     MeanFusion,
@@ -49,6 +60,7 @@ from estimator.fusion import (
 )
 from estimator.geometry import (
     RobotPose,
+    normalise_quaternion,
     quaternion_from_yaw,
     slerp,
     wrap_angle,
@@ -57,8 +69,15 @@ from estimator.geometry import (
 from estimator.paper import locate_ball, rpy_from_quaternion
 
 __all__ = [
+    "BALL_RADIUS_M",
     "FUSION_METHODS",
+    "PAPER_B_M",
     "PAPER_CALIBRATION",
+    "PAPER_CENTRE_PX",
+    "PAPER_IMAGE_SIZE_PX",
+    "PAPER_K_M_PER_PX",
+    "PAPER_R2",
+    "RANGE_SIGMA_COEFFICIENTS",
     "BallEstimate",
     "Calibration",
     "CalibrationError",
@@ -98,6 +117,7 @@ __all__ = [
     "fit_mirror",
     "get_fusion",
     "locate_ball",
+    "normalise_quaternion",
     "quaternion_from_yaw",
     "range_sigma_m",
     "rpy_from_quaternion",

@@ -36,6 +36,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from estimator.constants import BALL_RADIUS_M, PAPER_CENTRE_PX, PAPER_IMAGE_SIZE_PX
+
 __all__ = [
     "CAMERA_MODELS",
     "CameraModel",
@@ -97,11 +99,12 @@ class _RadialCamera:
     """Shared image geometry and pixel <-> ray code; subclasses define the radial law
     (and their own ``height_m`` and ``name``)."""
 
-    width_px: int = 1080
-    height_px: int = 1080
-    cu_px: float = 539.0
-    cv_px: float = 539.0
-    max_radius_px: float = 539.0
+    width_px: int = PAPER_IMAGE_SIZE_PX
+    height_px: int = PAPER_IMAGE_SIZE_PX
+    cu_px: float = PAPER_CENTRE_PX[0]
+    cv_px: float = PAPER_CENTRE_PX[1]
+    max_radius_px: float = PAPER_CENTRE_PX[0]
+    """Radius of the image circle [px]; by default it touches the image's edges."""
     height_m: float = 0.85
     """Optical centre above the ground [m] (a subclass may set its own default)."""
     name: str = ""
@@ -144,7 +147,7 @@ class _RadialCamera:
 class IdealCamera(_RadialCamera):
     """Ground distance linear in pixel radius: d = k * r (the paper's ideal image)."""
 
-    k_m_per_px: float = 8.4 * 12.0 / (12.0 - 0.11) / 499.0
+    k_m_per_px: float = 8.4 * 12.0 / (12.0 - BALL_RADIUS_M) / 499.0
     height_m: float = 12.0
     name: str = "ideal"
 
@@ -248,7 +251,7 @@ def ground_range_m(camera: CameraModel, r_px: ArrayLike) -> FloatArray:
 
 
 def ball_image_area_px(
-    camera: CameraModel, range_m: float, ball_radius_m: float = 0.11, *, points: int = 90
+    camera: CameraModel, range_m: float, ball_radius_m: float = BALL_RADIUS_M, *, points: int = 90
 ) -> float:
     """The area [px^2] of the image of a whole, unoccluded ball resting on the ground at a
     horizontal ``range_m`` from the robot: the polygon of its silhouette, the cone of rays

@@ -23,7 +23,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from estimator.calibration import PAPER_CALIBRATION, Calibration
+from estimator.calibration_models import PAPER_CALIBRATION, Calibration
+from estimator.constants import PAPER_CENTRE_PX
 from estimator.geometry import RobotPose
 
 __all__ = ["BallEstimate", "ball_visibility", "estimate_ball"]
@@ -62,7 +63,7 @@ def estimate_ball(
     pose: RobotPose,
     calibration: Calibration = PAPER_CALIBRATION,
     *,
-    centre_px: tuple[float, float] = (539.0, 539.0),
+    centre_px: tuple[float, float] = PAPER_CENTRE_PX,
     robot: str = "",
 ) -> BallEstimate:
     """The ball's field position from its centroid (cx_px, cy_px) seen by a robot at ``pose``."""

@@ -23,7 +23,7 @@ All methods are deterministic: no randomness, ties broken by input order, and th
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -35,6 +35,7 @@ from estimator.errors import FusionError, UnknownFusionError
 
 __all__ = [
     "FUSION_METHODS",
+    "RANGE_SIGMA_COEFFICIENTS",
     "Covariance",
     "FusedEstimate",
     "Fusion",
@@ -47,16 +48,17 @@ __all__ = [
     "range_sigma_m",
 ]
 
-FUSION_METHODS = ("mean", "nearest", "weighted", "robust")
-
 Covariance = tuple[tuple[float, float], tuple[float, float]]
 """A 2 x 2 covariance [m^2] as a tuple of rows."""
 
 Matrix = npt.NDArray[np.float64]
 
+RANGE_SIGMA_COEFFICIENTS = (0.01, -0.01, 0.039)
+"""CAMBADA's (c2, c1, c0) of the range noise sigma_r(d) = c2 d^2 + c1 d + c0 [m]."""
+
 
 def range_sigma_m(
-    d_m: float, coefficients: tuple[float, float, float] = (0.01, -0.01, 0.039)
+    d_m: float, coefficients: tuple[float, float, float] = RANGE_SIGMA_COEFFICIENTS
 ) -> float:
     """CAMBADA's range noise sigma(d) = c2 d^2 + c1 d + c0 [m] (default 0.01, -0.01, 0.039)."""
     c2, c1, c0 = coefficients
@@ -67,7 +69,7 @@ def range_sigma_m(
 class NoiseModel:
     """The per-estimate covariance model (see the module docstring)."""
 
-    range_sigma_coefficients: tuple[float, float, float] = (0.01, -0.01, 0.039)
+    range_sigma_coefficients: tuple[float, float, float] = RANGE_SIGMA_COEFFICIENTS
     """(c2, c1, c0) of sigma_r(d) = c2 d^2 + c1 d + c0 [m]."""
     bearing_sigma_rad: float = 0.01
     min_sigma_m: float = 1e-3
@@ -259,17 +261,24 @@ class RobustFusion:
         return _fused(position, covariance, [estimates[i].robot for i in kept])
 
 
+_METHODS: dict[str, Callable[[NoiseModel], Fusion]] = {
+    "mean": MeanFusion,
+    "nearest": NearestFusion,
+    "weighted": WeightedFusion,
+    "robust": RobustFusion,
+}
+
+FUSION_METHODS = tuple(_METHODS)
+"""The built-in methods' names, in the order the module docstring describes them; the
+names :func:`get_fusion` accepts."""
+
+
 def get_fusion(name: str, *, noise: NoiseModel | None = None) -> Fusion:
     """The fusion method called ``name`` (one of FUSION_METHODS), with its defaults."""
-    model = noise or NoiseModel()
-    if name == "mean":
-        return MeanFusion(model)
-    if name == "nearest":
-        return NearestFusion(model)
-    if name == "weighted":
-        return WeightedFusion(model)
-    if name == "robust":
-        return RobustFusion(model)
-    raise UnknownFusionError(
-        f"fusion method {name!r} is unknown; use one of {', '.join(FUSION_METHODS)}"
-    )
+    try:
+        method = _METHODS[name]
+    except KeyError:
+        raise UnknownFusionError(
+            f"fusion method {name!r} is unknown; use one of {', '.join(FUSION_METHODS)}"
+        ) from None
+    return method(noise or NoiseModel())

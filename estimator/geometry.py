@@ -18,6 +18,7 @@ from estimator.errors import GeometryError
 __all__ = [
     "Quaternion",
     "RobotPose",
+    "normalise_quaternion",
     "quaternion_from_yaw",
     "slerp",
     "wrap_angle",
@@ -28,7 +29,9 @@ Quaternion = tuple[float, float, float, float]
 """(x, y, z, w)."""
 
 
-def _normalised(x: float, y: float, z: float, w: float) -> Quaternion:
+def normalise_quaternion(x: float, y: float, z: float, w: float) -> Quaternion:
+    """The unit quaternion (x, y, z, w) / |q|; raises GeometryError for a zero or
+    non-finite one."""
     n = math.sqrt(x * x + y * y + z * z + w * w)
     if not math.isfinite(n) or n == 0.0:
         raise GeometryError(
@@ -40,7 +43,7 @@ def _normalised(x: float, y: float, z: float, w: float) -> Quaternion:
 
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
     """Yaw [rad, in (-pi, pi]] of the quaternion (x, y, z, w), normalised first."""
-    x, y, z, w = _normalised(x, y, z, w)
+    x, y, z, w = normalise_quaternion(x, y, z, w)
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
@@ -51,15 +54,15 @@ def quaternion_from_yaw(yaw_rad: float) -> Quaternion:
 
 def slerp(q0: Quaternion, q1: Quaternion, t: float) -> Quaternion:
     """Spherical linear interpolation from q0 (t = 0) to q1 (t = 1), the short way round."""
-    a = _normalised(*q0)
-    b = _normalised(*q1)
+    a = normalise_quaternion(*q0)
+    b = normalise_quaternion(*q1)
     dot = sum(ai * bi for ai, bi in zip(a, b, strict=True))
     if dot < 0.0:  # q and -q are the same rotation: take the shorter arc
         b = (-b[0], -b[1], -b[2], -b[3])
         dot = -dot
     if dot > 0.9995:  # nearly parallel: linear interpolation is exact to rounding
         q = tuple(ai + t * (bi - ai) for ai, bi in zip(a, b, strict=True))
-        return _normalised(q[0], q[1], q[2], q[3])
+        return normalise_quaternion(q[0], q[1], q[2], q[3])
     omega = math.acos(min(1.0, dot))
     s0 = math.sin((1.0 - t) * omega) / math.sin(omega)
     s1 = math.sin(t * omega) / math.sin(omega)

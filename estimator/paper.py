@@ -6,7 +6,8 @@ erratum: the calibration offset ``b`` is added to EACH field axis after rotation
 (+0.28, +0.28) m. It is kept on purpose so that the paper's tables can be reproduced; the
 corrected estimator is :mod:`estimator.corrected`.
 
-Symbols as in the paper: (Cx, Cy) the blob centroid [px], (539, 539) the image centre,
+Symbols as in the paper: (Cx, Cy) the blob centroid [px], (539, 539) the image centre
+(:data:`~estimator.constants.PAPER_CENTRE_PX`),
 r the pixel radius, alpha the bearing in the image, alpha0 and alpha1 the yaw-corrected
 angles, (Cx1, Cy1) the rotated centroid, (dx, dy) the calibrated offsets [m], Pr the robot
 position and Pb the ball position on the field [m].
@@ -16,16 +17,10 @@ from __future__ import annotations
 
 import math
 
-from estimator.errors import GeometryError
+from estimator.constants import PAPER_B_M, PAPER_CENTRE_PX, PAPER_K_M_PER_PX
+from estimator.geometry import normalise_quaternion
 
-__all__ = ["PAPER_B_M", "PAPER_CENTRE_PX", "PAPER_K_M_PER_PX", "locate_ball", "rpy_from_quaternion"]
-
-PAPER_K_M_PER_PX = 0.0163
-"""Slope of the paper's calibration d = 0.0163 r + 0.2786 (eq. 4) [m/px]."""
-PAPER_B_M = 0.2786
-"""Offset of the paper's calibration (eq. 4) [m]."""
-PAPER_CENTRE_PX = (539.0, 539.0)
-"""The paper's image centre = robot centre in a 1080 x 1080 image [px]."""
+__all__ = ["locate_ball", "rpy_from_quaternion"]
 
 
 def locate_ball(
@@ -76,13 +71,7 @@ def rpy_from_quaternion(x: float, y: float, z: float, w: float) -> tuple[float, 
     tf2's ``Matrix3x3::getRPY`` (solution 1), gimbal lock included. The quaternion is
     normalised first.
     """
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if not math.isfinite(n) or n == 0.0:
-        raise GeometryError(
-            f"quaternion (x, y, z, w) = ({x}, {y}, {z}, {w}) has length {n}; "
-            "pass a finite, non-zero quaternion (the identity is (0, 0, 0, 1))"
-        )
-    x, y, z, w = x / n, y / n, z / n, w / n
+    x, y, z, w = normalise_quaternion(x, y, z, w)
     # m(q): the rotation matrix of the unit quaternion; only the entries getRPY reads.
     m00 = 1.0 - 2.0 * (y * y + z * z)
     m10 = 2.0 * (x * y + w * z)

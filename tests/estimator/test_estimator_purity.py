@@ -13,7 +13,11 @@ MODULES = [
     "estimator.geometry",
     "estimator.detection",
     "estimator.paper",
+    "estimator.constants",
     "estimator.calibration",
+    "estimator.calibration_models",
+    "estimator.calibration_fit",
+    "estimator.calibration_json",
     "estimator.corrected",
     "estimator.fusion",
 ]

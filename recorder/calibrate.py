@@ -31,6 +31,7 @@ from estimator.calibration import (
     fit_mirror,
 )
 from estimator.camera import CameraModel
+from estimator.constants import PAPER_B_M, PAPER_K_M_PER_PX, PAPER_R2
 from estimator.detection import detect_ball
 from estimator.errors import CalibrationError
 from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
@@ -46,7 +47,7 @@ __all__ = [
     "sample_ranges",
 ]
 
-PAPER_FIT = {"a_m_per_px": 0.0163, "b_m": 0.2786, "r2": 0.9932}
+PAPER_FIT = {"a_m_per_px": PAPER_K_M_PER_PX, "b_m": PAPER_B_M, "r2": PAPER_R2}
 """The paper's eq. 4 and its R^2, printed beside ours."""
 
 ROBOT = "robot1"

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from estimator.fusion import FUSION_METHODS
 from recorder import contract
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.runner import replay
@@ -23,7 +24,6 @@ from replay.stats import ReplaySummary
 
 __all__ = ["build_parser", "format_summary", "main"]
 
-FUSIONS = ("mean", "nearest", "weighted", "robust")
 PROG = "dsp-replay"
 
 
@@ -44,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
                    "(default)")
-    p.add_argument("--fusion", choices=FUSIONS,
+    p.add_argument("--fusion", choices=FUSION_METHODS,
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; weighted for the corrected estimator)")
     p.add_argument("--calibration", type=Path, metavar="FILE",

@@ -26,6 +26,7 @@ from dsp.errors import CalibrationError
 from estimator import calibration as cal
 from estimator import camera as cam
 from estimator import corrected, detection, fusion, paper
+from estimator.constants import PAPER_CENTRE_PX
 from estimator.errors import EstimatorError
 from estimator.geometry import RobotPose
 from recorder import contract
@@ -34,7 +35,8 @@ from replay.sync import PoseMatch
 
 __all__ = ["DEFAULT_CENTRE_PX", "FrameEstimator", "FrameOutcome", "FrameStatus"]
 
-DEFAULT_CENTRE_PX = (539.0, 539.0)
+DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
+"""The image centre of a robot whose log names no camera: the paper's."""
 
 
 @dataclass(frozen=True)

@@ -24,8 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from estimator.fusion import FUSION_METHODS
 from replay.options import ReplayOptions
-from replay.results import ResultsCollector
+from replay.results import DECIMALS, ResultsCollector
 from replay.runner import replay
 
 __all__ = [
@@ -57,7 +58,6 @@ PAPER_TABLE1 = {
 PAPER_RMSE_M = 0.383
 DISTANCE_BANDS_M = ((0.0, 3.0), (3.0, 6.0), (6.0, 9.0), (9.0, math.inf))
 DUAL_SIGHT_RANGE_M = 9.0
-DECIMALS = 6
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ class Config:
 
 
 CONFIGS = (Config("paper", "mean"),
-           *(Config("corrected", f) for f in ("mean", "nearest", "weighted", "robust")))
+           *(Config("corrected", f) for f in FUSION_METHODS))
 
 Recorder = Callable[[Path, str, int], None]
 """record(path, scenario, seed): writes one log."""

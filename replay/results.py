@@ -42,6 +42,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from dsp.atomic import AtomicFile
+from estimator.constants import PAPER_CENTRE_PX
 from replay.sink import SinkBase
 
 __all__ = [
@@ -105,7 +106,7 @@ class FrameResult:
     status: FrameStatus
     detection: Any = None  # estimator.detection.Detection | None
     r_px: float | None = None
-    centre_px: tuple[float, float] = (539.0, 539.0)
+    centre_px: tuple[float, float] = PAPER_CENTRE_PX
     pose: Any = None  # estimator.geometry.RobotPose | None
     pose_gap_ns: int | None = None
     pose_interpolated: bool = False

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-FUSIONS = ("mean", "nearest", "weighted", "robust")
+from estimator.fusion import FUSION_METHODS as FUSIONS
 
 
 def _load(path: Path) -> dict[str, Any]:

@@ -23,12 +23,18 @@ import numpy as np
 from mcap.writer import CompressionType
 from mcap_ros2.writer import Writer
 
+from estimator.constants import (
+    PAPER_B_M,
+    PAPER_CENTRE_PX,
+    PAPER_IMAGE_SIZE_PX,
+    PAPER_K_M_PER_PX,
+)
 from recorder import contract
 
-K_M_PER_PX = 0.0163
-B_M = 0.2786
-CENTRE_PX = (539.0, 539.0)
-SIZE_PX = 1080
+K_M_PER_PX = PAPER_K_M_PER_PX
+B_M = PAPER_B_M
+CENTRE_PX = PAPER_CENTRE_PX
+SIZE_PX = PAPER_IMAGE_SIZE_PX
 DISC_RADIUS_PX = 10
 GREEN_BGR = (30, 90, 20)
 ORANGE_BGR = (0, 110, 255)

@@ -3,17 +3,20 @@
 Regenerating is a deliberate act: the goldens pin what the recorder and the estimator do
 today, so a change to them must be explained in the commit that regenerates them::
 
-    python scripts/make_golden.py            # refuses: the goldens exist
-    python scripts/make_golden.py --force    # re-record every scene, replay, rewrite all
+    python scripts/make_golden.py                          # refuses: the goldens exist
+    python scripts/make_golden.py --force                  # re-record, replay, rewrite all
+    python scripts/make_golden.py --force --expected-only  # replay the pinned logs again
 
 For each scene in :data:`SCENES` it records a small MCAP log with the EGL renderer
-(:data:`RENDERER`), replays it once per configuration in :data:`CONFIGS` and writes the
-normalised result (:func:`normalise`) as ``<scene>.<method>-<fusion>.json``. The manifest
-``manifest.json`` pins each log's SHA-256, size, topics and message counts, the record
-options, the renderer and the package versions the logs were made with.
+(:data:`RENDERER`), replays it once per configuration in :data:`CONFIGS` and keeps the
+results file exactly as replay writes it (every field, floats as replay rounds them, the
+same bytes) as ``<scene>.<method>-<fusion>.json``. The manifest ``manifest.json`` pins each
+log's SHA-256, size, topics and message counts, the record options, the renderer and the
+package versions the logs were made with. ``--expected-only`` leaves the logs alone (they
+must still match the manifest) and rewrites only the expected files and the manifest.
 
 ``tests/replay/test_golden.py`` imports this module by path for its constants (GOLDEN_DIR,
-SCENES, CONFIGS, DECIMALS, TOLERANCES, normalise, ...). Importing it is cheap: the recorder
+SCENES, CONFIGS, TOLERANCES, replay_results, ...). Importing it is cheap: the recorder
 (pybullet) and replay are imported only inside the functions that need them.
 """
 
@@ -22,7 +25,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import math
 import shutil
 import sys
 import tempfile
@@ -33,6 +35,8 @@ ROOT = Path(__file__).resolve().parent.parent
 GOLDEN_DIR = ROOT / "logs" / "golden"
 MANIFEST = "manifest.json"
 MANIFEST_FORMAT = "dsp-golden"
+MANIFEST_VERSION = 2
+"""2: the expected files are the whole results files (1: a rounded subset of them)."""
 RENDERER = "egl"
 """The goldens are recorded with EGL (hardware OpenGL path; Mesa EGL offscreen)."""
 
@@ -59,13 +63,8 @@ CONFIGS: tuple[tuple[str, str], ...] = (
 )
 """(method, fusion) pairs replayed for every scene (each expected file is ~5 kB)."""
 
-DECIMALS: dict[str, int] = {"m": 4, "px": 3, "rad": 5, "m2": 6, "ratio": 4}
-"""Rounding of the normalised outputs by unit: metres 4 places (0.1 mm), pixels (and the
-blob area in px^2) 3 places, radians 5 places, covariances (m^2) 6 places, ratios (the
-visibility of the ball) 4 places."""
-
 TOLERANCES: dict[str, float] = {
-    # replaying a golden log must give the expected file exactly, to DECIMALS
+    # replaying a golden log must give the expected file exactly: every field, every byte
     "replay": 0.0,
     # re-recording a golden scene with the golden's renderer (EGL): detections within
     # 0.5 px (renderers differ in the last bit across machines and driver versions)
@@ -77,8 +76,10 @@ TOLERANCES: dict[str, float] = {
     # That is within 0.5 px, so the same bound holds for both, with a thin margin; kept as
     # its own entry so it can be widened alone if a machine's EGL differs more.
     "detection_other_renderer_px": 0.5,
-    # Rerun stores Points2D as float32: the .rrd centroid equals the golden one to this
+    # Rerun stores points as float32: the .rrd centroid [px] and field positions [m] equal
+    # the golden ones to these
     "rrd_centroid_px": 1e-3,
+    "rrd_position_m": 1e-4,
 }
 
 
@@ -95,79 +96,8 @@ def log_name(scene: str) -> str:
     return f"{scene}.mcap"
 
 
-# --- normalisation -------------------------------------------------------------------------
-
-_FRAME_KEYS = ("frame", "robot", "stamp_ns", "status", "detection", "estimate")
-_DETECTION_KEYS = ("cx_px", "cy_px", "area_px", "r_px")
-_ESTIMATE_KEYS = ("x_m", "y_m", "range_m", "bearing_rad", "visibility")
-_STEP_KEYS = ("step", "stamp_ns", "robots", "fused_robots", "x_m", "y_m", "covariance")
-_ROBOT_SUMMARY_KEYS = ("frames", "detections", "estimates", "errors", "rmse_m", "max_error_m")
-_FUSED_SUMMARY_KEYS = ("estimates", "errors", "rmse_m", "max_error_m")
-
-
-def _unit(key: str) -> str:
-    if key == "covariance":
-        return "m2"
-    if key == "visibility":
-        return "ratio"
-    for suffix in ("px", "rad", "m"):
-        if key.endswith("_" + suffix):
-            return suffix
-    raise KeyError(f"no rounding rule for the float field {key!r}; add one to DECIMALS")
-
-
-def _round(value: Any, key: str) -> Any:
-    """Round floats by the unit the key names (-0.0 -> 0.0); recurse into lists."""
-    if value is None or isinstance(value, (bool, int, str)):
-        return value
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            return None
-        r = round(value, DECIMALS[_unit(key)])
-        return 0.0 if r == 0 else r
-    if isinstance(value, list):
-        return [_round(v, key) for v in value]
-    raise TypeError(f"unexpected {type(value).__name__} in {key!r}")
-
-
-def _pick(d: dict[str, Any] | None, keys: tuple[str, ...]) -> dict[str, Any] | None:
-    if d is None:
-        return None
-    return {k: _round(d[k], k) for k in keys}
-
-
-def normalise(results: dict[str, Any]) -> dict[str, Any]:
-    """The parts of a replay results document (replay/results.py schema) that matter.
-
-    Per frame: frame, robot, stamp_ns, status, detection (cx, cy, area, r) and estimate
-    (x, y, range, bearing); per fused step: stamp, robots, x, y, covariance; the summary's
-    counts and errors. Floats rounded by :data:`DECIMALS`. Left out: the log's sha256 (the
-    manifest pins it), bbox and circularity, poses, per-frame truth and errors."""
-    summary = results["summary"]
-    return {
-        "log": {"file": results["log"]["file"], "robots": results["log"]["robots"]},
-        "options": {"method": results["options"]["method"],
-                    "fusion": results["options"]["fusion"]},
-        "frames": [
-            {**{k: f[k] for k in ("frame", "robot", "stamp_ns", "status")},
-             "detection": _pick(f["detection"], _DETECTION_KEYS),
-             "estimate": _pick(f["estimate"], _ESTIMATE_KEYS)}
-            for f in results["frames"]
-        ],
-        "fused": [_pick(s, _STEP_KEYS) for s in results["fused"]],
-        "summary": {
-            "frames": summary["frames"],
-            "steps": summary["steps"],
-            "fused_steps": summary["fused_steps"],
-            "skipped": summary["skipped"],
-            "robots": {r: _pick(v, _ROBOT_SUMMARY_KEYS) for r, v in summary["robots"].items()},
-            "fused": _pick(summary["fused"], _FUSED_SUMMARY_KEYS),
-        },
-    }
-
-
 def dumps(doc: Any) -> str:
-    """The golden text form: sorted keys, one-space indent, ASCII, trailing newline."""
+    """The manifest's text form: sorted keys, one-space indent, ASCII, trailing newline."""
     return json.dumps(doc, sort_keys=True, indent=1, ensure_ascii=True, allow_nan=False) + "\n"
 
 
@@ -182,16 +112,23 @@ def sha256_of(path: Path) -> str:
 # --- generation ----------------------------------------------------------------------------
 
 
-def replay_normalised(log: Path, method: str, fusion: str, workdir: Path) -> dict[str, Any]:
-    """Replay ``log`` with one configuration and return the normalised result."""
+def replay_text(log: Path, method: str, fusion: str, workdir: Path) -> str:
+    """Replay ``log`` with one configuration; the results file's text, as replay wrote it."""
     from replay import ReplayOptions, replay
 
     out = workdir / f".{log.stem}.{config_label(method, fusion)}.results.json"
     out.unlink(missing_ok=True)
     replay(log, ReplayOptions(method=method, fusion=fusion, out=out, progress=False))
-    doc = json.loads(out.read_text(encoding="ascii"))
+    text = out.read_text(encoding="ascii")
     out.unlink()
-    return normalise(doc)
+    return text
+
+
+def replay_results(log: Path, method: str, fusion: str, workdir: Path) -> dict[str, Any]:
+    """Replay ``log`` with one configuration; the whole results document (nothing left out:
+    it holds no wall-clock time and no absolute path, only the log's file name)."""
+    doc: dict[str, Any] = json.loads(replay_text(log, method, fusion, workdir))
+    return doc
 
 
 def topic_counts(log: Path) -> dict[str, int]:
@@ -217,73 +154,112 @@ def _recorder_metadata(log: Path) -> dict[str, str]:
     return {}
 
 
-def targets() -> list[Path]:
-    """Every file the script writes."""
+def targets(*, expected_only: bool = False) -> list[Path]:
+    """Every file the script writes (without the logs when ``expected_only``)."""
     names = [MANIFEST]
     for scene in SCENES:
-        names.append(log_name(scene))
+        if not expected_only:
+            names.append(log_name(scene))
         names += [expected_name(scene, m, f) for m, f in CONFIGS]
     return [GOLDEN_DIR / n for n in names]
 
 
-def generate(force: bool = False) -> dict[str, Any]:
-    """Record every scene, replay every configuration, write logs, expected files and the
-    manifest into GOLDEN_DIR. Refuses to overwrite existing goldens unless ``force``."""
+def _manifest_head() -> dict[str, Any]:
+    return {
+        "format": MANIFEST_FORMAT,
+        "version": MANIFEST_VERSION,
+        "renderer": RENDERER,
+        "expected": "the replay results file as written: every field, the same bytes",
+        "configs": [{"method": m, "fusion": f} for m, f in CONFIGS],
+        "regenerate": "python scripts/make_golden.py --force",
+        "regenerate_expected": "python scripts/make_golden.py --force --expected-only",
+        "scenes": {},
+    }
+
+
+def _write_expected(scene: str, log: Path, work: Path) -> dict[str, str]:
+    """Replay ``log`` in every configuration into ``work``; config label -> file name."""
+    expected = {}
+    for method, fusion in CONFIGS:
+        name = expected_name(scene, method, fusion)
+        text = replay_text(log, method, fusion, work)
+        (work / name).write_text(text, encoding="ascii", newline="\n")
+        expected[config_label(method, fusion)] = name
+    return expected
+
+
+def _record_scenes(work: Path, manifest: dict[str, Any]) -> None:
+    """Record every scene into ``work`` and fill the manifest's scenes and versions."""
     from recorder.record import record
 
-    existing = [p for p in targets() if p.exists()]
+    versions: dict[str, str] = {}
+    for scene, options in SCENES.items():
+        log = work / log_name(scene)
+        summary = record(log, renderer=RENDERER, **options)
+        if summary.renderer != RENDERER:  # pragma: no cover - record() raises first
+            raise RuntimeError(f"{scene} was rendered with {summary.renderer}")
+        print(f"{scene}: {summary.frames} frames, {log.stat().st_size} bytes", flush=True)
+        counts = topic_counts(log)
+        meta = _recorder_metadata(log)
+        versions = {k: v for k, v in meta.items()
+                    if k in ("dual_sight", "mcap", "numpy", "opencv", "pybullet", "python")}
+        manifest["scenes"][scene] = {
+            "log": log_name(scene),
+            "sha256": sha256_of(log),
+            "bytes": log.stat().st_size,
+            "record": {**options, "renderer": RENDERER},
+            "renderer": summary.renderer,
+            "frames": summary.frames,
+            "robots": summary.robots,
+            "message_count": sum(counts.values()),
+            "topics": counts,
+        }
+    manifest["versions"] = versions
+
+
+def _pinned_scenes(manifest: dict[str, Any]) -> None:
+    """Copy the existing manifest's log entries into ``manifest`` after checking that every
+    pinned log is still the one it names (same size and SHA-256)."""
+    old = load_manifest()
+    for scene in SCENES:
+        entry = dict(old["scenes"][scene])
+        log = GOLDEN_DIR / log_name(scene)
+        if not log.is_file() or log.stat().st_size != entry["bytes"] or (
+                sha256_of(log) != entry["sha256"]):
+            raise RuntimeError(f"{log} is missing or differs from {MANIFEST}; re-record the "
+                               "goldens with --force (without --expected-only)")
+        entry.pop("expected", None)
+        manifest["scenes"][scene] = entry
+    manifest["versions"] = old["versions"]
+
+
+def generate(force: bool = False, *, expected_only: bool = False) -> dict[str, Any]:
+    """Record every scene, replay every configuration, write logs, expected files and the
+    manifest into GOLDEN_DIR. With ``expected_only`` the pinned logs are replayed as they
+    are and only the expected files and the manifest are rewritten. Refuses to overwrite
+    existing goldens unless ``force``."""
+    existing = [p for p in targets(expected_only=expected_only) if p.exists()]
     if existing and not force:
         raise FileExistsError(
             f"{len(existing)} golden file(s) exist in {GOLDEN_DIR} (e.g. {existing[0].name}); "
             "regenerating them is deliberate: pass --force and explain why in the commit"
         )
     GOLDEN_DIR.mkdir(parents=True, exist_ok=True)
-    manifest: dict[str, Any] = {
-        "format": MANIFEST_FORMAT,
-        "version": 1,
-        "renderer": RENDERER,
-        "decimals": DECIMALS,
-        "configs": [{"method": m, "fusion": f} for m, f in CONFIGS],
-        "regenerate": "python scripts/make_golden.py --force",
-        "scenes": {},
-    }
+    manifest = _manifest_head()
     with tempfile.TemporaryDirectory(dir=GOLDEN_DIR, prefix=".tmp-") as tmp:
         work = Path(tmp)
-        staged: dict[str, str] = {}
-        versions: dict[str, str] = {}
-        for scene, options in SCENES.items():
-            log = work / log_name(scene)
-            summary = record(log, renderer=RENDERER, **options)
-            if summary.renderer != RENDERER:  # pragma: no cover - record() raises first
-                raise RuntimeError(f"{scene} was rendered with {summary.renderer}")
-            print(f"{scene}: {summary.frames} frames, {log.stat().st_size} bytes", flush=True)
-            expected = {}
-            for method, fusion in CONFIGS:
-                doc = replay_normalised(log, method, fusion, work)
-                name = expected_name(scene, method, fusion)
-                (work / name).write_text(dumps(doc), encoding="ascii", newline="\n")
-                staged[name] = name
-                expected[config_label(method, fusion)] = name
-            counts = topic_counts(log)
-            meta = _recorder_metadata(log)
-            versions = {k: v for k, v in meta.items()
-                        if k in ("dual_sight", "mcap", "numpy", "opencv", "pybullet", "python")}
-            manifest["scenes"][scene] = {
-                "log": log_name(scene),
-                "sha256": sha256_of(log),
-                "bytes": log.stat().st_size,
-                "record": {**options, "renderer": RENDERER},
-                "renderer": summary.renderer,
-                "frames": summary.frames,
-                "robots": summary.robots,
-                "message_count": sum(counts.values()),
-                "topics": counts,
-                "expected": expected,
-            }
-            staged[log_name(scene)] = log_name(scene)
-        manifest["versions"] = versions
+        if expected_only:
+            _pinned_scenes(manifest)
+        else:
+            _record_scenes(work, manifest)
+        staged = [] if expected_only else [log_name(scene) for scene in SCENES]
+        for scene in SCENES:
+            log = GOLDEN_DIR / log_name(scene) if expected_only else work / log_name(scene)
+            expected = _write_expected(scene, log, work)
+            manifest["scenes"][scene]["expected"] = expected
+            staged += expected.values()
         (work / MANIFEST).write_text(dumps(manifest), encoding="ascii", newline="\n")
-        staged[MANIFEST] = MANIFEST
+        staged.append(MANIFEST)
         for name in staged:
             shutil.move(str(work / name), GOLDEN_DIR / name)
     total = sum(p.stat().st_size for p in GOLDEN_DIR.rglob("*") if p.is_file())
@@ -292,19 +268,26 @@ def generate(force: bool = False) -> dict[str, Any]:
 
 
 def load_manifest() -> dict[str, Any]:
-    return json.loads((GOLDEN_DIR / MANIFEST).read_text(encoding="ascii"))
+    manifest: dict[str, Any] = json.loads((GOLDEN_DIR / MANIFEST).read_text(encoding="ascii"))
+    return manifest
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--force", action="store_true",
                         help="overwrite the existing goldens (explain why in the commit)")
+    parser.add_argument("--expected-only", action="store_true",
+                        help="keep the pinned logs; replay them and rewrite only the expected "
+                             "outputs and the manifest")
     args = parser.parse_args(argv)
     try:
-        generate(force=args.force)
+        generate(force=args.force, expected_only=args.expected_only)
     except FileExistsError as err:
         print(f"make_golden: {err}", file=sys.stderr)
         return 2
+    except RuntimeError as err:
+        print(f"make_golden: {err}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -53,9 +53,13 @@ def _log(scene: str) -> Path:
     return mg.GOLDEN_DIR / mg.log_name(scene)
 
 
+def _expected_text(scene: str, method: str, fusion: str) -> str:
+    return (mg.GOLDEN_DIR / mg.expected_name(scene, method, fusion)).read_text(encoding="ascii")
+
+
 def _expected(scene: str, method: str, fusion: str) -> dict[str, Any]:
-    text = (mg.GOLDEN_DIR / mg.expected_name(scene, method, fusion)).read_text(encoding="ascii")
-    return json.loads(text)
+    doc: dict[str, Any] = json.loads(_expected_text(scene, method, fusion))
+    return doc
 
 
 @pytest.fixture
@@ -72,8 +76,8 @@ def restore_cv2_threads() -> Iterator[None]:
 
 def test_manifest_matches_the_script(manifest: dict[str, Any]) -> None:
     assert manifest["format"] == mg.MANIFEST_FORMAT
+    assert manifest["version"] == mg.MANIFEST_VERSION
     assert manifest["renderer"] == mg.RENDERER
-    assert manifest["decimals"] == mg.DECIMALS
     assert [(d["method"], d["fusion"]) for d in manifest["configs"]] == CONFIGS
     assert list(manifest["scenes"]) == sorted(SCENES)
     for scene, entry in manifest["scenes"].items():
@@ -100,20 +104,37 @@ def test_make_golden_refuses_to_overwrite(capsys: pytest.CaptureFixture[str]) ->
     before = {p: p.stat().st_mtime_ns for p in mg.targets()}
     with pytest.raises(FileExistsError, match="--force"):
         mg.generate(force=False)
+    with pytest.raises(FileExistsError, match="--force"):
+        mg.generate(force=False, expected_only=True)
     assert mg.main([]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--force" in err
+    assert mg.main(["--expected-only"]) == 2
+    assert "--force" in capsys.readouterr().err
     assert {p: p.stat().st_mtime_ns for p in mg.targets()} == before
 
 
-def test_normalise_rounds_by_unit() -> None:
-    assert mg._round(1.23456789, "x_m") == round(1.23456789, mg.DECIMALS["m"])
-    assert mg._round(538.96123, "cx_px") == round(538.96123, mg.DECIMALS["px"])
-    assert mg._round(-0.4, "bearing_rad") == -0.4
-    assert mg._round(-1e-9, "y_m") == 0.0 and str(mg._round(-1e-9, "y_m")) == "0.0"
-    assert mg._round([[1e-7, 2.5e-3]], "covariance") == [[0.0, 0.0025]]
-    with pytest.raises(KeyError, match="circularity"):
-        mg._round(0.9, "circularity")
+FRAME_FIELDS = {"frame", "robot", "stamp_ns", "t_s", "status", "detection", "pose", "estimate",
+                "truth", "error_m"}
+STEP_FIELDS = {"step", "stamp_ns", "t_s", "robots", "fused_robots", "x_m", "y_m", "covariance",
+               "truth", "error_m"}
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_expected_files_hold_every_field(scene: str) -> None:
+    """The expected files are whole results files: poses, truth, errors, bbox, circularity
+    and the summary's mean errors are pinned too, at the results file's precision."""
+    doc = _expected(scene, "corrected", "weighted")
+    assert {"format", "version", "log", "options", "frames", "fused", "summary"} <= set(doc)
+    assert len(doc["log"]["sha256"]) == 64
+    assert all(set(f) == FRAME_FIELDS for f in doc["frames"])
+    assert all(set(s) == STEP_FIELDS for s in doc["fused"])
+    ok = [f for f in doc["frames"] if f["status"] == "ok"]
+    assert ok and all(f["pose"] and f["truth"] and f["error_m"] is not None for f in ok)
+    assert all({"bbox_px", "circularity"} <= set(f["detection"]) for f in ok)
+    assert all(s["truth"] is not None for s in doc["fused"])
+    # floats as replay writes them (6 decimals), not rounded further
+    assert any(len(repr(f["estimate"]["x_m"]).split(".")[-1]) == 6 for f in ok)
 
 
 # --- replay reproduces the expected outputs ------------------------------------------------
@@ -123,10 +144,9 @@ def test_normalise_rounds_by_unit() -> None:
 @pytest.mark.parametrize("scene", SCENES)
 def test_replay_reproduces_the_golden_output(scene: str, method: str, fusion: str,
                                              tmp_path: Path) -> None:
-    got = mg.replay_normalised(_log(scene), method, fusion, tmp_path)
-    assert got == _expected(scene, method, fusion)
-    text = (mg.GOLDEN_DIR / mg.expected_name(scene, method, fusion)).read_text(encoding="ascii")
-    assert mg.dumps(got) == text
+    text = mg.replay_text(_log(scene), method, fusion, tmp_path)
+    assert json.loads(text) == _expected(scene, method, fusion)  # every field, exactly
+    assert text == _expected_text(scene, method, fusion)  # and the same bytes
 
 
 @pytest.mark.parametrize(("method", "fusion"), [("paper", "mean"), ("corrected", "weighted")])
@@ -143,8 +163,8 @@ def test_results_file_is_byte_identical_across_runs_and_threads(
                                           progress=False))
         outputs.append(out.read_bytes())
     assert all(o == outputs[0] for o in outputs[1:])
-    doc = json.loads(outputs[0])
-    assert mg.normalise(doc) == _expected(scene, method, fusion)
+    assert json.loads(outputs[0]) == _expected(scene, method, fusion)
+    assert outputs[0].decode("ascii") == _expected_text(scene, method, fusion)
 
 
 @pytest.mark.parametrize(("scene", "method", "fusion"),
@@ -182,7 +202,7 @@ def test_rrd_holds_the_golden_scene(scene: str, method: str, fusion: str,
     assert set(fused) == set(want_fused)
     for step, ((x, y, _z),) in fused.items():
         assert (x, y) == pytest.approx((want_fused[step]["x_m"], want_fused[step]["y_m"]),
-                                       abs=10 ** -mg.DECIMALS["m"])
+                                       abs=mg.TOLERANCES["rrd_position_m"])
     for robot in golden["log"]["robots"]:
         frames = {f["frame"]: f for f in golden["frames"] if f["robot"] == robot}
         assert f"/robots/{robot}/camera/image" in entities
@@ -203,7 +223,7 @@ def test_rrd_holds_the_golden_scene(scene: str, method: str, fusion: str,
         assert set(points) == set(estimated)
         for i, ((x, y, _z),) in points.items():
             assert (x, y) == pytest.approx((estimated[i]["x_m"], estimated[i]["y_m"]),
-                                           abs=10 ** -mg.DECIMALS["m"])
+                                           abs=mg.TOLERANCES["rrd_position_m"])
 
 
 # --- independent readers -------------------------------------------------------------------
@@ -264,7 +284,7 @@ def test_rerecorded_scene_detects_within_tolerance(scene: str, tmp_path: Path,
     summary = record(log, renderer="auto", **mg.SCENES[scene])
     same = summary.renderer == manifest["renderer"]
     tol = mg.TOLERANCES["detection_same_renderer_px" if same else "detection_other_renderer_px"]
-    got = mg.replay_normalised(log, "corrected", "weighted", tmp_path)
+    got = mg.replay_results(log, "corrected", "weighted", tmp_path)
     want = _expected(scene, "corrected", "weighted")
     assert [(f["robot"], f["stamp_ns"], f["status"]) for f in got["frames"]] == [
         (f["robot"], f["stamp_ns"], f["status"]) for f in want["frames"]]

@@ -25,13 +25,13 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from dsp import contract as c
 from estimator.camera import CAMERA_MODELS, make_camera
-from recorder import contract as c
 from recorder.errors import OutputExistsError, RecorderError, UnknownScenarioError, UsageError
 from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
 from recorder.scenarios import SCENARIOS, Scenario, make_scenario, scenario_from_path
 from recorder.world import PHYSICS_HZ, World, field_spec
-from recorder.writer import LogWriter, json_text
+from recorder.writer import LogWriter
 
 __all__ = ["IMAGE_FORMATS", "RecordSummary", "RecordingInterrupted", "record"]
 
@@ -195,9 +195,9 @@ def record(
                 "face_px": face_px, "physics_hz": PHYSICS_HZ,
             }
             writer.metadata(c.SCENARIO_METADATA, {
-                "name": name, "seed": str(seed), "params": json_text(params)})
+                "name": name, "seed": str(seed), "params": c.json_text(params)})
             writer.metadata(c.CAMERAS_METADATA, {
-                tr.name: json_text(cam_model.to_dict()) for tr in sc.robots})
+                tr.name: c.json_text(cam_model.to_dict()) for tr in sc.robots})
             writer.metadata(c.RECORDER_METADATA, {
                 "renderer": world.renderer,
                 "dual_sight": _version("dual-sight"),

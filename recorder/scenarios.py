@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from recorder.contract import robot_name
+from dsp.contract import robot_name
 from recorder.errors import UnknownScenarioError, UsageError
 from recorder.field import field_spec
 

@@ -131,7 +131,6 @@ class World:
             self.close()
             raise
         self._robots: dict[str, int] = {}
-        self._parked: set[int] = set()
 
     # --- setup -------------------------------------------------------------------------------
     def _setup_renderer(self, renderer: str) -> str:
@@ -348,7 +347,3 @@ class World:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-
-def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation by yaw about z."""
-    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))

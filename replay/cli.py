@@ -15,7 +15,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from recorder import contract
+from dsp import contract
 from replay.errors import ReplayError
 from replay.runner import METHODS, ReplayOptions, ReplaySummary, RerunTarget, replay
 

@@ -26,7 +26,7 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 
-from recorder import contract
+from dsp import contract
 from replay.errors import (
     CalibrationError,
     EstimatorUnavailableError,
@@ -230,7 +230,7 @@ def _make_estimation(options: ReplayOptions, reader: LogReader) -> _Estimation:
     centres: dict[str, tuple[float, float]] = {}
     calibrations: dict[str, Any] = {}
     camera_models: dict[str, Any] = {}
-    cameras = reader.camera_metadata()
+    cameras = reader.info.cameras.by_robot()
     for robot in reader.info.robots:
         centres[robot] = DEFAULT_CENTRE_PX
         calibrations[robot] = cal.PAPER_CALIBRATION
@@ -389,7 +389,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None) -> ReplaySumm
                 from replay.rerun_sink import RerunSink
 
                 rerun_sink = RerunSink(options.rerun, info=info, digest=digest,
-                                       options=options, field=reader.scenario_metadata(),
+                                       options=options,
                                        centres=est.centres, force=options.force)
                 rerun_sink.open()
             stats = _run(reader, info, est, options, tol_ns, window_ns, lookahead_ns,

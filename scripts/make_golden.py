@@ -208,7 +208,7 @@ def topic_counts(log: Path) -> dict[str, int]:
 def _recorder_metadata(log: Path) -> dict[str, str]:
     from mcap.reader import make_reader
 
-    from recorder import contract
+    from dsp import contract
 
     with open(log, "rb") as f:
         for m in make_reader(f).iter_metadata():

@@ -23,7 +23,7 @@ import numpy as np
 from mcap.writer import CompressionType
 from mcap_ros2.writer import Writer
 
-from recorder import contract
+from dsp import contract
 
 K_M_PER_PX = 0.0163
 B_M = 0.2786

@@ -16,8 +16,8 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from dsp import contract as c
 from estimator.camera import camera_from_dict, make_camera
-from recorder import contract as c
 from recorder.cli import main
 from recorder.errors import OutputExistsError, UnknownScenarioError, UsageError
 from recorder.record import RecordingInterrupted, RecordSummary, record

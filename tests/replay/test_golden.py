@@ -19,7 +19,7 @@ from typing import Any
 import cv2
 import pytest
 
-from recorder import contract as c
+from dsp import contract as c
 from replay.runner import ReplayOptions, RerunTarget, replay
 
 ROOT = Path(__file__).resolve().parents[2]

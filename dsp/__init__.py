@@ -1,0 +1,1 @@
+"""What recorder and replay share: the log contract, the field, errors, CLI plumbing."""

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from dataclasses import field as dc_field
-from typing import Any
+from typing import Any, ClassVar
 
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
 
@@ -305,24 +305,21 @@ class RecordingMetadata:
     face_px: int
     physics_hz: int
 
-    _FLOATS = ("rate_hz", "pose_rate_hz", "pose_noise_m", "yaw_noise_deg")
-    _INTS = ("frames", "face_px", "physics_hz")
-    _STRS = ("camera", "image_format")
+    _FIELDS: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
+        "rate_hz": _float, "pose_rate_hz": _float, "pose_noise_m": _float,
+        "yaw_noise_deg": _float, "frames": _int, "face_px": _int, "physics_hz": _int,
+        "camera": _str, "image_format": _str,
+    }
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object written as ``params["recording"]``."""
-        out: dict[str, Any] = {k: float(getattr(self, k)) for k in self._FLOATS}
-        out.update({k: int(getattr(self, k)) for k in self._INTS})
-        out.update({k: str(getattr(self, k)) for k in self._STRS})
-        return out
+        return {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
 
     @classmethod
     def from_json(cls, obj: Mapping[str, Any], record: str = "recording") -> RecordingMetadata:
         """Parse ``params["recording"]``; raises :class:`MetadataError` naming what is wrong."""
-        values: dict[str, Any] = {k: _float(record, k, _get(record, obj, k)) for k in cls._FLOATS}
-        values.update({k: _int(record, k, _get(record, obj, k)) for k in cls._INTS})
-        values.update({k: _str(record, k, _get(record, obj, k)) for k in cls._STRS})
-        return cls(**values)
+        return cls(**{k: parse(record, k, _get(record, obj, k))
+                      for k, parse in cls._FIELDS.items()})
 
 
 @dataclass(frozen=True)
@@ -348,6 +345,8 @@ class ScenarioMetadata:
         clash = {"field", "recording"} & set(self.scene)
         if clash:
             raise MetadataError(f"{SCENARIO_METADATA}: scene repeats {sorted(clash)}")
+        # JSON values only (tuples become lists): a record equals its own round trip
+        object.__setattr__(self, "scene", json.loads(json_text(self.scene)))
 
     @property
     def field(self) -> FieldSpec:

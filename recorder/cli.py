@@ -64,12 +64,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from recorder.omni import DEFAULT_FACE_PX
-    from recorder.record import RecordingInterrupted, record
+    from recorder.record import RecordingInterrupted, RecordOptions, record
 
     try:
 
-        summary = record(
-            args.output,
+        summary = record(args.output, RecordOptions(
             scenario=args.scenario,
             seed=args.seed,
             duration_s=args.duration,
@@ -86,7 +85,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             renderer=args.renderer,
             force=args.force,
             progress=sys.stderr.isatty(),
-        )
+        ))
     except RecordingInterrupted as err:
         print(f"dsp-record: {err}", file=sys.stderr)
         return err.exit_code

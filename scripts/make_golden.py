@@ -229,7 +229,7 @@ def targets() -> list[Path]:
 def generate(force: bool = False) -> dict[str, Any]:
     """Record every scene, replay every configuration, write logs, expected files and the
     manifest into GOLDEN_DIR. Refuses to overwrite existing goldens unless ``force``."""
-    from recorder.record import record
+    from recorder.record import RecordOptions, record
 
     existing = [p for p in targets() if p.exists()]
     if existing and not force:
@@ -253,7 +253,7 @@ def generate(force: bool = False) -> dict[str, Any]:
         versions: dict[str, str] = {}
         for scene, options in SCENES.items():
             log = work / log_name(scene)
-            summary = record(log, renderer=RENDERER, **options)
+            summary = record(log, RecordOptions(renderer=RENDERER, **options))
             if summary.renderer != RENDERER:  # pragma: no cover - record() raises first
                 raise RuntimeError(f"{scene} was rendered with {summary.renderer}")
             print(f"{scene}: {summary.frames} frames, {log.stat().st_size} bytes", flush=True)

@@ -65,11 +65,11 @@ def test_a_22x14_log_is_drawn_22x14_in_rerun(tmp_path: Path) -> None:
     """Recorded with --field 22x14, replayed with --save: the field view spans 22 x 14 m."""
     from rerun.chunk import RrdReader
 
-    from recorder.record import record
+    from recorder.record import RecordOptions, record
     from replay import ReplayOptions, RerunTarget, replay
 
     log = tmp_path / "scenario1.mcap"
-    record(log, frames=1, field="22x14", face_px=256)
+    record(log, RecordOptions(frames=1, field="22x14", face_px=256))
     rrd = tmp_path / "x.rrd"
     replay(log, ReplayOptions(rerun=RerunTarget("save", str(rrd)), progress=False))
     strips = []

@@ -68,9 +68,9 @@ def main() -> int:
         for name, secs in (("short", args.seconds), (f"{args.factor}x", long_s)):
             log = d / f"{name}.mcap"
             if args.recorded:
-                from recorder.record import record
+                from recorder.record import RecordOptions, record
 
-                record(log, scenario="rolling", duration_s=secs)
+                record(log, RecordOptions(scenario="rolling", duration_s=secs))
             else:
                 write_log(log, duration_s=secs)
             r = measure(log, d)

@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 from importlib import metadata
 from typing import IO, Any
 
+from dsp.contract import RENDERERS
 from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError
 
 __all__ = [
@@ -41,7 +42,6 @@ __all__ = [
 DISTRIBUTION = "dual-sight"
 """The installed distribution whose version ``--version`` prints."""
 
-RENDERERS = ("auto", "egl", "tiny")
 """pybullet renderers: auto = EGL when it loads, else TinyRenderer (env DSP_RENDERER overrides)."""
 
 

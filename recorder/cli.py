@@ -61,10 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     from recorder.omni import DEFAULT_FACE_PX
-    from recorder.record import record
+    from recorder.record import RecordOptions, record
 
-    s = record(
-        args.output,
+    s = record(args.output, RecordOptions(
         scenario=args.scenario,
         seed=args.seed,
         duration_s=args.duration,
@@ -81,7 +80,7 @@ def _main(argv: Sequence[str] | None) -> int:
         renderer=args.renderer,
         force=args.force,
         progress=progress_enabled(args),
-    )
+    ))
     echo(args,
          f"{s.path}: {s.scenario} seed {s.seed}, {s.frames} frames x {s.robots} robots "
          f"({s.camera}, {s.image_format}) at {s.rate_hz:g} Hz, "

@@ -6,6 +6,9 @@ a pose at any image stamp). Physics steps at 240 Hz in between. Images are rende
 each robot's true pose; ``/robotN/pose`` and ``/tf`` carry what the robot believes (the
 truth plus optional Gaussian noise); ``/ground_truth/...`` carry the truth.
 
+:func:`record` resolves a :class:`RecordOptions` against the scenario, writes the metadata
+records (:func:`log_metadata`) and runs the frame loop (:class:`_Simulation`).
+
 The log is written to a hidden temporary name in the output's folder and renamed when done.
 On Ctrl-C the MCAP is finished (so it is readable), kept as ``<name>.partial.mcap`` and
 ``RecordingInterrupted`` says where.
@@ -17,24 +20,34 @@ import contextlib
 import os
 import platform
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 from tqdm import tqdm
 
+from dsp import contract as c
 from dsp.errors import OutputExistsError, UsageError
-from estimator.camera import CAMERA_MODELS, make_camera
-from recorder import contract as c
+from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
+from recorder.field import field_spec
 from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
 from recorder.scenarios import SCENARIOS, Scenario, make_scenario, scenario_from_path
-from recorder.world import PHYSICS_HZ, World, field_spec
-from recorder.writer import LogWriter, json_text
+from recorder.world import PHYSICS_HZ, World
+from recorder.writer import LogWriter
 
-__all__ = ["IMAGE_FORMATS", "RecordSummary", "RecordingInterrupted", "record"]
+__all__ = [
+    "IMAGE_FORMATS",
+    "RecordOptions",
+    "RecordSummary",
+    "RecordingInterrupted",
+    "log_metadata",
+    "record",
+]
 
 IMAGE_FORMATS = ("png", "jpeg")
 _NS = 1_000_000_000
@@ -51,6 +64,61 @@ class RecordingInterrupted(RecorderError):
         )
         self.partial_path = partial_path
         self.frames = frames
+
+
+@dataclass(frozen=True)
+class RecordOptions:
+    """What to record and how; checked when made (``UsageError`` names the bad value).
+
+    ``duration_s`` or ``frames`` (default: the scenario's, 1 s for static scenes) at
+    ``rate_hz`` camera frames per second (default: the scenario's, 5 Hz for static scenes).
+    ``pose_noise_m`` / ``yaw_noise_deg``: standard deviations of the believed pose's noise.
+    ``renderer``: "auto" (EGL if it loads, else TinyRenderer; env DSP_RENDERER overrides),
+    "egl" or "tiny". ``scenario`` None: the one the output's file name names.
+    """
+
+    scenario: str | None = None
+    seed: int = 0
+    duration_s: float | None = None
+    frames: int | None = None
+    rate_hz: float | None = None
+    camera: str = "ideal"
+    image_format: str = "png"
+    jpeg_quality: int = 90
+    pose_noise_m: float = 0.0
+    yaw_noise_deg: float = 0.0
+    robots: int | None = None
+    field: str = "18x12"
+    face_px: int = DEFAULT_FACE_PX
+    renderer: str = "auto"
+    force: bool = False
+    progress: bool = False
+
+    def __post_init__(self) -> None:
+        if self.camera not in CAMERA_MODELS:
+            raise UsageError(
+                f"unknown camera {self.camera!r}; choose one of {', '.join(CAMERA_MODELS)}")
+        if self.image_format not in IMAGE_FORMATS:
+            raise UsageError(f"unknown image format {self.image_format!r}; choose png or jpeg")
+        if not 1 <= self.jpeg_quality <= 100:
+            raise UsageError(f"JPEG quality must be 1..100, got {self.jpeg_quality}")
+        if self.pose_noise_m < 0 or self.yaw_noise_deg < 0:
+            raise UsageError("pose noise must be >= 0")
+        if self.face_px < 256:
+            raise UsageError(
+                f"--face-px must be >= 256 (smaller loses far balls), got {self.face_px}")
+        field_spec(self.field)
+        if self.renderer not in c.RENDERERS:
+            raise UsageError(
+                f"unknown renderer {self.renderer!r}; choose one of {', '.join(c.RENDERERS)}")
+        if self.frames is not None and self.duration_s is not None:
+            raise UsageError("give --frames or --duration, not both")
+        if self.frames is not None and self.frames < 1:
+            raise UsageError(f"--frames must be >= 1, got {self.frames}")
+        if self.duration_s is not None and not self.duration_s > 0:
+            raise UsageError(f"--duration must be > 0 s, got {self.duration_s}")
+        if self.rate_hz is not None and not 0 < self.rate_hz <= 1000:
+            raise UsageError(f"--rate must be in (0, 1000] Hz, got {self.rate_hz}")
 
 
 @dataclass(frozen=True)
@@ -71,6 +139,19 @@ class RecordSummary:
     file_size_bytes: int
     renderer: str
     wall_time_s: float
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """Options resolved against the scenario: what the frame loop runs."""
+
+    scenario: Scenario
+    rate_hz: float
+    frames: int
+
+    @property
+    def pose_period_ns(self) -> int:
+        return max(1, round(_NS / self.rate_hz / 2))  # poses at twice the camera rate
 
 
 def _version(dist: str) -> str:
@@ -94,18 +175,50 @@ def _resolve_scenario(path: Path, scenario: str | None) -> str:
     return name
 
 
-def _frame_count(sc: Scenario, rate_hz: float, duration_s: float | None,
-                 frames: int | None) -> int:
-    if frames is not None and duration_s is not None:
-        raise UsageError("give --frames or --duration, not both")
-    if frames is not None:
-        if frames < 1:
-            raise UsageError(f"--frames must be >= 1, got {frames}")
-        return frames
-    dur = sc.default_duration_s if duration_s is None else duration_s
-    if not dur > 0:
-        raise UsageError(f"--duration must be > 0 s, got {dur}")
-    return max(1, round(dur * rate_hz))
+def _plan(path: Path, options: RecordOptions) -> _Plan:
+    """The scenario, rate and frame count; refuses a missing folder or an existing log."""
+    name = _resolve_scenario(path, options.scenario)
+    sc = make_scenario(name, options.seed, robots=options.robots, field=options.field)
+    rate = sc.default_rate_hz if options.rate_hz is None else options.rate_hz
+    if options.frames is not None:
+        frames = options.frames
+    else:
+        duration = sc.default_duration_s if options.duration_s is None else options.duration_s
+        frames = max(1, round(duration * rate))
+    if not path.parent.is_dir():
+        raise UsageError(f"folder {str(path.parent)!r} does not exist; create it first")
+    if path.exists() and not options.force:
+        raise OutputExistsError(path)
+    return _Plan(sc, rate, frames)
+
+
+def log_metadata(
+    sc: Scenario, options: RecordOptions, *, rate_hz: float, frames: int, renderer: str,
+    camera: CameraModel,
+) -> tuple[c.ScenarioMetadata, c.CamerasMetadata, c.RecorderMetadata]:
+    """The log's metadata records: the scenario (with how it is recorded), each robot's
+    camera model and the recorder (renderer, physics, package versions)."""
+    scene = sc.params()
+    field_name = scene.pop("field")
+    recording = c.RecordingMetadata(
+        rate_hz=rate_hz, pose_rate_hz=2 * rate_hz, frames=frames, camera=options.camera,
+        image_format=options.image_format, pose_noise_m=options.pose_noise_m,
+        yaw_noise_deg=options.yaw_noise_deg, face_px=options.face_px, physics_hz=PHYSICS_HZ,
+    )
+    scenario = c.ScenarioMetadata(sc.name, sc.seed, field_name, recording, scene)
+    cameras = c.CamerasMetadata(tuple(c.CameraMetadata(tr.name, camera.to_dict())
+                                      for tr in sc.robots))
+    versions = {
+        "dual_sight": _version("dual-sight"),
+        "pybullet": _version("pybullet"),
+        "numpy": _version("numpy"),
+        "opencv": cv2.__version__,
+        "mcap": _version("mcap"),
+        "mcap_ros2": _version("mcap-ros2-support"),
+        "python": platform.python_version(),
+    }
+    recorder = c.RecorderMetadata(renderer, PHYSICS_HZ, options.face_px, versions)
+    return scenario, cameras, recorder
 
 
 def _encode(img: np.ndarray, fmt: str, jpeg_quality: int) -> bytes:
@@ -118,167 +231,140 @@ def _encode(img: np.ndarray, fmt: str, jpeg_quality: int) -> bytes:
     return buf.tobytes()
 
 
-def record(
-    path: str | Path,
-    *,
-    scenario: str | None = None,
-    seed: int = 0,
-    duration_s: float | None = None,
-    frames: int | None = None,
-    rate_hz: float | None = None,
-    camera: str = "ideal",
-    image_format: str = "png",
-    jpeg_quality: int = 90,
-    pose_noise_m: float = 0.0,
-    yaw_noise_deg: float = 0.0,
-    robots: int | None = None,
-    field: str = "18x12",
-    face_px: int = DEFAULT_FACE_PX,
-    renderer: str = "auto",
-    force: bool = False,
-    progress: bool = False,
-) -> RecordSummary:
-    """Record ``scenario`` (or the one the file name names) to the MCAP log ``path``.
+class _Simulation:
+    """The frame loop: steps the world and writes poses, /tf, truth and images."""
 
-    ``duration_s`` or ``frames`` (default: the scenario's, 1 s for static scenes) at
-    ``rate_hz`` camera frames per second (default: the scenario's, 5 Hz for static scenes).
-    ``pose_noise_m`` / ``yaw_noise_deg``: standard deviations of the believed pose's noise.
-    ``renderer``: "auto" (EGL if it loads, else TinyRenderer; env DSP_RENDERER overrides),
-    "egl" or "tiny". Raises ``RecorderError`` subclasses for every known failure.
-    """
-    t_wall = time.perf_counter()
-    path = Path(path)
-    name = _resolve_scenario(path, scenario)
-    if camera not in CAMERA_MODELS:
-        raise UsageError(f"unknown camera {camera!r}; choose one of {', '.join(CAMERA_MODELS)}")
-    if image_format not in IMAGE_FORMATS:
-        raise UsageError(f"unknown image format {image_format!r}; choose png or jpeg")
-    if not 1 <= jpeg_quality <= 100:
-        raise UsageError(f"JPEG quality must be 1..100, got {jpeg_quality}")
-    if pose_noise_m < 0 or yaw_noise_deg < 0:
-        raise UsageError("pose noise must be >= 0")
-    if face_px < 256:
-        raise UsageError(f"--face-px must be >= 256 (smaller loses far balls), got {face_px}")
-    sc = make_scenario(name, seed, robots=robots, field=field)
-    rate = sc.default_rate_hz if rate_hz is None else rate_hz
-    if not 0 < rate <= 1000:
-        raise UsageError(f"--rate must be in (0, 1000] Hz, got {rate}")
-    n_frames = _frame_count(sc, rate, duration_s, frames)
-    if not path.parent.is_dir():
-        raise UsageError(f"folder {str(path.parent)!r} does not exist; create it first")
-    if path.exists() and not force:
-        raise OutputExistsError(path)
-
-    pose_period_ns = max(1, round(_NS / rate / 2))  # poses at twice the camera rate
-    cam_model = make_camera(camera)
-    noise_rng = np.random.default_rng([seed, 1])
-    yaw_sigma = np.deg2rad(yaw_noise_deg)
-
-    tmp = path.with_name(f".{path.name}.tmp")
-    with World(field_spec(field), renderer=renderer) as world:
+    def __init__(self, world: World, plan: _Plan, options: RecordOptions,
+                 camera: CameraModel) -> None:
+        self.world = world
+        self.plan = plan
+        self.options = options
+        sc = plan.scenario
         for tr in (*sc.robots, *sc.opponents):
             world.add_robot(tr.name, opponent=tr.opponent)
             world.set_robot_pose(tr.name, *tr.pose_at(0.0))
         world.set_ball(*sc.ball_xy_m, *sc.ball_velocity_mps)
-        moving = [tr for tr in (*sc.robots, *sc.opponents) if tr.moving]
-        omni = OmniRenderer(cam_model, face_px=face_px, renderer=world.renderer)
+        self.moving = [tr for tr in (*sc.robots, *sc.opponents) if tr.moving]
+        self.omni = OmniRenderer(camera, face_px=options.face_px, renderer=world.renderer)
+        self.noise_rng = np.random.default_rng([options.seed, 1])
+        self.steps_done = 0
+        self.frames_done = 0
 
-        frames_done = 0
-        steps_done = 0
-        stream = open(tmp, "wb")
+    def run(self, writer: LogWriter, bar: tqdm[Any]) -> None:
+        """Two pose ticks per camera frame; images on the even ones."""
+        for k in range(2 * self.plan.frames):
+            t_ns = k * self.plan.pose_period_ns
+            self._advance_to(t_ns)
+            truth = {tr.name: tr.pose_at(t_ns / _NS) for tr in self.plan.scenario.robots}
+            self._write_poses(writer, t_ns, truth)
+            if k % 2 == 0:
+                for robot, (x, y, yaw) in truth.items():
+                    img = self.omni.render(self.world, robot, x, y, yaw)
+                    fmt = self.options.image_format
+                    writer.write_image(robot, t_ns, _encode(img, fmt, self.options.jpeg_quality),
+                                       fmt)
+                self.frames_done += 1
+                bar.update(1)
+
+    def _advance_to(self, t_ns: int) -> None:
+        """Physics steps (moving the kinematic robots) up to the one nearest ``t_ns``."""
+        target = (t_ns * PHYSICS_HZ + _NS // 2) // _NS
+        while self.steps_done < target:
+            self.steps_done += 1
+            for tr in self.moving:
+                self.world.set_robot_pose(tr.name, *tr.pose_at(self.steps_done / PHYSICS_HZ))
+            self.world.step()
+
+    def _believed(self, truth: dict[str, tuple[float, float, float]]
+                  ) -> dict[str, tuple[float, float, float]]:
+        """The truth plus the options' Gaussian noise (yaw wrapped to (-pi, pi])."""
+        yaw_sigma = np.deg2rad(self.options.yaw_noise_deg)
+        believed = {}
+        for robot, (x, y, yaw) in truth.items():
+            dx, dy = self.noise_rng.normal(0.0, 1.0, 2) * self.options.pose_noise_m
+            dyaw = float(self.noise_rng.normal(0.0, 1.0)) * yaw_sigma
+            yaw_b = float(np.arctan2(np.sin(yaw + dyaw), np.cos(yaw + dyaw)))
+            believed[robot] = (x + float(dx), y + float(dy), yaw_b)
+        return believed
+
+    def _write_poses(self, writer: LogWriter, t_ns: int,
+                     truth: dict[str, tuple[float, float, float]]) -> None:
+        believed = self._believed(truth)
+        for robot, (x, y, yaw) in truth.items():
+            writer.write_pose(c.topic_for(c.GT_POSE_TOPIC, robot), t_ns, x, y, 0.0, yaw)
+        for robot, (x, y, yaw) in believed.items():
+            writer.write_pose(c.topic_for(c.POSE_TOPIC, robot), t_ns, x, y, 0.0, yaw)
+        writer.write_tf(t_ns, believed)
+        bx, by, bz = self.world.ball_position()
+        writer.write_pose(c.GT_BALL_TOPIC, t_ns, bx, by, bz, 0.0)
+
+
+def _write_log(path: Path, fill: Callable[[LogWriter], None],
+               interrupted: Callable[[Path], Exception]) -> int:
+    """Write the log through ``fill`` to a hidden temporary file beside ``path`` and rename it
+    into place; return the message count. On Ctrl-C the log is finished (readable), kept as
+    ``<name>.partial.mcap`` and ``interrupted(partial)`` raised. On any other failure the
+    temporary file is removed."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    stream = open(tmp, "wb")
+    try:
+        writer = LogWriter(stream)
         try:
-            writer = LogWriter(stream)
-            params = sc.params()
-            params["recording"] = {
-                "rate_hz": rate, "pose_rate_hz": 2 * rate, "frames": n_frames,
-                "camera": camera, "image_format": image_format,
-                "pose_noise_m": pose_noise_m, "yaw_noise_deg": yaw_noise_deg,
-                "face_px": face_px, "physics_hz": PHYSICS_HZ,
-            }
-            writer.metadata(c.SCENARIO_METADATA, {
-                "name": name, "seed": str(seed), "params": json_text(params)})
-            writer.metadata(c.CAMERAS_METADATA, {
-                tr.name: json_text(cam_model.to_dict()) for tr in sc.robots})
-            writer.metadata(c.RECORDER_METADATA, {
-                "renderer": world.renderer,
-                "dual_sight": _version("dual-sight"),
-                "pybullet": _version("pybullet"),
-                "numpy": _version("numpy"),
-                "opencv": cv2.__version__,
-                "mcap": _version("mcap"),
-                "mcap_ros2": _version("mcap-ros2-support"),
-                "python": platform.python_version(),
-                "physics_hz": str(PHYSICS_HZ),
-                "face_px": str(face_px),
-            })
-            bar = tqdm(total=n_frames, unit="frame", disable=not progress, leave=False,
-                       desc=path.name)
-            try:
-                for k in range(2 * n_frames):
-                    t_ns = k * pose_period_ns
-                    target = (t_ns * PHYSICS_HZ + _NS // 2) // _NS
-                    while steps_done < target:
-                        steps_done += 1
-                        for tr in moving:
-                            world.set_robot_pose(tr.name, *tr.pose_at(steps_done / PHYSICS_HZ))
-                        world.step()
-                    t_s = t_ns / _NS
-                    truth = {tr.name: tr.pose_at(t_s) for tr in sc.robots}
-                    believed = {}
-                    for robot, (x, y, yaw) in truth.items():
-                        dx, dy = noise_rng.normal(0.0, 1.0, 2) * pose_noise_m
-                        dyaw = float(noise_rng.normal(0.0, 1.0)) * yaw_sigma
-                        yaw_b = float(np.arctan2(np.sin(yaw + dyaw), np.cos(yaw + dyaw)))
-                        believed[robot] = (x + float(dx), y + float(dy), yaw_b)
-                    for robot, (x, y, yaw) in truth.items():
-                        writer.write_pose(c.topic_for(c.GT_POSE_TOPIC, robot), t_ns, x, y, 0.0,
-                                          yaw)
-                    for robot, (x, y, yaw) in believed.items():
-                        writer.write_pose(c.topic_for(c.POSE_TOPIC, robot), t_ns, x, y, 0.0,
-                                          yaw)
-                    writer.write_tf(t_ns, believed)
-                    bx, by, bz = world.ball_position()
-                    writer.write_pose(c.GT_BALL_TOPIC, t_ns, bx, by, bz, 0.0)
-                    if k % 2 == 0:
-                        for robot, (x, y, yaw) in truth.items():
-                            img = omni.render(world, robot, x, y, yaw)
-                            writer.write_image(robot, t_ns,
-                                               _encode(img, image_format, jpeg_quality),
-                                               image_format)
-                        frames_done += 1
-                        bar.update(1)
-            except KeyboardInterrupt:
-                bar.close()
-                writer.finish()
-                stream.close()
-                partial = path.with_name(
-                    (path.name[:-5] if path.name.endswith(".mcap") else path.name)
-                    + ".partial.mcap"
-                )
-                os.replace(tmp, partial)
-                raise RecordingInterrupted(partial, frames_done) from None
-            bar.close()
+            fill(writer)
+        except KeyboardInterrupt:
             writer.finish()
-            messages = writer.messages
             stream.close()
-            os.replace(tmp, path)
-        finally:
-            if not stream.closed:
-                stream.close()
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-        used_renderer = world.renderer
+            stem = path.name[:-5] if path.name.endswith(".mcap") else path.name
+            partial = path.with_name(stem + ".partial.mcap")
+            os.replace(tmp, partial)
+            raise interrupted(partial) from None
+        writer.finish()
+        stream.close()
+        os.replace(tmp, path)
+        return writer.messages
+    finally:
+        if not stream.closed:
+            stream.close()
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
 
+
+def record(path: str | Path, options: RecordOptions) -> RecordSummary:
+    """Record ``options.scenario`` (or the one the file name names) to the MCAP log ``path``.
+
+    Raises ``RecorderError`` subclasses for every known failure.
+    """
+    t_wall = time.perf_counter()
+    path = Path(path)
+    plan = _plan(path, options)
+    camera = make_camera(options.camera)
+    with World(field_spec(options.field), renderer=options.renderer) as world:
+        sim = _Simulation(world, plan, options, camera)
+        scenario, cameras, recorder = log_metadata(
+            plan.scenario, options, rate_hz=plan.rate_hz, frames=plan.frames,
+            renderer=world.renderer, camera=camera)
+
+        def fill(writer: LogWriter) -> None:
+            writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())
+            writer.metadata(c.CAMERAS_METADATA, cameras.to_metadata())
+            writer.metadata(c.RECORDER_METADATA, recorder.to_metadata())
+            with tqdm(total=plan.frames, unit="frame", disable=not options.progress,
+                      leave=False, desc=path.name) as bar:
+                sim.run(writer, bar)
+
+        messages = _write_log(path, fill,
+                              lambda partial: RecordingInterrupted(partial, sim.frames_done))
+        used_renderer = world.renderer
     return RecordSummary(
         path=path,
-        scenario=name,
-        seed=seed,
-        frames=n_frames,
-        robots=len(sc.robots),
-        camera=camera,
-        image_format=image_format,
-        rate_hz=rate,
-        sim_duration_ns=(2 * n_frames - 1) * pose_period_ns,
+        scenario=plan.scenario.name,
+        seed=options.seed,
+        frames=plan.frames,
+        robots=len(plan.scenario.robots),
+        camera=options.camera,
+        image_format=options.image_format,
+        rate_hz=plan.rate_hz,
+        sim_duration_ns=(2 * plan.frames - 1) * plan.pose_period_ns,
         messages=messages,
         file_size_bytes=path.stat().st_size,
         renderer=used_renderer,

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from dsp.contract import robot_name
 from dsp.errors import UsageError
-from recorder.contract import robot_name
 from recorder.errors import UnknownScenarioError
 from recorder.field import field_spec
 

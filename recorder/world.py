@@ -20,6 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from dsp.contract import RENDERERS
 from dsp.errors import UsageError
 from recorder.errors import RendererError
 from recorder.field import FIELDS, FieldSpec, field_spec, field_texture
@@ -132,14 +133,13 @@ class World:
             self.close()
             raise
         self._robots: dict[str, int] = {}
-        self._parked: set[int] = set()
 
     # --- setup -------------------------------------------------------------------------------
     def _setup_renderer(self, renderer: str) -> str:
         if renderer == "auto":
             renderer = os.environ.get("DSP_RENDERER", "auto").strip().lower() or "auto"
-        if renderer not in ("auto", "egl", "tiny"):
-            raise UsageError(f"unknown renderer {renderer!r}; choose auto, egl or tiny")
+        if renderer not in RENDERERS:
+            raise UsageError(f"unknown renderer {renderer!r}; choose one of {', '.join(RENDERERS)}")
         if renderer == "tiny":
             return "tiny"
         spec = importlib.util.find_spec("eglRenderer")
@@ -349,7 +349,3 @@ class World:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-
-def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation by yaw about z."""
-    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))

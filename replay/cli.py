@@ -15,9 +15,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from dsp import contract
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from estimator.fusion import FUSION_METHODS
-from recorder import contract
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.runner import replay
 from replay.stats import ReplaySummary

@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from dsp import contract
 from dsp.errors import CalibrationError
 from estimator import calibration as cal
 from estimator import camera as cam
@@ -29,7 +30,6 @@ from estimator import corrected, detection, fusion, paper
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.errors import EstimatorError
 from estimator.geometry import RobotPose
-from recorder import contract
 from replay.results import FrameStatus, RobotEstimate
 from replay.sync import PoseMatch
 

@@ -58,10 +58,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _recorder(camera: str, renderer: str) -> Recorder:
-    from recorder.record import record  # lazy: replay alone does not need pybullet
+    from recorder.record import RecordOptions, record  # lazy: replay alone does not need pybullet
 
     def run(path: Path, scenario: str, seed: int) -> None:
-        record(path, scenario=scenario, seed=seed, camera=camera, renderer=renderer)
+        record(path, RecordOptions(scenario=scenario, seed=seed, camera=camera, renderer=renderer))
 
     return run
 

@@ -4,7 +4,7 @@
 - ``/estimate/ball``: geometry_msgs/msg/PoseWithCovarianceStamped, the fused estimate, with
   the 2x2 position covariance in the x/y block of the 6x6 row-major matrix (other entries 0).
 
-Schemas come from ``recorder.contract.MESSAGE_DEFINITIONS``; ``log_time`` = ``publish_time``
+Schemas and messages come from ``dsp.contract``; ``log_time`` = ``publish_time``
 = the estimate's stamp (sim time), never the wall clock. Written to a temporary name and
 renamed on success.
 """
@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 from mcap_ros2.writer import Writer
 
+from dsp import contract
 from dsp.atomic import AtomicFile
-from recorder import contract
 from replay.results import FrameResult, StepResult
 from replay.sink import SinkBase
 
@@ -49,10 +49,7 @@ class McapSink(SinkBase):
         self._writer.write_message(
             contract.topic_for(ROBOT_TOPIC, result.robot),
             self._schemas[contract.POINT_STAMPED],
-            {
-                "header": {"stamp": contract.stamp_from_ns(t), "frame_id": contract.FIELD_FRAME},
-                "point": {"x": float(est.x_m), "y": float(est.y_m), "z": 0.0},
-            },
+            contract.point_stamped(t, est.x_m, est.y_m, 0.0),
             log_time=t,
             publish_time=t,
         )
@@ -62,22 +59,10 @@ class McapSink(SinkBase):
         if fused is None or self._writer is None:
             return
         t = result.stamp_ns
-        cov = [0.0] * 36
-        (cxx, cxy), (cyx, cyy) = fused.covariance
-        cov[0], cov[1], cov[6], cov[7] = float(cxx), float(cxy), float(cyx), float(cyy)
         self._writer.write_message(
             FUSED_TOPIC,
             self._schemas[contract.POSE_WITH_COVARIANCE_STAMPED],
-            {
-                "header": {"stamp": contract.stamp_from_ns(t), "frame_id": contract.FIELD_FRAME},
-                "pose": {
-                    "pose": {
-                        "position": {"x": float(fused.x_m), "y": float(fused.y_m), "z": 0.0},
-                        "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
-                    },
-                    "covariance": cov,
-                },
-            },
+            contract.pose_with_covariance_stamped(t, fused.x_m, fused.y_m, fused.covariance),
             log_time=t,
             publish_time=t,
         )

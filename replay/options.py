@@ -12,9 +12,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from dsp import contract
 from dsp.errors import OutputExistsError, UsageError
 from estimator.fusion import FUSION_METHODS
-from recorder import contract
 
 __all__ = ["DEFAULT_FUSION", "METHODS", "NS", "ReplayOptions", "RerunTarget", "Timing"]
 

@@ -15,7 +15,6 @@ damaged chunks are skipped and counted. :attr:`LogReader.loss` says what was los
 
 from __future__ import annotations
 
-import json
 import os
 import struct
 from collections.abc import Iterator
@@ -29,7 +28,7 @@ from mcap.records import Channel, Chunk, Message, Metadata, Schema
 from mcap.stream_reader import MAGIC_SIZE, StreamReader, breakup_chunk
 from mcap_ros2.decoder import DecoderFactory
 
-from recorder import contract
+from dsp import contract
 from replay.errors import (
     CorruptLogError,
     InputNotFoundError,
@@ -65,8 +64,10 @@ try:  # zstandard is optional in mcap
 except ImportError:  # pragma: no cover
     pass
 
-_IMAGE_SCHEMAS = (contract.COMPRESSED_IMAGE, contract.IMAGE)
-_RAW_ENCODINGS = ("bgr8", "rgb8", "mono8")
+# ... and what a message that decodes to an unexpected shape raises in _convert.
+_DECODE_ERRORS: tuple[type[BaseException], ...] = (
+    *_READ_ERRORS, AttributeError, TypeError, IndexError, KeyError,
+)
 
 
 @dataclass(frozen=True)
@@ -120,8 +121,15 @@ class LogInfo:
     message_count: int | None
     """Messages on the topics replay reads (from the summary), None when unknown."""
     metadata: dict[str, dict[str, str]]
+    """Every metadata record as written: name -> {key: value}."""
     start_ns: int | None
     end_ns: int | None
+    scenario: contract.ScenarioMetadata | None = None
+    """The ``dsp.scenario`` record, parsed; None when the log has none (e.g. a robot's log)."""
+    cameras: contract.CamerasMetadata = field(default_factory=contract.CamerasMetadata)
+    """The ``dsp.cameras`` record, parsed; no cameras when the log has none."""
+    recorder: contract.RecorderMetadata | None = None
+    """The ``dsp.recorder`` record, parsed; None when the log has none."""
 
 
 @dataclass
@@ -333,6 +341,7 @@ class LogReader:
                 for cid, n in self._cat.counts.items()
                 if cid in self._cat.channels and self._cat.channels[cid].topic in self._topic_kind
             )
+        scenario, cameras, recorder = self._parse_metadata()
         return LogInfo(
             path=self.path,
             robots=tuple(image_robots),
@@ -343,7 +352,26 @@ class LogReader:
             metadata=dict(self._cat.metadata),
             start_ns=self._cat.start_ns,
             end_ns=self._cat.end_ns,
+            scenario=scenario,
+            cameras=cameras,
+            recorder=recorder,
         )
+
+    def _parse_metadata(self) -> tuple[contract.ScenarioMetadata | None,
+                                       contract.CamerasMetadata, contract.RecorderMetadata | None]:
+        """The dsp.* metadata records, typed (parse at the boundary): one that is there but
+        unreadable raises :class:`dsp.contract.MetadataError` naming the log."""
+        meta = self._cat.metadata
+        scenario, recorder = (meta.get(contract.SCENARIO_METADATA),
+                              meta.get(contract.RECORDER_METADATA))
+        try:
+            return (
+                None if scenario is None else contract.ScenarioMetadata.from_metadata(scenario),
+                contract.CamerasMetadata.from_metadata(meta.get(contract.CAMERAS_METADATA, {})),
+                None if recorder is None else contract.RecorderMetadata.from_metadata(recorder),
+            )
+        except contract.MetadataError as err:
+            raise contract.MetadataError(f"{self.path}: metadata {err}") from err
 
     # --- streaming -------------------------------------------------------------------------
     def messages(
@@ -366,7 +394,7 @@ class LogReader:
             kind, robot = self._topic_kind[channel.topic]
             try:
                 record = _convert(kind, robot, self._decode(channel, message), message)
-            except (*_READ_ERRORS, AttributeError, TypeError, IndexError, KeyError):
+            except _DECODE_ERRORS:
                 self.undecodable += 1
                 continue
             yield record
@@ -390,30 +418,6 @@ class LogReader:
         if decoder is None:
             raise McapError(f"no decoder for {channel.topic} ({channel.message_encoding})")
         return decoder(message.data)
-
-    def camera_metadata(self) -> dict[str, dict[str, Any]]:
-        """Each robot's camera model dict from the ``dsp.cameras`` metadata ({} if absent)."""
-        raw = self.info.metadata.get(contract.CAMERAS_METADATA, {})
-        out: dict[str, dict[str, Any]] = {}
-        for robot, text in raw.items():
-            try:
-                value = json.loads(text)
-            except ValueError:
-                continue
-            if isinstance(value, dict):
-                out[robot] = value
-        return out
-
-    def scenario_metadata(self) -> dict[str, Any]:
-        """The ``dsp.scenario`` metadata with ``params`` parsed ({} if absent)."""
-        raw = dict(self.info.metadata.get(contract.SCENARIO_METADATA, {}))
-        out: dict[str, Any] = dict(raw)
-        if "params" in raw:
-            try:
-                out["params"] = json.loads(raw["params"])
-            except ValueError:
-                out["params"] = {}
-        return out
 
 
 def _convert(

@@ -39,6 +39,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from dsp.atomic import AtomicFile
+from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
 from replay.options import ReplayOptions, RerunTarget
 from replay.reader import LogInfo
 from replay.results import FrameResult, StepResult
@@ -59,34 +60,9 @@ def recording_id(digest: str, options: dict[str, Any]) -> str:
     return str(uuid.UUID(bytes=hashlib.sha256(text.encode()).digest()[:16], version=4))
 
 
-def field_lines(length_m: float = 18.0, width_m: float = 12.0) -> list[list[tuple[float, float]]]:
-    """MSL field markings as polylines (outer lines, half-way line, centre circle, goal and
-    penalty areas scaled from the 22 x 14 m field's)."""
-    hx, hy = length_m / 2, width_m / 2
-    strips = [
-        [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy)],
-        [(0.0, -hy), (0.0, hy)],
-    ]
-    circle = [(2.0 * math.cos(a), 2.0 * math.sin(a)) for a in np.linspace(0, 2 * math.pi, 49)]
-    strips.append(circle)
-    for sign in (-1.0, 1.0):
-        for depth, half_w in ((0.75, 1.95), (2.25, 3.45)):
-            x0, x1 = sign * hx, sign * (hx - depth)
-            strips.append([(x0, -half_w), (x1, -half_w), (x1, half_w), (x0, half_w)])
-    return strips
-
-
-def _field_size(scenario: dict[str, Any]) -> tuple[float, float]:
-    params = scenario.get("params") if isinstance(scenario, dict) else None
-    if isinstance(params, dict):
-        length = params.get("field_length_m")
-        width = params.get("field_width_m")
-        if isinstance(params.get("field"), dict):
-            length = params["field"].get("length_m", length)
-            width = params["field"].get("width_m", width)
-        if isinstance(length, (int, float)) and isinstance(width, (int, float)):
-            return float(length), float(width)
-    return 18.0, 12.0
+def field_lines(spec: FieldSpec) -> list[list[tuple[float, float]]]:
+    """The field's markings (:mod:`dsp.field`) as polylines for ``/field/lines``."""
+    return polylines(spec)
 
 
 def _ellipse(x: float, y: float, cov: Any, k: float = 2.0, n: int = 48) -> np.ndarray:
@@ -103,13 +79,12 @@ class RerunSink(SinkBase):
     """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
 
     def __init__(self, target: RerunTarget, *, info: LogInfo, digest: str,
-                 options: ReplayOptions, field: dict[str, Any],
-                 centres: Mapping[str, tuple[float, float]]) -> None:
+                 options: ReplayOptions, centres: Mapping[str, tuple[float, float]]) -> None:
         self.target = target
         self._save: AtomicFile | None = None
         self.info = info
         self.centres = centres
-        self.field = _field_size(field)
+        self.field = info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD]
         opts = options.as_dict()
         for key in ("rerun", "out", "out_mcap", "force", "progress"):
             opts.pop(key, None)
@@ -124,7 +99,7 @@ class RerunSink(SinkBase):
                 for r in self.info.robots]
         # straight down from high enough that the whole field and its 1.5 m border fit the
         # (narrow, tall) field panel
-        eye_height_m = 1.35 * (self.field[0] + 3.0)
+        eye_height_m = 1.35 * (self.field.length_m + 2 * self.field.border_m)
         field_view = rrb.Spatial3DView(
             origin="/field", name="field (top-down)",
             eye_controls=rrb.EyeControls3D(position=(0.0, -0.5, eye_height_m),
@@ -160,7 +135,7 @@ class RerunSink(SinkBase):
     def _static(self) -> None:
         rec = self.rec
         rec.log("/field", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        strips = [[(x, y, 0.0) for x, y in s] for s in field_lines(*self.field)]
+        strips = [[(x, y, 0.0) for x, y in s] for s in field_lines(self.field)]
         rec.log("/field/lines", rr.LineStrips3D(strips, colors=[(230, 230, 230)], radii=0.03),
                 static=True)
         for robot in self.info.robots:

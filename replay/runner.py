@@ -83,7 +83,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                 raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, robots=info.robots,
-            camera_metadata=reader.camera_metadata(), source=str(reader.path),
+            camera_metadata=info.cameras.by_robot(), source=str(reader.path),
             calibration_file=options.calibration)
         stats = ReplayStats(info.robots)
         with contextlib.ExitStack() as stack:
@@ -117,7 +117,7 @@ def _open_outputs(stack: contextlib.ExitStack, reader: LogReader, options: Repla
 
         sinks.append(stack.enter_context(RerunSink(
             options.rerun, info=info, digest=digest, options=options,
-            field=reader.scenario_metadata(), centres=estimator.centres)))
+            centres=estimator.centres)))
     return sinks
 
 

@@ -145,7 +145,7 @@ def topic_counts(log: Path) -> dict[str, int]:
 def _recorder_metadata(log: Path) -> dict[str, str]:
     from mcap.reader import make_reader
 
-    from recorder import contract
+    from dsp import contract
 
     with open(log, "rb") as f:
         for m in make_reader(f).iter_metadata():
@@ -190,12 +190,12 @@ def _write_expected(scene: str, log: Path, work: Path) -> dict[str, str]:
 
 def _record_scenes(work: Path, manifest: dict[str, Any]) -> None:
     """Record every scene into ``work`` and fill the manifest's scenes and versions."""
-    from recorder.record import record
+    from recorder.record import RecordOptions, record
 
     versions: dict[str, str] = {}
     for scene, options in SCENES.items():
         log = work / log_name(scene)
-        summary = record(log, renderer=RENDERER, **options)
+        summary = record(log, RecordOptions(renderer=RENDERER, **options))
         if summary.renderer != RENDERER:  # pragma: no cover - record() raises first
             raise RuntimeError(f"{scene} was rendered with {summary.renderer}")
         print(f"{scene}: {summary.frames} frames, {log.stat().st_size} bytes", flush=True)

@@ -23,13 +23,13 @@ import numpy as np
 from mcap.writer import CompressionType
 from mcap_ros2.writer import Writer
 
+from dsp import contract
 from estimator.constants import (
     PAPER_B_M,
     PAPER_CENTRE_PX,
     PAPER_IMAGE_SIZE_PX,
     PAPER_K_M_PER_PX,
 )
-from recorder import contract
 
 K_M_PER_PX = PAPER_K_M_PER_PX
 B_M = PAPER_B_M

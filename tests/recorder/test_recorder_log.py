@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -16,14 +17,14 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from dsp import contract as c
 from dsp.errors import OutputExistsError, UsageError
 from estimator.camera import camera_from_dict, make_camera
-from recorder import contract as c
 from recorder.cli import main
 from recorder.errors import UnknownScenarioError
-from recorder.record import RecordingInterrupted, RecordSummary, record
+from recorder.record import RecordingInterrupted, RecordOptions, RecordSummary, record
 
-SMALL = {"face_px": 256}
+SMALL: dict[str, Any] = {"face_px": 256}
 ROBOTS = ["robot1", "robot2", "robot3"]
 
 
@@ -50,7 +51,7 @@ def read_all(path: Path) -> tuple[dict[str, list[tuple[int, int, object]]], dict
 @pytest.fixture(scope="module")
 def log(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, RecordSummary]:
     path = tmp_path_factory.mktemp("log") / "scenario1.mcap"
-    summary = record(path, frames=2, pose_noise_m=0.05, yaw_noise_deg=2.0, **SMALL)
+    summary = record(path, RecordOptions(frames=2, pose_noise_m=0.05, yaw_noise_deg=2.0, **SMALL))
     return path, summary
 
 
@@ -158,19 +159,20 @@ def test_rerun_reads_it(log: tuple[Path, RecordSummary]) -> None:
 def test_byte_identical(tmp_path: Path, log: tuple[Path, RecordSummary]) -> None:
     path, s = log
     again = tmp_path / "again.mcap"
-    record(again, scenario="scenario1", frames=2, pose_noise_m=0.05, yaw_noise_deg=2.0,
-           renderer=s.renderer, **SMALL)
+    record(again, RecordOptions(scenario="scenario1", frames=2, pose_noise_m=0.05,
+                                yaw_noise_deg=2.0, renderer=s.renderer, **SMALL))
     assert again.read_bytes() == path.read_bytes()
     other = tmp_path / "other.mcap"
-    record(other, scenario="scenario1", seed=1, frames=2, pose_noise_m=0.05,
-           yaw_noise_deg=2.0, renderer=s.renderer, **SMALL)
+    record(other, RecordOptions(scenario="scenario1", seed=1, frames=2, pose_noise_m=0.05,
+                                yaw_noise_deg=2.0, renderer=s.renderer, **SMALL))
     assert other.read_bytes() != path.read_bytes()  # the seed reaches the noise
 
 
 @pytest.mark.parametrize(("camera", "fmt"), [("fisheye", "jpeg"), ("mirror", "png")])
 def test_camera_models_and_formats(tmp_path: Path, camera: str, fmt: str) -> None:
     path = tmp_path / "random.mcap"
-    s = record(path, frames=1, camera=camera, image_format=fmt, robots=2, seed=3, **SMALL)
+    s = record(path, RecordOptions(frames=1, camera=camera, image_format=fmt, robots=2,
+                                    seed=3, **SMALL))
     assert (s.scenario, s.robots) == ("random", 2)
     msgs, meta = read_all(path)
     assert set(msgs) == expected_topics(["robot1", "robot2"])
@@ -185,7 +187,8 @@ def test_camera_models_and_formats(tmp_path: Path, camera: str, fmt: str) -> Non
 
 def test_rolling_ball_rolls_and_robots_drive(tmp_path: Path) -> None:
     path = tmp_path / "rolling.mcap"
-    record(path, frames=3, rate_hz=1.0, **SMALL)  # 2.5 s of sim time, 3 images per robot
+    # 2.5 s of sim time, 3 images per robot
+    record(path, RecordOptions(frames=3, rate_hz=1.0, **SMALL))
     msgs, _ = read_all(path)
     balls = [m.pose.position for _, _, m in msgs["/ground_truth/ball"]]
     assert math.hypot(balls[-1].x - balls[0].x, balls[-1].y - balls[0].y) > 3.0
@@ -198,7 +201,7 @@ def test_refuses_to_overwrite(log: tuple[Path, RecordSummary], capsys: pytest.Ca
     path, _ = log
     before = path.read_bytes()
     with pytest.raises(OutputExistsError, match="--force"):
-        record(path, frames=1, **SMALL)
+        record(path, RecordOptions(frames=1, **SMALL))
     assert main([str(path), "--frames", "1"]) == 3
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "exists" in err and "Traceback" not in err
@@ -218,11 +221,11 @@ def test_unknown_scenario_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixt
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "scenario1, scenario2" in err and "rolling" in err
     with pytest.raises(UnknownScenarioError, match="choose one of"):
-        record(tmp_path / "x.mcap", scenario="scenario9")
+        record(tmp_path / "x.mcap", RecordOptions(scenario="scenario9"))
     with pytest.raises(UsageError, match="exactly 3 robots"):
-        record(tmp_path / "scenario1.mcap", robots=4)
+        record(tmp_path / "scenario1.mcap", RecordOptions(robots=4))
     with pytest.raises(UsageError, match="does not exist"):
-        record(tmp_path / "missing" / "scenario1.mcap")
+        record(tmp_path / "missing" / "scenario1.mcap", RecordOptions())
     assert not list(tmp_path.iterdir())
 
 
@@ -242,7 +245,7 @@ def test_ctrl_c_keeps_a_readable_partial_log(tmp_path: Path, monkeypatch: pytest
     monkeypatch.setattr(OmniRenderer, "render", flaky)
     path = tmp_path / "scenario2.mcap"
     with pytest.raises(RecordingInterrupted) as info:
-        record(path, frames=3, **SMALL)
+        record(path, RecordOptions(frames=3, **SMALL))
     partial = info.value.partial_path
     assert partial == tmp_path / "scenario2.partial.mcap"
     assert not path.exists() and partial.exists()

@@ -12,7 +12,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from recorder.record import record
+from recorder.record import RecordOptions, record
 
 YAW_NOISE_DEG = 3.0
 RATE_HZ = 4.0  # camera frames; poses at twice that
@@ -34,7 +34,8 @@ def pose_log(tmp_path_factory: pytest.TempPathFactory) -> tuple[Messages, Metada
     """topic -> [(log_time_ns, decoded message)] and metadata name -> record, of a tiny
     scenario1 recording with yaw noise only."""
     path = tmp_path_factory.mktemp("poses") / "scenario1.mcap"
-    record(path, frames=FRAMES, rate_hz=RATE_HZ, yaw_noise_deg=YAW_NOISE_DEG, face_px=256)
+    record(path, RecordOptions(frames=FRAMES, rate_hz=RATE_HZ, yaw_noise_deg=YAW_NOISE_DEG,
+                               face_px=256))
     topics: Messages = {}
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])

@@ -19,7 +19,7 @@ from typing import Any
 import cv2
 import pytest
 
-from recorder import contract as c
+from dsp import contract as c
 from replay import ReplayOptions, RerunTarget, replay
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -277,11 +277,11 @@ def test_rerun_mcap_loader_reads_the_golden_log(scene: str, manifest: dict[str, 
 @pytest.mark.parametrize("scene", RERECORD)
 def test_rerecorded_scene_detects_within_tolerance(scene: str, tmp_path: Path,
                                                    manifest: dict[str, Any]) -> None:
-    from recorder.record import record
+    from recorder.record import RecordOptions, record
 
     log = tmp_path / mg.log_name(scene)
     # "auto": EGL when it loads, else TinyRenderer; DSP_RENDERER overrides it
-    summary = record(log, renderer="auto", **mg.SCENES[scene])
+    summary = record(log, RecordOptions(renderer="auto", **mg.SCENES[scene]))
     same = summary.renderer == manifest["renderer"]
     tol = mg.TOLERANCES["detection_same_renderer_px" if same else "detection_other_renderer_px"]
     got = mg.replay_results(log, "corrected", "weighted", tmp_path)

@@ -9,7 +9,7 @@ import pytest
 from mcap_ros2.writer import Writer
 from synthetic import write_log
 
-from recorder import contract
+from dsp import contract
 from replay.decode import decode_image
 from replay.errors import InputNotFoundError, NoImageTopicsError, NotMcapError, TruncatedLogError
 from replay.reader import ImageMessage, LogReader, PoseMessage

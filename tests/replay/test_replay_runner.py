@@ -243,7 +243,7 @@ def test_default_fusion_follows_the_method(static_log: Path, tmp_path: Path, met
 
 def test_a_localisers_pose_topic_with_covariance_replays(tmp_path: Path) -> None:
     """Real robots often publish geometry_msgs/PoseWithCovarianceStamped (AMCL)."""
-    from recorder import contract
+    from dsp import contract
 
     log = tmp_path / "amcl.mcap"
     write_log(log, duration_s=0.3, pose_schema=contract.POSE_WITH_COVARIANCE_STAMPED,

@@ -1,0 +1,452 @@
+"""The log contract: topic names, ROS 2 message definitions and builders, metadata records.
+
+This is the ONE place both the recorder (writer) and replay (reader, estimates sink) take
+them from. It imports nothing but the standard library and :mod:`dsp.field` (no pybullet,
+no mcap), so replay can use it without pulling in the simulator.
+
+Logs are plain ROS 2 MCAP (CDR encoding). Robots are named ``robot1`` .. ``robotN``.
+
+Time: every stamp is an integer count of nanoseconds of *sim time* from 0; an MCAP
+message's ``log_time`` and ``publish_time`` equal its ``header.stamp``. No wall-clock
+time is written anywhere, so the same scenario, seed and renderer give the same bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from dataclasses import field as dc_field
+from typing import Any, ClassVar
+
+from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
+
+__all__ = [
+    "CAMERAS_METADATA", "COMPRESSED_IMAGE", "FIELD_FRAME", "GT_BALL_TOPIC", "GT_POSE_TOPIC",
+    "IMAGE", "IMAGE_TOPIC", "MESSAGE_DEFINITIONS", "POINT_STAMPED", "POSE_STAMPED", "POSE_TOPIC",
+    "POSE_WITH_COVARIANCE_STAMPED", "PROFILE", "RECORDER_METADATA", "SCENARIO_METADATA",
+    "TF_MESSAGE", "TF_TOPIC", "CameraMetadata", "CamerasMetadata", "MetadataError", "Quaternion",
+    "RecorderMetadata", "RecordingMetadata", "ScenarioMetadata", "camera_frame",
+    "compressed_image", "header", "json_text", "point_stamped", "pose", "pose_stamped",
+    "pose_with_covariance_stamped", "robot_name", "robot_names_in", "stamp_from_ns",
+    "stamp_to_ns", "tf_message", "topic_for", "transform_stamped",
+]
+
+PROFILE = "ros2"
+"""MCAP profile of every log."""
+
+FIELD_FRAME = "field"
+"""World frame: origin at the field centre, x towards the opponent goal, y left, z up."""
+
+# --- topics -----------------------------------------------------------------------------
+# `{robot}` stands for the robot's name (robot1, robot2, ...).
+IMAGE_TOPIC = "/{robot}/omni/image/compressed"
+"""sensor_msgs/msg/CompressedImage, header.frame_id = "{robot}/omni", stamp = capture time."""
+POSE_TOPIC = "/{robot}/pose"
+"""geometry_msgs/msg/PoseStamped in frame "field": the robot's own belief (noise optional)."""
+TF_TOPIC = "/tf"
+"""tf2_msgs/msg/TFMessage: field -> robotN (the believed pose), for viewers."""
+GT_BALL_TOPIC = "/ground_truth/ball"
+"""geometry_msgs/msg/PoseStamped in "field": the ball centre's true position. Evaluation only."""
+GT_POSE_TOPIC = "/ground_truth/{robot}/pose"
+"""geometry_msgs/msg/PoseStamped in "field": the robot's true pose. Evaluation only."""
+
+# --- metadata records (MCAP metadata: name -> {str: str}); typed below -----------------------
+SCENARIO_METADATA = "dsp.scenario"
+"""{"name", "seed": str(int), "params": JSON object}: :class:`ScenarioMetadata`."""
+CAMERAS_METADATA = "dsp.cameras"
+"""{robot name: JSON object of its camera model}: :class:`CamerasMetadata`."""
+RECORDER_METADATA = "dsp.recorder"
+"""{"renderer", "physics_hz", "face_px", package: version, ...}: :class:`RecorderMetadata`."""
+
+RENDERERS = ("auto", "egl", "tiny")
+"""The recorder's renderer choices: auto (EGL when it loads, else TinyRenderer), egl, tiny."""
+
+
+def topic_for(pattern: str, robot: str) -> str:
+    """Fill a topic pattern: ``topic_for("/{robot}/pose", "robot2") == "/robot2/pose"``."""
+    return pattern.replace("{robot}", robot)
+
+
+def robot_name(index: int) -> str:
+    """1-based robot index to its name: ``robot_name(1) == "robot1"``."""
+    if index < 1:
+        raise ValueError(f"robot index must be >= 1, got {index}")
+    return f"robot{index}"
+
+
+def camera_frame(robot: str) -> str:
+    """The image header's frame_id for a robot's omni camera."""
+    return f"{robot}/omni"
+
+
+def robot_names_in(topics: list[str] | set[str], pattern: str) -> list[str]:
+    """Robot names that a topic pattern matches among ``topics``, in natural order.
+
+    ``robot_names_in(["/robot1/pose", "/robot10/pose", "/robot2/pose"], POSE_TOPIC)``
+    gives ``["robot1", "robot2", "robot10"]``.
+    """
+    if "{robot}" not in pattern:
+        raise ValueError(f"topic pattern {pattern!r} has no '{{robot}}' placeholder")
+    head, tail = pattern.split("{robot}", 1)
+    rx = re.compile("^" + re.escape(head) + r"([^/]+)" + re.escape(tail) + "$")
+    names = {m.group(1) for t in topics if (m := rx.match(t))}
+
+    def natural(name: str) -> tuple[str, int, str]:
+        m = re.match(r"^(.*?)(\d+)$", name)
+        return (m.group(1), int(m.group(2)), name) if m else (name, -1, name)
+
+    return sorted(names, key=natural)
+
+
+def stamp_from_ns(t_ns: int) -> dict[str, int]:
+    """Nanoseconds to a builtin_interfaces/Time dict {"sec", "nanosec"}."""
+    sec, nanosec = divmod(int(t_ns), 1_000_000_000)
+    return {"sec": sec, "nanosec": nanosec}
+
+
+def stamp_to_ns(stamp: object) -> int:
+    """A decoded builtin_interfaces/Time (object with sec, nanosec) to nanoseconds."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)  # type: ignore[attr-defined]
+
+
+# --- ROS 2 message definitions (the text mcap's ros2msg schema encoding wants) --------------
+_SEP = "=" * 80 + "\n"
+
+
+def _with_deps(main: str, *deps: str) -> str:
+    return main + "".join(_SEP + f"MSG: {name}\n" + _DEFS[name] for name in deps)
+
+
+_DEFS: dict[str, str] = {
+    "builtin_interfaces/Time": "int32 sec\nuint32 nanosec\n",
+    "std_msgs/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
+    "geometry_msgs/Point": "float64 x\nfloat64 y\nfloat64 z\n",
+    "geometry_msgs/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
+    "geometry_msgs/Quaternion": "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n",
+    "geometry_msgs/Pose": "Point position\nQuaternion orientation\n",
+    "geometry_msgs/PoseWithCovariance": "Pose pose\nfloat64[36] covariance\n",
+    "geometry_msgs/Transform": "Vector3 translation\nQuaternion rotation\n",
+    "geometry_msgs/TransformStamped": (
+        "std_msgs/Header header\nstring child_frame_id\nTransform transform\n"
+    ),
+}
+
+COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
+IMAGE = "sensor_msgs/msg/Image"
+POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
+POINT_STAMPED = "geometry_msgs/msg/PointStamped"
+POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+
+_HEADER_DEPS = ("std_msgs/Header", "builtin_interfaces/Time")
+_POSE_DEPS = ("geometry_msgs/Pose", "geometry_msgs/Point", "geometry_msgs/Quaternion")
+
+MESSAGE_DEFINITIONS: dict[str, str] = {
+    COMPRESSED_IMAGE: _with_deps(
+        "std_msgs/Header header\nstring format\nuint8[] data\n", *_HEADER_DEPS
+    ),
+    IMAGE: _with_deps(
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
+        "uint8 is_bigendian\nuint32 step\nuint8[] data\n",
+        *_HEADER_DEPS,
+    ),
+    POSE_STAMPED: _with_deps(
+        "std_msgs/Header header\nPose pose\n", *_HEADER_DEPS, *_POSE_DEPS
+    ),
+    POINT_STAMPED: _with_deps(
+        "std_msgs/Header header\nPoint point\n", *_HEADER_DEPS, "geometry_msgs/Point"
+    ),
+    POSE_WITH_COVARIANCE_STAMPED: _with_deps(
+        "std_msgs/Header header\nPoseWithCovariance pose\n",
+        *_HEADER_DEPS,
+        "geometry_msgs/PoseWithCovariance",
+        *_POSE_DEPS,
+    ),
+    TF_MESSAGE: _with_deps(
+        "geometry_msgs/TransformStamped[] transforms\n",
+        "geometry_msgs/TransformStamped",
+        *_HEADER_DEPS,
+        "geometry_msgs/Transform",
+        "geometry_msgs/Vector3",
+        "geometry_msgs/Quaternion",
+    ),
+}
+"""Schema name -> ROS 2 .msg text with its dependencies, as rosbag2 writes it."""
+
+
+# --- message builders: the dicts mcap_ros2's writer encodes with the definitions above ------
+Quaternion = tuple[float, float, float, float]
+"""(x, y, z, w), as geometry_msgs/Quaternion."""
+_IDENTITY: Quaternion = (0.0, 0.0, 0.0, 1.0)
+
+
+def header(stamp_ns: int, frame_id: str) -> dict[str, Any]:
+    """std_msgs/Header."""
+    return {"stamp": stamp_from_ns(stamp_ns), "frame_id": frame_id}
+
+
+def _vector(x: float, y: float, z: float) -> dict[str, float]:
+    return {"x": float(x), "y": float(y), "z": float(z)}
+
+
+def _quaternion(q: Quaternion) -> dict[str, float]:
+    return dict(zip("xyzw", map(float, q), strict=True))
+
+
+def pose(x_m: float, y_m: float, z_m: float, q: Quaternion = _IDENTITY) -> dict[str, Any]:
+    """geometry_msgs/Pose."""
+    return {"position": _vector(x_m, y_m, z_m), "orientation": _quaternion(q)}
+
+
+def pose_stamped(stamp_ns: int, x_m: float, y_m: float, z_m: float, q: Quaternion = _IDENTITY,
+                 *, frame_id: str = FIELD_FRAME) -> dict[str, Any]:
+    """geometry_msgs/PoseStamped."""
+    return {"header": header(stamp_ns, frame_id), "pose": pose(x_m, y_m, z_m, q)}
+
+
+def point_stamped(stamp_ns: int, x_m: float, y_m: float, z_m: float,
+                  *, frame_id: str = FIELD_FRAME) -> dict[str, Any]:
+    """geometry_msgs/PointStamped."""
+    return {"header": header(stamp_ns, frame_id), "point": _vector(x_m, y_m, z_m)}
+
+
+def pose_with_covariance_stamped(
+    stamp_ns: int, x_m: float, y_m: float, xy_covariance: Sequence[Sequence[float]],
+    *, z_m: float = 0.0, q: Quaternion = _IDENTITY, frame_id: str = FIELD_FRAME,
+) -> dict[str, Any]:
+    """geometry_msgs/PoseWithCovarianceStamped whose 6x6 row-major covariance holds the 2x2
+    ``xy_covariance`` [m^2] in its x/y block (every other entry 0)."""
+    cov = [0.0] * 36
+    (cxx, cxy), (cyx, cyy) = xy_covariance
+    cov[0], cov[1], cov[6], cov[7] = float(cxx), float(cxy), float(cyx), float(cyy)
+    return {"header": header(stamp_ns, frame_id),
+            "pose": {"pose": pose(x_m, y_m, z_m, q), "covariance": cov}}
+
+
+def transform_stamped(stamp_ns: int, child_frame_id: str, x_m: float, y_m: float, z_m: float,
+                      q: Quaternion = _IDENTITY, *, frame_id: str = FIELD_FRAME
+                      ) -> dict[str, Any]:
+    """geometry_msgs/TransformStamped: ``frame_id`` -> ``child_frame_id``."""
+    return {"header": header(stamp_ns, frame_id), "child_frame_id": child_frame_id,
+            "transform": {"translation": _vector(x_m, y_m, z_m), "rotation": _quaternion(q)}}
+
+
+def tf_message(transforms: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """tf2_msgs/TFMessage of :func:`transform_stamped` dicts."""
+    return {"transforms": list(transforms)}
+
+
+def compressed_image(stamp_ns: int, frame_id: str, fmt: str, data: bytes) -> dict[str, Any]:
+    """sensor_msgs/CompressedImage (``fmt`` "png" or "jpeg")."""
+    return {"header": header(stamp_ns, frame_id), "format": fmt, "data": data}
+
+
+# --- metadata records: frozen, validated, to and from MCAP metadata ({str: str}) ----------
+class MetadataError(ValueError):
+    """A log's metadata record cannot be read: the message names the record, key and value."""
+
+
+def json_text(obj: Any) -> str:
+    """Canonical JSON (sorted keys, no spaces) so metadata bytes never vary."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"))
+
+
+def _get(record: str, data: Mapping[str, Any], key: str) -> Any:
+    if key not in data:
+        raise MetadataError(f"{record}: no {key!r} (has {', '.join(map(repr, data)) or 'none'})")
+    return data[key]
+
+
+def _int(record: str, key: str, value: Any) -> int:
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value
+    if isinstance(value, str) and re.fullmatch(r"-?\d+", value.strip()):
+        return int(value)
+    raise MetadataError(f"{record}: {key} = {value!r} is not an integer")
+
+
+def _float(record: str, key: str, value: Any) -> float:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    raise MetadataError(f"{record}: {key} = {value!r} is not a number")
+
+
+def _str(record: str, key: str, value: Any) -> str:
+    if isinstance(value, str) and value:
+        return value
+    raise MetadataError(f"{record}: {key} = {value!r} is not a non-empty string")
+
+
+def _json_object(record: str, key: str, text: Any) -> dict[str, Any]:
+    try:
+        value = json.loads(text)
+    except (TypeError, ValueError) as err:
+        raise MetadataError(f"{record}: {key} is not JSON ({err}): {str(text)[:80]!r}") from err
+    if not isinstance(value, dict):
+        raise MetadataError(f"{record}: {key} is not a JSON object: {str(text)[:80]!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class RecordingMetadata:
+    """How the recorder sampled a scenario (``params["recording"]`` of ``dsp.scenario``)."""
+
+    rate_hz: float
+    """Camera frames per second."""
+    pose_rate_hz: float
+    """Poses, /tf and ground truth per second (twice the camera rate)."""
+    frames: int
+    camera: str
+    """The camera model's name (estimator.camera.CAMERA_MODELS)."""
+    image_format: str
+    pose_noise_m: float
+    """Standard deviation of the believed position's noise."""
+    yaw_noise_deg: float
+    """Standard deviation of the believed yaw's noise."""
+    face_px: int
+    physics_hz: int
+
+    _FIELDS: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
+        "rate_hz": _float, "pose_rate_hz": _float, "pose_noise_m": _float,
+        "yaw_noise_deg": _float, "frames": _int, "face_px": _int, "physics_hz": _int,
+        "camera": _str, "image_format": _str,
+    }
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON object written as ``params["recording"]``."""
+        return {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
+
+    @classmethod
+    def from_json(cls, obj: Mapping[str, Any], record: str = "recording") -> RecordingMetadata:
+        """Parse ``params["recording"]``; raises :class:`MetadataError` naming what is wrong."""
+        return cls(**{k: parse(record, k, _get(record, obj, k))
+                      for k, parse in cls._FIELDS.items()})
+
+
+@dataclass(frozen=True)
+class ScenarioMetadata:
+    """The ``dsp.scenario`` record: ``{"name", "seed", "params": JSON object}``.
+
+    ``params`` holds the scenario's own parameters (``scene``: robots, ball, ...), the field's
+    name (``field``) and how it was recorded (``recording``).
+    """
+
+    name: str
+    seed: int
+    field_name: str | None = None
+    """A name in :data:`dsp.field.FIELDS`; None when the log names no field."""
+    recording: RecordingMetadata | None = None
+    scene: Mapping[str, Any] = dc_field(default_factory=dict)
+    """The scenario's other parameters as JSON values (read-only by convention)."""
+
+    def __post_init__(self) -> None:
+        if self.field_name is not None and self.field_name not in FIELDS:
+            raise MetadataError(f"{SCENARIO_METADATA}: unknown field {self.field_name!r}; "
+                                f"known fields: {', '.join(FIELDS)}")
+        clash = {"field", "recording"} & set(self.scene)
+        if clash:
+            raise MetadataError(f"{SCENARIO_METADATA}: scene repeats {sorted(clash)}")
+        # JSON values only (tuples become lists): a record equals its own round trip
+        object.__setattr__(self, "scene", json.loads(json_text(self.scene)))
+
+    @property
+    def field(self) -> FieldSpec:
+        """The field the scene was played on (the paper's 18x12 when the log names none)."""
+        return FIELDS[self.field_name or DEFAULT_FIELD]
+
+    @property
+    def pose_rate_hz(self) -> float | None:
+        return None if self.recording is None else self.recording.pose_rate_hz
+
+    def params(self) -> dict[str, Any]:
+        """The ``params`` JSON object."""
+        out = dict(self.scene)
+        if self.field_name is not None:
+            out["field"] = self.field_name
+        if self.recording is not None:
+            out["recording"] = self.recording.to_json()
+        return out
+
+    def to_metadata(self) -> dict[str, str]:
+        return {"name": self.name, "seed": str(self.seed), "params": json_text(self.params())}
+
+    @classmethod
+    def from_metadata(cls, data: Mapping[str, str]) -> ScenarioMetadata:
+        rec = SCENARIO_METADATA
+        params = _json_object(rec, "params", _get(rec, data, "params"))
+        field_name = params.pop("field", None)
+        if field_name is not None:
+            field_name = _str(rec, "params.field", field_name)
+        recording = params.pop("recording", None)
+        if recording is not None:
+            if not isinstance(recording, dict):
+                raise MetadataError(f"{rec}: params.recording is not a JSON object")
+            recording = RecordingMetadata.from_json(recording, f"{rec} params.recording")
+        return cls(name=_str(rec, "name", _get(rec, data, "name")),
+                   seed=_int(rec, "seed", _get(rec, data, "seed")),
+                   field_name=field_name, recording=recording, scene=params)
+
+
+@dataclass(frozen=True)
+class CameraMetadata:
+    """One robot's camera model: the ``estimator.camera`` model dict (``model`` names it)."""
+
+    robot: str
+    model: Mapping[str, Any]
+
+    def __post_init__(self) -> None:
+        _str(CAMERAS_METADATA, f"{self.robot}.model", self.model.get("model"))
+
+
+@dataclass(frozen=True)
+class CamerasMetadata:
+    """The ``dsp.cameras`` record: ``{robot name: JSON object of its camera model}``."""
+
+    cameras: tuple[CameraMetadata, ...] = ()
+
+    def by_robot(self) -> dict[str, Mapping[str, Any]]:
+        """Robot name -> camera model dict."""
+        return {c.robot: c.model for c in self.cameras}
+
+    def to_metadata(self) -> dict[str, str]:
+        return {c.robot: json_text(dict(c.model)) for c in self.cameras}
+
+    @classmethod
+    def from_metadata(cls, data: Mapping[str, str]) -> CamerasMetadata:
+        return cls(tuple(
+            CameraMetadata(robot, _json_object(CAMERAS_METADATA, robot, text))
+            for robot, text in data.items()
+        ))
+
+
+@dataclass(frozen=True)
+class RecorderMetadata:
+    """The ``dsp.recorder`` record: renderer, physics and image settings, package versions."""
+
+    renderer: str
+    """"egl" or "tiny"."""
+    physics_hz: int
+    face_px: int
+    versions: Mapping[str, str] = dc_field(default_factory=dict)
+    """Distribution (dual_sight, pybullet, numpy, opencv, mcap, mcap_ros2, python) -> version."""
+
+    _KEYS = ("renderer", "physics_hz", "face_px")
+
+    def __post_init__(self) -> None:
+        clash = set(self._KEYS) & set(self.versions)
+        if clash:
+            raise MetadataError(f"{RECORDER_METADATA}: versions repeat {sorted(clash)}")
+
+    def to_metadata(self) -> dict[str, str]:
+        return {"renderer": self.renderer, "physics_hz": str(self.physics_hz),
+                "face_px": str(self.face_px), **self.versions}
+
+    @classmethod
+    def from_metadata(cls, data: Mapping[str, str]) -> RecorderMetadata:
+        rec = RECORDER_METADATA
+        return cls(renderer=_str(rec, "renderer", _get(rec, data, "renderer")),
+                   physics_hz=_int(rec, "physics_hz", _get(rec, data, "physics_hz")),
+                   face_px=_int(rec, "face_px", _get(rec, data, "face_px")),
+                   versions={k: str(v) for k, v in data.items() if k not in cls._KEYS})

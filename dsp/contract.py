@@ -1,8 +1,9 @@
-"""The log contract: topic names, ROS 2 message definitions and builders, metadata records.
+"""The log contract: topic names, ROS 2 message definitions and builders, metadata names.
 
 This is the ONE place both the recorder (writer) and replay (reader, estimates sink) take
-them from. It imports nothing but the standard library and :mod:`dsp.field` (no pybullet,
-no mcap), so replay can use it without pulling in the simulator.
+them from; :mod:`dsp.metadata` types the metadata records. It imports nothing but the
+standard library (no pybullet, no mcap), so replay can use it without pulling in the
+simulator.
 
 Logs are plain ROS 2 MCAP (CDR encoding). Robots are named ``robot1`` .. ``robotN``.
 
@@ -13,24 +14,44 @@ time is written anywhere, so the same scenario, seed and renderer give the same 
 
 from __future__ import annotations
 
-import json
 import re
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
-from dataclasses import field as dc_field
-from typing import Any, ClassVar
-
-from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
+from collections.abc import Sequence
+from typing import Any
 
 __all__ = [
-    "CAMERAS_METADATA", "COMPRESSED_IMAGE", "FIELD_FRAME", "GT_BALL_TOPIC", "GT_POSE_TOPIC",
-    "IMAGE", "IMAGE_TOPIC", "MESSAGE_DEFINITIONS", "POINT_STAMPED", "POSE_STAMPED", "POSE_TOPIC",
-    "POSE_WITH_COVARIANCE_STAMPED", "PROFILE", "RECORDER_METADATA", "SCENARIO_METADATA",
-    "TF_MESSAGE", "TF_TOPIC", "CameraMetadata", "CamerasMetadata", "MetadataError", "Quaternion",
-    "RecorderMetadata", "RecordingMetadata", "ScenarioMetadata", "camera_frame",
-    "compressed_image", "header", "json_text", "point_stamped", "pose", "pose_stamped",
-    "pose_with_covariance_stamped", "robot_name", "robot_names_in", "stamp_from_ns",
-    "stamp_to_ns", "tf_message", "topic_for", "transform_stamped",
+    "CAMERAS_METADATA",
+    "COMPRESSED_IMAGE",
+    "FIELD_FRAME",
+    "GT_BALL_TOPIC",
+    "GT_POSE_TOPIC",
+    "IMAGE",
+    "IMAGE_TOPIC",
+    "MESSAGE_DEFINITIONS",
+    "POINT_STAMPED",
+    "POSE_STAMPED",
+    "POSE_TOPIC",
+    "POSE_WITH_COVARIANCE_STAMPED",
+    "PROFILE",
+    "RECORDER_METADATA",
+    "RENDERERS",
+    "SCENARIO_METADATA",
+    "TF_MESSAGE",
+    "TF_TOPIC",
+    "Quaternion",
+    "camera_frame",
+    "compressed_image",
+    "header",
+    "point_stamped",
+    "pose",
+    "pose_stamped",
+    "pose_with_covariance_stamped",
+    "robot_name",
+    "robot_names_in",
+    "stamp_from_ns",
+    "stamp_to_ns",
+    "tf_message",
+    "topic_for",
+    "transform_stamped",
 ]
 
 PROFILE = "ros2"
@@ -241,212 +262,3 @@ def tf_message(transforms: Sequence[dict[str, Any]]) -> dict[str, Any]:
 def compressed_image(stamp_ns: int, frame_id: str, fmt: str, data: bytes) -> dict[str, Any]:
     """sensor_msgs/CompressedImage (``fmt`` "png" or "jpeg")."""
     return {"header": header(stamp_ns, frame_id), "format": fmt, "data": data}
-
-
-# --- metadata records: frozen, validated, to and from MCAP metadata ({str: str}) ----------
-class MetadataError(ValueError):
-    """A log's metadata record cannot be read: the message names the record, key and value."""
-
-
-def json_text(obj: Any) -> str:
-    """Canonical JSON (sorted keys, no spaces) so metadata bytes never vary."""
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"))
-
-
-def _get(record: str, data: Mapping[str, Any], key: str) -> Any:
-    if key not in data:
-        raise MetadataError(f"{record}: no {key!r} (has {', '.join(map(repr, data)) or 'none'})")
-    return data[key]
-
-
-def _int(record: str, key: str, value: Any) -> int:
-    if isinstance(value, int) and not isinstance(value, bool):
-        return value
-    if isinstance(value, str) and re.fullmatch(r"-?\d+", value.strip()):
-        return int(value)
-    raise MetadataError(f"{record}: {key} = {value!r} is not an integer")
-
-
-def _float(record: str, key: str, value: Any) -> float:
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return float(value)
-    raise MetadataError(f"{record}: {key} = {value!r} is not a number")
-
-
-def _str(record: str, key: str, value: Any) -> str:
-    if isinstance(value, str) and value:
-        return value
-    raise MetadataError(f"{record}: {key} = {value!r} is not a non-empty string")
-
-
-def _json_object(record: str, key: str, text: Any) -> dict[str, Any]:
-    try:
-        value = json.loads(text)
-    except (TypeError, ValueError) as err:
-        raise MetadataError(f"{record}: {key} is not JSON ({err}): {str(text)[:80]!r}") from err
-    if not isinstance(value, dict):
-        raise MetadataError(f"{record}: {key} is not a JSON object: {str(text)[:80]!r}")
-    return value
-
-
-@dataclass(frozen=True)
-class RecordingMetadata:
-    """How the recorder sampled a scenario (``params["recording"]`` of ``dsp.scenario``)."""
-
-    rate_hz: float
-    """Camera frames per second."""
-    pose_rate_hz: float
-    """Poses, /tf and ground truth per second (twice the camera rate)."""
-    frames: int
-    camera: str
-    """The camera model's name (estimator.camera.CAMERA_MODELS)."""
-    image_format: str
-    pose_noise_m: float
-    """Standard deviation of the believed position's noise."""
-    yaw_noise_deg: float
-    """Standard deviation of the believed yaw's noise."""
-    face_px: int
-    physics_hz: int
-
-    _FIELDS: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
-        "rate_hz": _float, "pose_rate_hz": _float, "pose_noise_m": _float,
-        "yaw_noise_deg": _float, "frames": _int, "face_px": _int, "physics_hz": _int,
-        "camera": _str, "image_format": _str,
-    }
-
-    def to_json(self) -> dict[str, Any]:
-        """The JSON object written as ``params["recording"]``."""
-        return {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
-
-    @classmethod
-    def from_json(cls, obj: Mapping[str, Any], record: str = "recording") -> RecordingMetadata:
-        """Parse ``params["recording"]``; raises :class:`MetadataError` naming what is wrong."""
-        return cls(**{k: parse(record, k, _get(record, obj, k))
-                      for k, parse in cls._FIELDS.items()})
-
-
-@dataclass(frozen=True)
-class ScenarioMetadata:
-    """The ``dsp.scenario`` record: ``{"name", "seed", "params": JSON object}``.
-
-    ``params`` holds the scenario's own parameters (``scene``: robots, ball, ...), the field's
-    name (``field``) and how it was recorded (``recording``).
-    """
-
-    name: str
-    seed: int
-    field_name: str | None = None
-    """A name in :data:`dsp.field.FIELDS`; None when the log names no field."""
-    recording: RecordingMetadata | None = None
-    scene: Mapping[str, Any] = dc_field(default_factory=dict)
-    """The scenario's other parameters as JSON values (read-only by convention)."""
-
-    def __post_init__(self) -> None:
-        if self.field_name is not None and self.field_name not in FIELDS:
-            raise MetadataError(f"{SCENARIO_METADATA}: unknown field {self.field_name!r}; "
-                                f"known fields: {', '.join(FIELDS)}")
-        clash = {"field", "recording"} & set(self.scene)
-        if clash:
-            raise MetadataError(f"{SCENARIO_METADATA}: scene repeats {sorted(clash)}")
-        # JSON values only (tuples become lists): a record equals its own round trip
-        object.__setattr__(self, "scene", json.loads(json_text(self.scene)))
-
-    @property
-    def field(self) -> FieldSpec:
-        """The field the scene was played on (the paper's 18x12 when the log names none)."""
-        return FIELDS[self.field_name or DEFAULT_FIELD]
-
-    @property
-    def pose_rate_hz(self) -> float | None:
-        return None if self.recording is None else self.recording.pose_rate_hz
-
-    def params(self) -> dict[str, Any]:
-        """The ``params`` JSON object."""
-        out = dict(self.scene)
-        if self.field_name is not None:
-            out["field"] = self.field_name
-        if self.recording is not None:
-            out["recording"] = self.recording.to_json()
-        return out
-
-    def to_metadata(self) -> dict[str, str]:
-        return {"name": self.name, "seed": str(self.seed), "params": json_text(self.params())}
-
-    @classmethod
-    def from_metadata(cls, data: Mapping[str, str]) -> ScenarioMetadata:
-        rec = SCENARIO_METADATA
-        params = _json_object(rec, "params", _get(rec, data, "params"))
-        field_name = params.pop("field", None)
-        if field_name is not None:
-            field_name = _str(rec, "params.field", field_name)
-        recording = params.pop("recording", None)
-        if recording is not None:
-            if not isinstance(recording, dict):
-                raise MetadataError(f"{rec}: params.recording is not a JSON object")
-            recording = RecordingMetadata.from_json(recording, f"{rec} params.recording")
-        return cls(name=_str(rec, "name", _get(rec, data, "name")),
-                   seed=_int(rec, "seed", _get(rec, data, "seed")),
-                   field_name=field_name, recording=recording, scene=params)
-
-
-@dataclass(frozen=True)
-class CameraMetadata:
-    """One robot's camera model: the ``estimator.camera`` model dict (``model`` names it)."""
-
-    robot: str
-    model: Mapping[str, Any]
-
-    def __post_init__(self) -> None:
-        _str(CAMERAS_METADATA, f"{self.robot}.model", self.model.get("model"))
-
-
-@dataclass(frozen=True)
-class CamerasMetadata:
-    """The ``dsp.cameras`` record: ``{robot name: JSON object of its camera model}``."""
-
-    cameras: tuple[CameraMetadata, ...] = ()
-
-    def by_robot(self) -> dict[str, Mapping[str, Any]]:
-        """Robot name -> camera model dict."""
-        return {c.robot: c.model for c in self.cameras}
-
-    def to_metadata(self) -> dict[str, str]:
-        return {c.robot: json_text(dict(c.model)) for c in self.cameras}
-
-    @classmethod
-    def from_metadata(cls, data: Mapping[str, str]) -> CamerasMetadata:
-        return cls(tuple(
-            CameraMetadata(robot, _json_object(CAMERAS_METADATA, robot, text))
-            for robot, text in data.items()
-        ))
-
-
-@dataclass(frozen=True)
-class RecorderMetadata:
-    """The ``dsp.recorder`` record: renderer, physics and image settings, package versions."""
-
-    renderer: str
-    """"egl" or "tiny"."""
-    physics_hz: int
-    face_px: int
-    versions: Mapping[str, str] = dc_field(default_factory=dict)
-    """Distribution (dual_sight, pybullet, numpy, opencv, mcap, mcap_ros2, python) -> version."""
-
-    _KEYS = ("renderer", "physics_hz", "face_px")
-
-    def __post_init__(self) -> None:
-        clash = set(self._KEYS) & set(self.versions)
-        if clash:
-            raise MetadataError(f"{RECORDER_METADATA}: versions repeat {sorted(clash)}")
-
-    def to_metadata(self) -> dict[str, str]:
-        return {"renderer": self.renderer, "physics_hz": str(self.physics_hz),
-                "face_px": str(self.face_px), **self.versions}
-
-    @classmethod
-    def from_metadata(cls, data: Mapping[str, str]) -> RecorderMetadata:
-        rec = RECORDER_METADATA
-        return cls(renderer=_str(rec, "renderer", _get(rec, data, "renderer")),
-                   physics_hz=_int(rec, "physics_hz", _get(rec, data, "physics_hz")),
-                   face_px=_int(rec, "face_px", _get(rec, data, "face_px")),
-                   versions={k: str(v) for k, v in data.items() if k not in cls._KEYS})

@@ -31,6 +31,7 @@ import numpy as np
 from tqdm import tqdm
 
 from dsp import contract as c
+from dsp import metadata as meta
 from dsp.errors import OutputExistsError, UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
@@ -195,18 +196,18 @@ def _plan(path: Path, options: RecordOptions) -> _Plan:
 def log_metadata(
     sc: Scenario, options: RecordOptions, *, rate_hz: float, frames: int, renderer: str,
     camera: CameraModel,
-) -> tuple[c.ScenarioMetadata, c.CamerasMetadata, c.RecorderMetadata]:
+) -> tuple[meta.ScenarioMetadata, meta.CamerasMetadata, meta.RecorderMetadata]:
     """The log's metadata records: the scenario (with how it is recorded), each robot's
     camera model and the recorder (renderer, physics, package versions)."""
     scene = sc.params()
     field_name = scene.pop("field")
-    recording = c.RecordingMetadata(
+    recording = meta.RecordingMetadata(
         rate_hz=rate_hz, pose_rate_hz=2 * rate_hz, frames=frames, camera=options.camera,
         image_format=options.image_format, pose_noise_m=options.pose_noise_m,
         yaw_noise_deg=options.yaw_noise_deg, face_px=options.face_px, physics_hz=PHYSICS_HZ,
     )
-    scenario = c.ScenarioMetadata(sc.name, sc.seed, field_name, recording, scene)
-    cameras = c.CamerasMetadata(tuple(c.CameraMetadata(tr.name, camera.to_dict())
+    scenario = meta.ScenarioMetadata(sc.name, sc.seed, field_name, recording, scene)
+    cameras = meta.CamerasMetadata(tuple(meta.CameraMetadata(tr.name, camera.to_dict())
                                       for tr in sc.robots))
     versions = {
         "dual_sight": _version("dual-sight"),
@@ -217,7 +218,7 @@ def log_metadata(
         "mcap_ros2": _version("mcap-ros2-support"),
         "python": platform.python_version(),
     }
-    recorder = c.RecorderMetadata(renderer, PHYSICS_HZ, options.face_px, versions)
+    recorder = meta.RecorderMetadata(renderer, PHYSICS_HZ, options.face_px, versions)
     return scenario, cameras, recorder
 
 

@@ -29,6 +29,7 @@ from mcap.stream_reader import MAGIC_SIZE, StreamReader, breakup_chunk
 from mcap_ros2.decoder import DecoderFactory
 
 from dsp import contract
+from dsp import metadata as meta
 from replay.errors import (
     CorruptLogError,
     InputNotFoundError,
@@ -124,11 +125,11 @@ class LogInfo:
     """Every metadata record as written: name -> {key: value}."""
     start_ns: int | None
     end_ns: int | None
-    scenario: contract.ScenarioMetadata | None = None
+    scenario: meta.ScenarioMetadata | None = None
     """The ``dsp.scenario`` record, parsed; None when the log has none (e.g. a robot's log)."""
-    cameras: contract.CamerasMetadata = field(default_factory=contract.CamerasMetadata)
+    cameras: meta.CamerasMetadata = field(default_factory=meta.CamerasMetadata)
     """The ``dsp.cameras`` record, parsed; no cameras when the log has none."""
-    recorder: contract.RecorderMetadata | None = None
+    recorder: meta.RecorderMetadata | None = None
     """The ``dsp.recorder`` record, parsed; None when the log has none."""
 
 
@@ -357,21 +358,21 @@ class LogReader:
             recorder=recorder,
         )
 
-    def _parse_metadata(self) -> tuple[contract.ScenarioMetadata | None,
-                                       contract.CamerasMetadata, contract.RecorderMetadata | None]:
+    def _parse_metadata(self) -> tuple[meta.ScenarioMetadata | None,
+                                       meta.CamerasMetadata, meta.RecorderMetadata | None]:
         """The dsp.* metadata records, typed (parse at the boundary): one that is there but
-        unreadable raises :class:`dsp.contract.MetadataError` naming the log."""
-        meta = self._cat.metadata
-        scenario, recorder = (meta.get(contract.SCENARIO_METADATA),
-                              meta.get(contract.RECORDER_METADATA))
+        unreadable raises :class:`dsp.metadata.MetadataError` naming the log."""
+        records = self._cat.metadata
+        scenario, recorder = (records.get(contract.SCENARIO_METADATA),
+                              records.get(contract.RECORDER_METADATA))
         try:
             return (
-                None if scenario is None else contract.ScenarioMetadata.from_metadata(scenario),
-                contract.CamerasMetadata.from_metadata(meta.get(contract.CAMERAS_METADATA, {})),
-                None if recorder is None else contract.RecorderMetadata.from_metadata(recorder),
+                None if scenario is None else meta.ScenarioMetadata.from_metadata(scenario),
+                meta.CamerasMetadata.from_metadata(records.get(contract.CAMERAS_METADATA, {})),
+                None if recorder is None else meta.RecorderMetadata.from_metadata(recorder),
             )
-        except contract.MetadataError as err:
-            raise contract.MetadataError(f"{self.path}: metadata {err}") from err
+        except meta.MetadataError as err:
+            raise meta.MetadataError(f"{self.path}: metadata {err}") from err
 
     # --- streaming -------------------------------------------------------------------------
     def messages(

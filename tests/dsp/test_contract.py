@@ -13,7 +13,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from mcap_ros2.writer import Writer
 
-from dsp import contract
+from dsp import contract, metadata
 
 
 def test_importing_the_contract_does_not_import_the_simulator() -> None:
@@ -125,9 +125,9 @@ def test_the_fused_covariance_fills_the_xy_block() -> None:
 # --- metadata records ------------------------------------------------------------------------
 GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
 _RECORDS = {
-    contract.SCENARIO_METADATA: contract.ScenarioMetadata,
-    contract.CAMERAS_METADATA: contract.CamerasMetadata,
-    contract.RECORDER_METADATA: contract.RecorderMetadata,
+    contract.SCENARIO_METADATA: metadata.ScenarioMetadata,
+    contract.CAMERAS_METADATA: metadata.CamerasMetadata,
+    contract.RECORDER_METADATA: metadata.RecorderMetadata,
 }
 
 
@@ -139,14 +139,14 @@ def test_golden_metadata_round_trips_exactly(log: str) -> None:
     for name, cls in _RECORDS.items():
         typed = cls.from_metadata(records[name])  # type: ignore[attr-defined]
         assert typed.to_metadata() == records[name], name
-    scenario = contract.ScenarioMetadata.from_metadata(records[contract.SCENARIO_METADATA])
+    scenario = metadata.ScenarioMetadata.from_metadata(records[contract.SCENARIO_METADATA])
     assert scenario.field.name == "18x12" and scenario.recording is not None
     assert scenario.pose_rate_hz == 2 * scenario.recording.rate_hz
 
 
 def test_a_scenario_without_field_or_recording_is_read() -> None:
     """Logs written by other tools may carry only the name, seed and their own params."""
-    s = contract.ScenarioMetadata.from_metadata(
+    s = metadata.ScenarioMetadata.from_metadata(
         {"name": "synthetic", "seed": "0", "params": '{"field_length_m":18.0}'})
     assert (s.field_name, s.recording, s.pose_rate_hz) == (None, None, None)
     assert s.field.name == "18x12"
@@ -157,23 +157,23 @@ _GOOD_SCENARIO = {"name": "x", "seed": "0", "params": "{}"}
 
 
 @pytest.mark.parametrize(("cls", "data", "match"), [
-    (contract.ScenarioMetadata, {"name": "x", "seed": "0"}, "no 'params'"),
-    (contract.ScenarioMetadata, {**_GOOD_SCENARIO, "params": "{oops"}, "params is not JSON"),
-    (contract.ScenarioMetadata, {**_GOOD_SCENARIO, "params": "[1]"}, "not a JSON object"),
-    (contract.ScenarioMetadata, {**_GOOD_SCENARIO, "seed": "zero"}, "seed = 'zero'"),
-    (contract.ScenarioMetadata, {**_GOOD_SCENARIO, "params": '{"field":"30x20"}'},
+    (metadata.ScenarioMetadata, {"name": "x", "seed": "0"}, "no 'params'"),
+    (metadata.ScenarioMetadata, {**_GOOD_SCENARIO, "params": "{oops"}, "params is not JSON"),
+    (metadata.ScenarioMetadata, {**_GOOD_SCENARIO, "params": "[1]"}, "not a JSON object"),
+    (metadata.ScenarioMetadata, {**_GOOD_SCENARIO, "seed": "zero"}, "seed = 'zero'"),
+    (metadata.ScenarioMetadata, {**_GOOD_SCENARIO, "params": '{"field":"30x20"}'},
      "unknown field '30x20'"),
-    (contract.ScenarioMetadata, {**_GOOD_SCENARIO, "params": '{"recording":{"rate_hz":5}}'},
+    (metadata.ScenarioMetadata, {**_GOOD_SCENARIO, "params": '{"recording":{"rate_hz":5}}'},
      "no 'pose_rate_hz'"),
-    (contract.CamerasMetadata, {"robot1": "not json"}, "robot1 is not JSON"),
-    (contract.CamerasMetadata, {"robot1": '{"cu_px": 1}'}, "robot1.model"),
-    (contract.RecorderMetadata, {"renderer": "egl", "physics_hz": "fast", "face_px": "256"},
+    (metadata.CamerasMetadata, {"robot1": "not json"}, "robot1 is not JSON"),
+    (metadata.CamerasMetadata, {"robot1": '{"cu_px": 1}'}, "robot1.model"),
+    (metadata.RecorderMetadata, {"renderer": "egl", "physics_hz": "fast", "face_px": "256"},
      "physics_hz = 'fast'"),
 ])
 def test_unreadable_metadata_is_an_error(cls: Any, data: dict[str, str], match: str) -> None:
-    with pytest.raises(contract.MetadataError, match=match):
+    with pytest.raises(metadata.MetadataError, match=match):
         cls.from_metadata(data)
-    assert issubclass(contract.MetadataError, ValueError)
+    assert issubclass(metadata.MetadataError, ValueError)
 
 
 def test_the_reader_names_the_log_with_unreadable_metadata(tmp_path: Path) -> None:
@@ -192,6 +192,6 @@ def test_the_reader_names_the_log_with_unreadable_metadata(tmp_path: Path) -> No
         writer.add_metadata(contract.SCENARIO_METADATA, {"name": "x", "seed": "0",
                                                          "params": "{not json"})
         writer.finish()
-    with pytest.raises(contract.MetadataError, match=r"bad\.mcap: metadata dsp\.scenario"):
+    with pytest.raises(metadata.MetadataError, match=r"bad\.mcap: metadata dsp\.scenario"):
         with LogReader(path):
             pass

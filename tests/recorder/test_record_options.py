@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from dsp import contract as c
+from dsp import metadata
 from estimator.camera import make_camera
 from recorder.errors import UsageError
 from recorder.record import RecordOptions, log_metadata
@@ -49,6 +49,7 @@ def test_log_metadata_round_trips_and_says_how_it_was_recorded() -> None:
     assert scenario.recording.pose_noise_m == 0.05
     assert [cam.robot for cam in cameras.cameras] == [tr.name for tr in sc.robots]
     assert recorder.renderer == "tiny" and "pybullet" in recorder.versions
-    for record, cls in zip(records, (c.ScenarioMetadata, c.CamerasMetadata, c.RecorderMetadata),
+    for record, cls in zip(records, (metadata.ScenarioMetadata, metadata.CamerasMetadata,
+                                     metadata.RecorderMetadata),
                            strict=True):
         assert cls.from_metadata(record.to_metadata()) == record  # type: ignore[attr-defined]

@@ -447,5 +447,4 @@ def _convert(
 
 def _short(err: BaseException) -> str:
     text = str(err).strip().splitlines()[0] if str(err).strip() else ""
-    name = type(err).__name__
-    return f"{name}: {text}" if text else name
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__

@@ -21,12 +21,16 @@ from typing import Any
 __all__ = [
     "CAMERAS_METADATA",
     "COMPRESSED_IMAGE",
+    "ESTIMATE_ODOMETRY_TOPIC",
+    "ESTIMATE_TOPIC",
     "FIELD_FRAME",
+    "GT_BALL_ODOMETRY_TOPIC",
     "GT_BALL_TOPIC",
     "GT_POSE_TOPIC",
     "IMAGE",
     "IMAGE_TOPIC",
     "MESSAGE_DEFINITIONS",
+    "ODOMETRY",
     "POINT_STAMPED",
     "POSE_STAMPED",
     "POSE_TOPIC",
@@ -41,6 +45,7 @@ __all__ = [
     "camera_frame",
     "compressed_image",
     "header",
+    "odometry",
     "point_stamped",
     "pose",
     "pose_stamped",
@@ -71,6 +76,12 @@ TF_TOPIC = "/tf"
 GT_BALL_TOPIC = "/ground_truth/ball"
 """geometry_msgs/msg/PoseStamped in "field": the ball centre's true position. Evaluation only."""
 GT_POSE_TOPIC = "/ground_truth/{robot}/pose"
+GT_BALL_ODOMETRY_TOPIC = "/ground_truth/ball/odometry"
+"""nav_msgs/msg/Odometry: the ball's true position and velocity (frame ``field``)."""
+ESTIMATE_TOPIC = "/estimate/ball"
+"""geometry_msgs/msg/PoseWithCovarianceStamped: the fused estimate, written by replay."""
+ESTIMATE_ODOMETRY_TOPIC = "/estimate/ball/odometry"
+"""nav_msgs/msg/Odometry: the tracked ball's position and velocity, written by replay."""
 """geometry_msgs/msg/PoseStamped in "field": the robot's true pose. Evaluation only."""
 
 # --- metadata records (MCAP metadata: name -> {str: str}); typed below -----------------------
@@ -148,6 +159,8 @@ _DEFS: dict[str, str] = {
     "geometry_msgs/Quaternion": "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n",
     "geometry_msgs/Pose": "Point position\nQuaternion orientation\n",
     "geometry_msgs/PoseWithCovariance": "Pose pose\nfloat64[36] covariance\n",
+    "geometry_msgs/Twist": "Vector3 linear\nVector3 angular\n",
+    "geometry_msgs/TwistWithCovariance": "Twist twist\nfloat64[36] covariance\n",
     "geometry_msgs/Transform": "Vector3 translation\nQuaternion rotation\n",
     "geometry_msgs/TransformStamped": (
         "std_msgs/Header header\nstring child_frame_id\nTransform transform\n"
@@ -160,6 +173,7 @@ POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 POINT_STAMPED = "geometry_msgs/msg/PointStamped"
 POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+ODOMETRY = "nav_msgs/msg/Odometry"
 
 _HEADER_DEPS = ("std_msgs/Header", "builtin_interfaces/Time")
 _POSE_DEPS = ("geometry_msgs/Pose", "geometry_msgs/Point", "geometry_msgs/Quaternion")
@@ -184,6 +198,16 @@ MESSAGE_DEFINITIONS: dict[str, str] = {
         *_HEADER_DEPS,
         "geometry_msgs/PoseWithCovariance",
         *_POSE_DEPS,
+    ),
+    ODOMETRY: _with_deps(
+        "std_msgs/Header header\nstring child_frame_id\n"
+        "geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n",
+        *_HEADER_DEPS,
+        "geometry_msgs/PoseWithCovariance",
+        *_POSE_DEPS,
+        "geometry_msgs/TwistWithCovariance",
+        "geometry_msgs/Twist",
+        "geometry_msgs/Vector3",
     ),
     TF_MESSAGE: _with_deps(
         "geometry_msgs/TransformStamped[] transforms\n",
@@ -239,11 +263,37 @@ def pose_with_covariance_stamped(
 ) -> dict[str, Any]:
     """geometry_msgs/PoseWithCovarianceStamped whose 6x6 row-major covariance holds the 2x2
     ``xy_covariance`` [m^2] in its x/y block (every other entry 0)."""
-    cov = [0.0] * 36
-    (cxx, cxy), (cyx, cyy) = xy_covariance
-    cov[0], cov[1], cov[6], cov[7] = float(cxx), float(cxy), float(cyx), float(cyy)
     return {"header": header(stamp_ns, frame_id),
-            "pose": {"pose": pose(x_m, y_m, z_m, q), "covariance": cov}}
+            "pose": {"pose": pose(x_m, y_m, z_m, q), "covariance": _covariance6(xy_covariance)}}
+
+
+def _covariance6(xy: Sequence[Sequence[float]] | None) -> list[float]:
+    """A 6x6 row-major covariance holding the 2x2 ``xy`` block (every other entry 0)."""
+    cov = [0.0] * 36
+    if xy is not None:
+        (cxx, cxy), (cyx, cyy) = xy
+        cov[0], cov[1], cov[6], cov[7] = float(cxx), float(cxy), float(cyx), float(cyy)
+    return cov
+
+
+def odometry(
+    stamp_ns: int, child_frame_id: str, x_m: float, y_m: float, vx_m_s: float, vy_m_s: float,
+    *, z_m: float = 0.0, vz_m_s: float = 0.0,
+    position_covariance: Sequence[Sequence[float]] | None = None,
+    velocity_covariance: Sequence[Sequence[float]] | None = None,
+    frame_id: str = FIELD_FRAME,
+) -> dict[str, Any]:
+    """nav_msgs/Odometry: position in ``frame_id`` and velocity [m/s], here also expressed
+    in ``frame_id`` (the ball has no orientation); each 2x2 x/y covariance [m^2, m^2/s^2]
+    goes into its 6x6 block, every other entry 0."""
+    return {
+        "header": header(stamp_ns, frame_id),
+        "child_frame_id": child_frame_id,
+        "pose": {"pose": pose(x_m, y_m, z_m), "covariance": _covariance6(position_covariance)},
+        "twist": {"twist": {"linear": _vector(vx_m_s, vy_m_s, vz_m_s),
+                            "angular": _vector(0.0, 0.0, 0.0)},
+                  "covariance": _covariance6(velocity_covariance)},
+    }
 
 
 def transform_stamped(stamp_ns: int, child_frame_id: str, x_m: float, y_m: float, z_m: float,

@@ -25,7 +25,7 @@ from replay.sink import SinkBase
 __all__ = ["FUSED_TOPIC", "ROBOT_TOPIC", "McapSink"]
 
 ROBOT_TOPIC = "/estimate/{robot}/ball"
-FUSED_TOPIC = "/estimate/ball"
+FUSED_TOPIC = contract.ESTIMATE_TOPIC
 
 
 class McapSink(SinkBase):

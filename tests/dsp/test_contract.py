@@ -62,6 +62,14 @@ _SAMPLES = {
     contract.POINT_STAMPED: {"header": _HEADER, "point": {"x": 1.0, "y": 2.0, "z": 0.11}},
     contract.POSE_WITH_COVARIANCE_STAMPED: {
         "header": _HEADER, "pose": {"pose": _POSE, "covariance": [float(i) for i in range(36)]}},
+    contract.ODOMETRY: {
+        "header": _HEADER, "child_frame_id": "ball",
+        "pose": {"pose": {"position": {"x": 1.5, "y": -2.0, "z": 0.0},
+                          "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
+                 "covariance": [1.0, 2.0] + [0.0] * 4 + [3.0, 4.0] + [0.0] * 28},
+        "twist": {"twist": {"linear": {"x": 4.0, "y": -1.0, "z": 0.0},
+                            "angular": {"x": 0.0, "y": 0.0, "z": 0.0}},
+                  "covariance": [0.5] + [0.0] * 6 + [0.25] + [0.0] * 28}},
     contract.TF_MESSAGE: {"transforms": [{
         "header": _HEADER, "child_frame_id": "robot1",
         "transform": {"translation": {"x": 1.0, "y": 2.0, "z": 0.0},
@@ -94,6 +102,10 @@ def test_message_definitions_round_trip_through_cdr(schema_name: str) -> None:
     if schema_name == contract.POSE_WITH_COVARIANCE_STAMPED:
         assert list(msg.pose.covariance) == [float(i) for i in range(36)]
         assert msg.pose.pose.orientation.z == pytest.approx(0.6)
+    if schema_name == contract.ODOMETRY:
+        assert msg.child_frame_id == "ball"
+        assert (msg.twist.twist.linear.x, msg.twist.twist.linear.y) == (4.0, -1.0)
+        assert msg.twist.covariance[7] == 0.25 and msg.pose.covariance[6] == 3.0
 
 
 # --- message builders ------------------------------------------------------------------------
@@ -109,6 +121,9 @@ def test_builders_make_the_messages_the_definitions_describe() -> None:
         contract.POINT_STAMPED: contract.point_stamped(_T, 1.0, 2.0, 0.11),
         contract.TF_MESSAGE: contract.tf_message(
             [contract.transform_stamped(_T, "robot1", 1.0, 2.0, 0.0)]),
+        contract.ODOMETRY: contract.odometry(
+            _T, "ball", 1.5, -2.0, 4.0, -1.0, position_covariance=((1.0, 2.0), (3.0, 4.0)),
+            velocity_covariance=((0.5, 0.0), (0.0, 0.25))),
     }
     for name, msg in built.items():
         assert msg == _SAMPLES[name], name

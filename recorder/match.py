@@ -5,7 +5,7 @@ ball is kicked and passed between them at 2-8 m/s. The ball is a pybullet body: 
 kicks it rolls, slows by rolling friction and damping, and bounces off robots, goals,
 distractors and the walls at the carpet's edge. A kick is data (when, how fast, towards
 what); its direction is taken from where the ball is when the kick happens, so the same
-seed always gives the same match. Optional distractors are orange boxes in the border
+seed always gives the same match. Optional distractors are orange drums in the border
 strip beside the field, where a colour threshold may take them for the ball.
 
 Pure data and arithmetic: no pybullet here.
@@ -89,7 +89,7 @@ class Kick:
 
 @dataclass(frozen=True)
 class Distractor:
-    """An orange box standing beside the field (centre x, y and side, metres)."""
+    """An orange drum standing beside the field (centre x, y; diameter = height, metres)."""
 
     x_m: float
     y_m: float
@@ -155,7 +155,7 @@ def _kicks(rng: np.random.Generator, robots: list[PathTrack], hl: float,
 
 def _distractors(rng: np.random.Generator, count: int, hl: float, hw: float,
                  border: float) -> tuple[Distractor, ...]:
-    """``count`` orange boxes in the border strip, 0.4 m or more outside the field lines."""
+    """``count`` orange drums in the border strip, 0.4 m or more outside the field lines."""
     out = []
     for _ in range(count):
         size = float(rng.uniform(*_DISTRACTOR_SIZE_M))

@@ -41,7 +41,7 @@ from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.field import field_spec
 from recorder.omni import DEFAULT_FACE_PX
-from recorder.scenarios import SCENARIOS, make_scenario, scenario_from_path
+from recorder.scenarios import SCENARIOS, Scenario, make_scenario, scenario_from_path
 from recorder.simulation import CAMERA_PHASES, Plan, Simulation
 from recorder.world import PHYSICS_HZ, World
 from recorder.writer import LogWriter
@@ -87,7 +87,7 @@ class RecordOptions:
     multiple of the camera rate; default twice it, a match's 240), ``camera_phase`` "sync" or
     "random" (default random for match, sync elsewhere), ``pose_bias_m`` / ``yaw_bias_deg``
     (a drifting localisation bias with time constant ``pose_bias_tau_s``), ``exposure_ms``,
-    ``image_noise`` [grey levels], ``gain_jitter``, ``distractors`` (orange boxes beside the
+    ``image_noise`` [grey levels], ``gain_jitter``, ``distractors`` (orange drums beside the
     field, match only) and ``ball_odometry`` (the ball's true velocity on
     /ground_truth/ball/odometry; default on for match).
     """
@@ -281,11 +281,15 @@ def _ball_odometry(plan: Plan, options: RecordOptions) -> bool:
 
 
 def log_metadata(
-    plan: Plan, options: RecordOptions, *, renderer: str, camera: CameraModel,
+    sc: Scenario, options: RecordOptions, *, rate_hz: float, frames: int, renderer: str,
+    camera: CameraModel, plan: Plan | None = None,
 ) -> tuple[meta.ScenarioMetadata, meta.CamerasMetadata, meta.RecorderMetadata]:
     """The log's metadata records: the scenario (with how it is recorded), each robot's
-    camera model and the recorder (renderer, physics, package versions)."""
-    sc = plan.scenario
+    camera model and the recorder (renderer, physics, package versions). ``plan``: the
+    resolved timing (default: poses at twice ``rate_hz``, cameras in sync)."""
+    if plan is None:
+        plan = Plan(sc, rate_hz, frames, max(1, round(_NS / rate_hz / 2)), 2,
+                    {tr.name: 0 for tr in sc.robots})
     scene = sc.params()
     field_name = scene.pop("field")
     recording = _recording(plan, options)
@@ -347,8 +351,9 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
     with World(field_spec(options.field), renderer=options.renderer) as world:
         sim = Simulation(world, plan, options, camera,
                          ball_odometry=_ball_odometry(plan, options))
-        scenario, cameras, recorder = log_metadata(plan, options, renderer=world.renderer,
-                                                   camera=camera)
+        scenario, cameras, recorder = log_metadata(
+            plan.scenario, options, rate_hz=plan.rate_hz, frames=plan.frames,
+            renderer=world.renderer, camera=camera, plan=plan)
 
         def fill(writer: LogWriter) -> None:
             writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())

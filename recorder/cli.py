@@ -84,7 +84,7 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--gain-jitter", type=float, default=0.0, metavar="STD",
                    help="std dev of each camera's wandering log gain, e.g. 0.1 (default 0)")
     g.add_argument("--distractors", type=int, default=0, metavar="N",
-                   help="orange drums beside the field (match only; default 0)")
+                   help="orange boxes beside the field (match only; default 0)")
     g.add_argument("--ball-odometry", action=argparse.BooleanOptionalAction, default=None,
                    help="write the ball's true velocity on /ground_truth/ball/odometry "
                    "(default: on for match)")

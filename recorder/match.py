@@ -5,8 +5,9 @@ ball is kicked and passed between them at 2-8 m/s. The ball is a pybullet body: 
 kicks it rolls, slows by rolling friction and damping, and bounces off robots, goals,
 distractors and the walls at the carpet's edge. A kick is data (when, how fast, towards
 what); its direction is taken from where the ball is when the kick happens, so the same
-seed always gives the same match. Optional distractors are orange drums in the border
-strip beside the field, where a colour threshold may take them for the ball.
+seed always gives the same match. Optional distractors are orange boxes in the border
+strip beside the field, each turned its own way: a colour threshold may take one for the
+ball when the ball itself is out of sight (a ball in sight looks rounder and wins).
 
 Pure data and arithmetic: no pybullet here.
 """
@@ -89,11 +90,12 @@ class Kick:
 
 @dataclass(frozen=True)
 class Distractor:
-    """An orange drum standing beside the field (centre x, y; diameter = height, metres)."""
+    """An orange box standing beside the field (centre x, y and side, metres; its yaw)."""
 
     x_m: float
     y_m: float
     size_m: float
+    yaw_rad: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -155,7 +157,7 @@ def _kicks(rng: np.random.Generator, robots: list[PathTrack], hl: float,
 
 def _distractors(rng: np.random.Generator, count: int, hl: float, hw: float,
                  border: float) -> tuple[Distractor, ...]:
-    """``count`` orange drums in the border strip, 0.4 m or more outside the field lines."""
+    """``count`` orange boxes in the border strip, 0.4 m or more outside the field lines."""
     out = []
     for _ in range(count):
         size = float(rng.uniform(*_DISTRACTOR_SIZE_M))
@@ -166,7 +168,8 @@ def _distractors(rng: np.random.Generator, count: int, hl: float, hw: float,
         else:  # behind a goal line, clear of the goal
             y = float(rng.uniform(1.5, hw)) * float(rng.choice([-1.0, 1.0]))
             x = (hl + off) * (1 if side == 2 else -1)
-        out.append(Distractor(round(x, 3), round(y, 3), round(size, 3)))
+        yaw = float(rng.uniform(0.0, math.pi / 2))
+        out.append(Distractor(round(x, 3), round(y, 3), round(size, 3), round(yaw, 4)))
     return tuple(out)
 
 

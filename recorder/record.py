@@ -87,7 +87,7 @@ class RecordOptions:
     multiple of the camera rate; default twice it, a match's 240), ``camera_phase`` "sync" or
     "random" (default random for match, sync elsewhere), ``pose_bias_m`` / ``yaw_bias_deg``
     (a drifting localisation bias with time constant ``pose_bias_tau_s``), ``exposure_ms``,
-    ``image_noise`` [grey levels], ``gain_jitter``, ``distractors`` (orange drums beside the
+    ``image_noise`` [grey levels], ``gain_jitter``, ``distractors`` (orange boxes beside the
     field, match only) and ``ball_odometry`` (the ball's true velocity on
     /ground_truth/ball/odometry; default on for match).
     """

@@ -123,7 +123,7 @@ def _check_robots(name: str, robots: int | None, fixed: int | None = None) -> in
 def make_scenario(name: str, seed: int = 0, *, robots: int | None = None,
                   field: str = "18x12", distractors: int = 0) -> Scenario:
     """The scenario ``name`` (one of ``SCENARIOS``) for a seed, robot count and field;
-    ``distractors`` orange drums beside the field (match only)."""
+    ``distractors`` orange boxes beside the field (match only)."""
     spec = field_spec(field)
     if distractors and name != "match":
         raise UsageError(f"--distractors is for the match scenario, not {name}")

@@ -106,7 +106,7 @@ class Simulation:
             if sc.play.walls:
                 world.add_walls()
             for d in sc.play.distractors:
-                world.add_distractor(d.x_m, d.y_m, d.size_m)
+                world.add_distractor(d.x_m, d.y_m, d.size_m, d.yaw_rad)
         world.set_ball(*sc.ball_xy_m, *sc.ball_velocity_mps)
         self.kicks: list[Kick] = list(sc.play.kicks) if sc.play is not None else []
         self.moving = [tr for tr in (*sc.robots, *sc.opponents) if tr.moving]

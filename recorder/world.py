@@ -317,15 +317,18 @@ class World:
             body = p.createMultiBody(0, col, -1, centre, physicsClientId=c)
             p.changeDynamics(body, -1, restitution=0.6, lateralFriction=0.3, physicsClientId=c)
 
-    def add_distractor(self, x_m: float, y_m: float, size_m: float) -> None:
-        """An orange drum (the ball's colour; diameter and height ``size_m``) standing on the
-        floor: round from above, so a colour threshold may take it for the ball."""
+    def add_distractor(self, x_m: float, y_m: float, size_m: float, yaw_rad: float = 0.0
+                       ) -> None:
+        """An orange box (the ball's colour; side ``size_m``) standing on the floor, turned
+        by ``yaw_rad``: seen from above at an angle, a colour threshold may take it for the
+        ball (square-on, its fill ratio gives it away)."""
         c = self._client
-        r, h = size_m / 2, size_m
-        vis = p.createVisualShape(p.GEOM_CYLINDER, radius=r, length=h, rgbaColor=_rgba(BALL_RGB),
+        half = [size_m / 2] * 3
+        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(BALL_RGB),
                                   specularColor=[0, 0, 0], physicsClientId=c)
-        col = p.createCollisionShape(p.GEOM_CYLINDER, radius=r, height=h, physicsClientId=c)
-        p.createMultiBody(0, col, vis, [x_m, y_m, h / 2], physicsClientId=c)
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
+        p.createMultiBody(0, col, vis, [x_m, y_m, size_m / 2],
+                          p.getQuaternionFromEuler([0, 0, yaw_rad]), physicsClientId=c)
 
     def ball_position(self) -> tuple[float, float, float]:
         pos, _ = p.getBasePositionAndOrientation(self.ball, physicsClientId=self._client)

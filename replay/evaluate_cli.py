@@ -2,6 +2,7 @@
 
     dsp-eval [--camera ideal] [--calibration calib.json] [--out-dir eval/]
     dsp-eval --suite random --count 200 --seed 1
+    dsp-eval --suite match --count 20
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
@@ -32,6 +33,13 @@ from replay.evaluate import (
     run_paper_suite,
     run_random_suite,
 )
+from replay.evaluate_match import (
+    MatchLogScore,
+    MatchOptions,
+    MatchTask,
+    match_markdown,
+    run_match_suite,
+)
 
 __all__ = ["build_parser", "main"]
 
@@ -44,17 +52,35 @@ def build_parser() -> argparse.ArgumentParser:
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
-    p.add_argument("--suite", choices=("paper", "random"), default="paper",
-                   help="the paper's four scenarios (default) or random scenes")
-    p.add_argument("--count", type=int, default=200, help="random scenes (default 200)")
+    p.add_argument("--suite", choices=("paper", "random", "match"), default="paper",
+                   help="the paper's four scenarios (default), random scenes or seeded "
+                   "matches (the tracker against window fusion)")
+    p.add_argument("--count", type=int, default=None,
+                   help="random scenes (default 200) or matches (default 20)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first scene (default 0)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration from dsp-calibrate for the corrected estimator "
                    "(default: the camera model in the log's metadata)")
     p.add_argument("--out-dir", type=Path, default=Path("eval"), metavar="DIR",
                    help="logs and tables go here (default ./eval)")
+    _add_match_arguments(p)
     add_common_arguments(p, camera="ideal", renderer=True)
     return p
+
+
+def _add_match_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("--suite match")
+    g.add_argument("--sync-count", type=int, metavar="N",
+                   help="record the first N matches again with synchronised cameras "
+                   "(default: all)")
+    g.add_argument("--duration", type=float, default=10.0, metavar="S",
+                   help="sim seconds per match (default %(default)s)")
+    g.add_argument("--rate", type=float, metavar="HZ",
+                   help="camera frames per second per robot (default: the scenario's, 20)")
+    g.add_argument("--face-px", type=int, metavar="PX",
+                   help="render resolution (default: the recorder's, 1024)")
+    g.add_argument("--distractors", type=int, default=3, metavar="N",
+                   help="orange boxes beside the field per match (default %(default)s)")
 
 
 def _recorder(camera: str, renderer: str) -> Recorder:
@@ -68,8 +94,14 @@ def _recorder(camera: str, renderer: str) -> Recorder:
 
 def _check(args: argparse.Namespace) -> None:
     """Refuse bad options and a bad calibration before recording anything."""
+    if args.count is None:
+        args.count = 20 if args.suite == "match" else 200
     if args.count < 1:
         raise UsageError(f"--count {args.count}: give at least 1 scene")
+    if args.sync_count is not None and args.sync_count < 0:
+        raise UsageError(f"--sync-count {args.sync_count}: give 0 or more")
+    if not args.duration > 0:
+        raise UsageError(f"--duration {args.duration}: give a positive number of seconds")
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise InputError(f"{args.calibration}: calibration file not found")
@@ -94,6 +126,8 @@ def _ticker(bar: Any) -> Callable[[str], None]:
 
 def _run_suite(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
+    if args.suite == "match":
+        return _run_match_suite(args)
     record = _recorder(args.camera, args.renderer)
     stem = f"{args.suite}-{args.camera}"
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
@@ -108,6 +142,28 @@ def _run_suite(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
                                   seed=args.seed, calibration=args.calibration,
                                   on_progress=_ticker(bar))
     return f"{stem}-{args.count}-seed{args.seed}", random_markdown(rsuite), rsuite.to_dict()
+
+
+def _run_match_suite(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
+    options = MatchOptions(camera=args.camera, duration_s=args.duration, rate_hz=args.rate,
+                           face_px=args.face_px, distractors=args.distractors,
+                           renderer=args.renderer, calibration=args.calibration)
+    sync = args.count if args.sync_count is None else min(args.sync_count, args.count)
+    with progress_bar(args.count + sync, PROG, progress_enabled(args), unit="log") as bar:
+
+        def serial(fn: Callable[[MatchTask], MatchLogScore],
+                   tasks: Sequence[MatchTask]) -> list[MatchLogScore]:
+            out = []
+            for task in tasks:
+                bar.set_postfix_str(f"match {task.seed} {task.phase}")
+                out.append(fn(task))
+                bar.update(1)
+            return out
+
+        suite = run_match_suite(args.out_dir, options, count=args.count, seed=args.seed,
+                                sync_count=sync, map_tasks=serial)
+    stem = f"match-{args.camera}-{args.count}-seed{args.seed}"
+    return stem, match_markdown(suite), suite.to_dict()
 
 
 def _main(argv: Sequence[str] | None) -> int:

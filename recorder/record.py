@@ -32,10 +32,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
 from dsp import contract as c
 from dsp import metadata as meta
+from dsp.cli import progress_bar
 from dsp.errors import OutputExistsError, UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
@@ -107,7 +107,8 @@ class RecordOptions:
     face_px: int = DEFAULT_FACE_PX
     renderer: str = "auto"
     force: bool = False
-    progress: bool = False
+    progress: bool | None = False
+    """True a bar, False none, None plain lines (:func:`dsp.cli.progress_bar`)."""
     pose_rate_hz: float | None = None
     camera_phase: str | None = None
     pose_bias_m: float = 0.0
@@ -359,9 +360,8 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
             writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())
             writer.metadata(c.CAMERAS_METADATA, cameras.to_metadata())
             writer.metadata(c.RECORDER_METADATA, recorder.to_metadata())
-            with tqdm(total=plan.frames * len(plan.scenario.robots), unit="image",
-                      disable=not options.progress,
-                      leave=False, desc=path.name) as bar:
+            with progress_bar(plan.frames * len(plan.scenario.robots), path.name,
+                              options.progress, unit="image") as bar:
                 sim.run(writer, bar)
 
         messages = _write_log(path, fill,

@@ -21,7 +21,6 @@ from typing import Any
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
 from dsp import contract as c
 from estimator.camera import CameraModel
@@ -138,7 +137,7 @@ class Simulation:
         k = tick - self.plan.phase_ticks[robot]
         return k >= 0 and k % self.plan.ticks_per_frame == 0
 
-    def run(self, writer: LogWriter, bar: tqdm[Any]) -> None:
+    def run(self, writer: LogWriter, bar: Any) -> None:
         """Every tick: poses and truth, then the images of the robots whose camera fires."""
         plan = self.plan
         truth_of = {tr.name: tr for tr in plan.scenario.robots}

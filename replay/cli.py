@@ -1,7 +1,7 @@
 """``dsp-replay``: replay a log through the estimator (thin: parse, call, report).
 
     dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL | --serve]
-               [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
+               [--method paper|corrected] [--fusion mean|nearest|weighted|robust|track]
                [--out results.json] [--out-mcap estimates.mcap] [--force] ...
 
 Known problems end in one line on stderr and an exit code, without a traceback
@@ -46,7 +46,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default)")
     p.add_argument("--fusion", choices=FUSION_METHODS,
                    help="how the robots' estimates are fused (default: mean in paper mode, "
-                   "as the paper does; weighted for the corrected estimator)")
+                   "as the paper does; for the corrected estimator track: a Kalman filter "
+                   "giving position and velocity at every image stamp)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,

@@ -34,10 +34,11 @@ import socket
 import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
-from dsp.errors import EXIT_INPUT, DspError, UsageError
+from dsp.errors import EXIT_INPUT, DspError, InputError, UsageError
 
 __all__ = [
     "RAY_INSTALL_HINT",
@@ -206,9 +207,17 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+PRELOAD = ["__main__", "replay.runner"]
+"""Imported once by the fork server, so a new pool worker starts without importing numpy,
+OpenCV and mcap again."""
+
+
 def _context() -> multiprocessing.context.BaseContext:
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(PRELOAD)
+        return ctx
+    return multiprocessing.get_context("spawn")  # pragma: no cover - macOS, Windows
 
 
 def _map_pool(fn: Callable[[T], R], args: Sequence[T], processes: int, on_done: Done | None,
@@ -221,15 +230,18 @@ def _map_pool(fn: Callable[[T], R], args: Sequence[T], processes: int, on_done: 
             pool.submit(_call, fn, i, arg) for i, arg in enumerate(args)}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in sorted(done, key=lambda f: f.result()[0]):
-                i, outcome = fut.result()
+            for i, outcome in sorted((fut.result() for fut in done), key=lambda t: t[0]):
                 results[i] = outcome
                 if on_done is not None:
                     on_done(i, outcome)
                 if fail_fast and outcome.failure is not None:
                     _terminate(pool)
                     outcome.failure.raise_()
-    except BaseException:  # Ctrl-C, a broken pool: stop every worker now
+    except BrokenProcessPool as err:  # a worker was killed (the OOM killer, a signal)
+        _terminate(pool)
+        raise InputError(f"a worker process died abruptly ({err}); try fewer --workers "
+                         "(memory?)") from err
+    except BaseException:  # Ctrl-C: stop every worker now
         _terminate(pool)
         raise
     pool.shutdown(wait=True)

@@ -56,6 +56,8 @@ def _check(args: argparse.Namespace) -> None:
     if args.out_mcap is not None and args.out_mcap is not OUT_MCAP_IN_DIR:
         raise UsageError("--out-mcap takes no file name with --out-dir (each log's estimates "
                          "go to DIR/<stem>.estimates.mcap)")
+    if args.out_csv is not None or args.plot is not None:
+        raise UsageError("--out-csv and --plot name one file: leave them out of a batch")
     if args.rerun or args.save is not None or args.connect is not None or args.serve:
         raise UsageError("--rerun, --save, --connect and --serve show one log: leave them "
                          "out of a batch")

@@ -132,6 +132,7 @@ def test_same_stem_and_existing_outputs_are_refused_before_any_work(
     (["--workers", "2"], "--workers and --ray replay a batch: give --out-dir DIR"),
     (["--out-dir", "d", "--out", "x.json"], "--out names one file"),
     (["--out-dir", "d", "--out-mcap", "x.mcap"], "--out-mcap takes no file name"),
+    (["--out-dir", "d", "--plot", "x.png"], "--out-csv and --plot name one file"),
     (["--out-dir", "d", "--workers", "0"], "--workers 0: give at least 1"),
 ])
 def test_batch_flag_misuse_is_a_usage_error(logs: Path, flags: list[str], message: str,

@@ -177,7 +177,7 @@ def _tasks(logs: Sequence[Path], out_dir: Path, options: ReplayOptions,
 
 def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *,
                  estimates_mcap: bool = False, workers: Workers | None = None,
-                 progress: bool = False,
+                 progress: bool | None = False,
                  on_log: Callable[[LogRow], None] | None = None) -> BatchSummary:
     """Replay every log in ``paths`` into ``out_dir`` and write the batch summary there.
 

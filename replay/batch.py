@@ -195,7 +195,7 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
 
         def done(i: int, outcome: Outcome[LogRow]) -> None:
             row = outcome.value if outcome.failure is None else LogRow(
-                logs[i].name, outcome.failure.message)
+                logs[i].name, outcome.failure.text)
             if outcome.failure is not None and outcome.failure.detail:
                 print(outcome.failure.detail, file=sys.stderr)
             rows[i] = row

@@ -121,20 +121,28 @@ class Workers:
 
 @dataclass(frozen=True)
 class TaskFailure:
-    """What a task raised, as data: ``message`` is the one-line error (with the host when
-    it ran on another machine), ``exit_code`` the :mod:`dsp.errors` code it maps to, and
-    ``detail`` the worker's traceback for an unexpected error (a bug), else empty."""
+    """What a task raised, as data: the one-line ``message``, the :mod:`dsp.errors`
+    ``exit_code`` it maps to, the ``host`` it ran on, and ``detail``, the worker's traceback
+    for an unexpected error (a bug), else empty."""
 
     message: str
     exit_code: int = EXIT_INPUT
     detail: str = ""
+    host: str = ""
+
+    @property
+    def text(self) -> str:
+        """The message, naming the host when the task ran on another machine."""
+        if self.host and self.host != socket.gethostname():
+            return f"{self.message} (on host {self.host})"
+        return self.message
 
     def raise_(self) -> None:
         """Raise it in this process: a :class:`DspError` with the same message and code, or,
         for a bug, a RuntimeError carrying the worker's traceback."""
         if self.detail:
-            raise RuntimeError(f"{self.message}\nworker traceback:\n{self.detail}")
-        err = DspError(self.message)
+            raise RuntimeError(f"{self.text}\nworker traceback:\n{self.detail}")
+        err = DspError(self.text)
         err.exit_code = self.exit_code
         raise err
 
@@ -153,13 +161,13 @@ class Outcome(Generic[R]):
 
 
 def _failure(err: BaseException) -> TaskFailure:
+    host = socket.gethostname()
     if isinstance(err, DspError):
-        return TaskFailure(str(err), err.exit_code)
+        return TaskFailure(str(err), err.exit_code, host=host)
     if isinstance(err, OSError):
-        return TaskFailure(str(err), EXIT_INPUT)
+        return TaskFailure(str(err), EXIT_INPUT, host=host)
     detail = "".join(traceback.format_exception(type(err), err, err.__traceback__))
-    return TaskFailure(f"{type(err).__name__}: {err} (on host {socket.gethostname()})",
-                       EXIT_INPUT, detail)
+    return TaskFailure(f"{type(err).__name__}: {err}", EXIT_INPUT, detail, host)
 
 
 def _call(fn: Callable[[T], R], index: int, arg: T) -> tuple[int, Outcome[R]]:

@@ -20,10 +20,10 @@ from test_evaluate import FakeRecorder
 
 import replay.cli
 import replay.evaluate_cli
-from dsp.errors import EXIT_INPUT, EXIT_OUTPUT_EXISTS, EXIT_USAGE
+from dsp.errors import EXIT_INPUT, EXIT_OUTPUT_EXISTS, EXIT_USAGE, DspError
 from replay.batch import LogTask, collect_logs, replay_log
 from replay.options import ReplayOptions
-from replay.parallel import Outcome, Workers, map_tasks
+from replay.parallel import Outcome, TaskFailure, Workers, map_tasks
 
 ROBOTS = {"robot1": (-3.0, 0.0, 0.0), "robot2": (2.0, 1.0, math.pi),
           "robot3": (0.0, -4.0, math.pi / 2)}
@@ -169,7 +169,12 @@ def test_a_task_error_comes_back_as_its_message_and_exit_code() -> None:
                          Workers(count=2))
     first = outcomes[0].failure
     assert first is not None
-    assert (first.message, first.exit_code) == ("/nowhere/a.mcap: not a file (check the path)", 1)
+    assert (first.text, first.exit_code) == ("/nowhere/a.mcap: not a file (check the path)", 1)
+    with pytest.raises(DspError, match=r"^/nowhere/a.mcap: not a file") as raised:
+        outcomes[0].unwrap()
+    assert raised.value.exit_code == 1
+    # a failure on another machine names it
+    assert TaskFailure("x.mcap: bad", host="node7").text == "x.mcap: bad (on host node7)"
 
 
 def _interrupt(i: int, outcome: Outcome[Any]) -> None:

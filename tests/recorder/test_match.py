@@ -251,3 +251,21 @@ def _raw(path: Path) -> dict[str, list[bytes]]:
         for _s, channel, message in make_reader(f).iter_messages():
             out.setdefault(channel.topic, []).append(message.data)
     return out
+
+
+def test_dsp_record_takes_the_match_flags(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    from recorder import cli
+
+    out = tmp_path / "m.mcap"
+    assert cli.main([str(out), "--scenario", "match", "--frames", "1", "--camera-phase", "sync",
+                     "--distractors", "1", "--pose-bias", "0.02", "--gain-jitter", "0.05",
+                     "--face-px", "256", "--renderer", "tiny", "-q"]) == 0
+    _, params = _read(out)
+    rec = params["recording"]
+    assert (rec["camera_phase"], rec["pose_bias_m"], rec["gain_jitter"]) == ("sync", 0.02, 0.05)
+    assert len(params["play"]["distractors"]) == 1
+    assert cli.main([str(tmp_path / "r.mcap"), "--scenario", "rolling", "--distractors", "2",
+                     "--renderer", "tiny", "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--distractors is for the match scenario" in err[0]

@@ -92,5 +92,5 @@ def blueprint(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Bluepri
         _layout(robots, field, kind),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline="sim_time", play_state="following"),
     )

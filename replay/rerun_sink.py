@@ -219,7 +219,7 @@ class RerunSink(SinkBase):
         rec, robot = self.rec, result.robot
         cam = f"/robots/{robot}/camera"
         if image_bgr is not None:
-            rec.log(f"{cam}/image", rr.Image(image_bgr, color_model="BGR").compress(95))
+            rec.log(f"{cam}/image", rr.Image(image_bgr, color_model="BGR").compress(85))
         det = result.detection
         if det is None:
             rec.log(f"{cam}/detection", rr.Clear(recursive=True))

@@ -19,6 +19,7 @@ import fcntl
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -128,6 +129,8 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--themes {args.themes!r}: choose from {', '.join(THEMES)}")
     width, height = (int(v) for v in args.size.lower().split("x"))
     args.out_dir.mkdir(parents=True, exist_ok=True)
+    # a plain kill ends the browser and the server too (the finally blocks run)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     server = ViewerServer(web_port=0, grpc_port=0)
     server.extra_args = [str(args.rrd.resolve())]
     with server:

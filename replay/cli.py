@@ -5,6 +5,7 @@
                [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
                [--out results.json] [--out-mcap estimates.mcap] [--out-csv estimates.csv]
                [--plot replay.png] [--force] ...
+    dsp-replay LOG|FOLDER [...] --out-dir DIR [--out-mcap] [--workers N | --ray]   (batch)
 
 Known problems end in one line on stderr and an exit code, without a traceback
 (:func:`dsp.cli.run_main`: 1 bad input, 2 usage, 3 output exists, 130 interrupted).
@@ -22,6 +23,7 @@ from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, 
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
+from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
@@ -38,7 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
         "evaluate against ground truth, and show it in Rerun.",
     )
-    p.add_argument("log", type=Path, help="the MCAP log to replay")
+    p.add_argument("log", type=Path, nargs="+",
+                   help="the MCAP log to replay (with --out-dir: logs and folders of logs)")
     viewer = p.add_mutually_exclusive_group()
     viewer.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
     viewer.add_argument("--save", type=Path, metavar="RRD", help="save a Rerun .rrd file")
@@ -78,11 +81,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--recover", action="store_true",
                    help="replay every complete chunk of a truncated or damaged log")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
-    p.add_argument("--out-mcap", type=Path, metavar="MCAP", help="write estimates as MCAP")
+    p.add_argument("--out-mcap", type=Path, metavar="MCAP", nargs="?", const=OUT_MCAP_IN_DIR,
+                   help="write estimates as MCAP (with --out-dir: no file name)")
     p.add_argument("--out-csv", type=Path, metavar="CSV",
                    help="write the per-frame and fused estimates as CSV, one row each")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="draw error over time and the top-down track (.png or .svg)")
+    add_batch_arguments(p)
     add_common_arguments(p, force=True)
     return p
 
@@ -173,6 +178,10 @@ def _main(argv: Sequence[str] | None) -> int:
                            ("--grpc-port", args.grpc_port)) if v is not None]
     if live and not args.serve:
         raise UsageError(f"{', '.join(live)} only go with --serve")
+    if is_batch(args):
+        return run_batch(args, options_from_args)
+    check_single(args)
+    args.log = args.log[0]
     if args.serve:
         return _serve(args)
     echo(args, format_summary(replay(args.log, options_from_args(args))))

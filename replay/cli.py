@@ -11,6 +11,7 @@ Known problems end in one line on stderr and an exit code, without a traceback
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -91,14 +92,19 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
 
 
 def _m(v: float | None) -> str:
-    return "-" if v is None else f"{v:.3f}"
+    """A metre figure for the table: "-" when there is none (or it is not finite)."""
+    return "-" if v is None or not math.isfinite(v) else f"{v:.3f}"
+
+
+def _rate(v: float) -> str:
+    return f"{v:.1f}" if math.isfinite(v) else "-"
 
 
 def format_summary(s: ReplaySummary) -> str:
     """A plain-text table of the replay."""
     lines = [f"replayed {s.path.name}: {s.frames} frames, {s.steps} steps "
-             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({s.frames_per_s:.1f} frames/s)"]
-    if s.estimator_ms is not None:
+             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({_rate(s.frames_per_s)} frames/s)"]
+    if s.estimator_ms is not None and math.isfinite(s.estimator_ms):
         lines.append(f"estimator time: {s.estimator_ms:.2f} ms/frame (decode + detect + locate)")
     lines.append(f"{'':10} {'frames':>7} {'detect':>7} {'estim':>7} {'rmse_m':>8} "
                  f"{'mean_m':>8} {'max_m':>8}")

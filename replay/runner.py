@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from dsp.errors import UsageError
+from dsp.text import printable
 from estimator.errors import EstimatorError
 from replay.decode import decode_image
 from replay.errors import ImageDecodeError, MissingPosesError
@@ -72,7 +73,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     :class:`~replay.errors.ReplayError` subclasses for known problems."""
     options = options or ReplayOptions()
     path = Path(path)
-    options.check_outputs()
+    options.check_outputs(path)
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
                    robots=options.robots, recover=options.recover) as reader:
@@ -151,7 +152,7 @@ def _progress(options: ReplayOptions, reader: LogReader) -> Iterator[Any]:
         return
     from tqdm import tqdm
 
-    with tqdm(total=reader.info.message_count, unit="msg", desc=reader.path.name,
+    with tqdm(total=reader.info.message_count, unit="msg", desc=printable(reader.path.name),
               leave=False, file=sys.stderr) as bar:
         yield bar
 

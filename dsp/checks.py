@@ -1,5 +1,5 @@
 """Option checks every command shares: numbers finite and in range, topic patterns that name
-the robot, output files with the extension their format has.
+the robot (output extensions: :func:`dsp.cli.check_suffix`).
 
 Each raises :class:`~dsp.errors.UsageError` (exit 2) with one line naming the option, the
 value given and what is accepted, before any work starts::
@@ -12,26 +12,19 @@ from __future__ import annotations
 
 import math
 import operator
-from pathlib import Path
 
 from dsp.errors import UsageError
 
 __all__ = [
     "MAX_TIME_S",
-    "OUTPUT_SUFFIXES",
     "check_int",
     "check_number",
-    "check_suffix",
     "check_topic_pattern",
 ]
 
 MAX_TIME_S = 1e9
 """The largest time in seconds an option takes (~31 years): nanoseconds stay well inside a
 64-bit integer."""
-
-OUTPUT_SUFFIXES = {"log": ".mcap", "results": ".json", "calibration": ".json", "rrd": ".rrd",
-                   "figure": ".png"}
-"""The extension of each kind of output the commands write."""
 
 
 def _num(x: float) -> str:
@@ -82,18 +75,3 @@ def check_topic_pattern(flag: str, pattern: str) -> None:
     if pattern.count("{robot}") != 1:
         raise UsageError(f"{flag} {pattern!r}: the pattern must hold {{robot}} once, where the "
                          "robot's name goes (e.g. /{robot}/pose)")
-
-
-def check_suffix(flag: str, path: Path | str | None, kind: str) -> None:
-    """An output file's name must end in the extension of its ``kind`` (see
-    :data:`OUTPUT_SUFFIXES`), so a log is never written as ``.txt``, results never as
-    ``.rrd``. ``flag`` "" for a positional argument."""
-    if path is None:
-        return
-    want = OUTPUT_SUFFIXES[kind]
-    path = Path(path)
-    if path.suffix.lower() != want:
-        fixed = path.with_suffix(want) if path.suffix else path.with_name(path.name + want)
-        name = f"{flag} {path}" if flag else str(path)
-        raise UsageError(f"{name}: a {kind} file's name ends in {want} "
-                         f"(e.g. {fixed.name})")

@@ -29,12 +29,12 @@ from typing import Any
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
 from dsp import contract as c
 from dsp import metadata as meta
 from dsp.atomic import AtomicFile, check_output_path, partial_paths
-from dsp.checks import check_int, check_number, check_suffix
+from dsp.checks import check_int, check_number
+from dsp.cli import check_suffix, progress_bar
 from dsp.errors import UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
@@ -104,7 +104,8 @@ class RecordOptions:
     face_px: int = DEFAULT_FACE_PX
     renderer: str = "auto"
     force: bool = False
-    progress: bool = False
+    progress: bool | None = False
+    """True a bar, False none, None plain lines (:func:`dsp.cli.progress_bar`)."""
 
     def __post_init__(self) -> None:
         if self.camera not in CAMERA_MODELS:
@@ -194,7 +195,7 @@ def _plan(path: Path, options: RecordOptions) -> _Plan:
     else:
         duration = sc.default_duration_s if options.duration_s is None else options.duration_s
         frames = max(1, round(duration * rate))
-    check_suffix("", path, "log")
+    check_suffix("output", path, (".mcap",))
     check_output_path(path, force=options.force)
     return _Plan(sc, rate, frames)
 
@@ -257,7 +258,7 @@ class _Simulation:
         self.steps_done = 0
         self.frames_done = 0
 
-    def run(self, writer: LogWriter, bar: tqdm[Any]) -> None:
+    def run(self, writer: LogWriter, bar: Any) -> None:
         """Two pose ticks per camera frame; images on the even ones."""
         for k in range(2 * self.plan.frames):
             t_ns = k * self.plan.pose_period_ns
@@ -361,10 +362,9 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
             writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())
             writer.metadata(c.CAMERAS_METADATA, cameras.to_metadata())
             writer.metadata(c.RECORDER_METADATA, recorder.to_metadata())
-            with tqdm(total=plan.frames, unit="frame", disable=not options.progress,
-                      leave=False, desc=path.name) as bar:
-                writer.flush()  # the metadata reach the disk before the first frame
-            sim.run(writer, bar)
+            writer.flush()  # the metadata reach the disk before the first frame
+            with progress_bar(plan.frames, path.name, options.progress, unit="frame") as bar:
+                sim.run(writer, bar)
 
         messages = _write_log(path, fill,
                               lambda partial: RecordingInterrupted(partial, sim.frames_done),

@@ -3,7 +3,7 @@
 Seconds at this edge (the CLI's units); the runner turns them into integer nanoseconds once
 (:meth:`ReplayOptions.timing`). Every value is checked when the options are made: times
 finite and in range (:data:`MAX_WINDOW_S`, :data:`~dsp.checks.MAX_TIME_S`), topic patterns
-holding ``{robot}``, outputs with their format's extension and no two on one file. Output
+holding ``{robot}``, no two outputs on one file (the CLI checks their extensions). Output
 paths are checked against the file system (and the input log) only when a replay starts
 (:meth:`ReplayOptions.check_outputs`), since files come and go.
 """
@@ -16,12 +16,7 @@ from typing import Any
 
 from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
-from dsp.checks import (
-    MAX_TIME_S,
-    check_number,
-    check_suffix,
-    check_topic_pattern,
-)
+from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
 from estimator.fusion import FUSION_METHODS
 
@@ -92,10 +87,15 @@ class ReplayOptions:
     recover: bool = False
     out: Path | None = None
     out_mcap: Path | None = None
+    out_csv: Path | None = None
+    """The estimates as CSV (:mod:`replay.exports`)."""
+    plot: Path | None = None
+    """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
     force: bool = False
     rerun: RerunTarget | None = None
     progress: bool | None = None
-    """Show a progress bar: None = when stderr is a terminal."""
+    """Show progress: True a bar, False none, None a bar when stderr is a terminal and
+    plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -116,13 +116,7 @@ class ReplayOptions:
         check_topic_pattern("--pose-topic", self.pose_topic)
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
             raise UsageError(f"--robots {','.join(self.robots)!r}: give robot names")
-        check_suffix("--out", self.out, "results")
-        check_suffix("--out-mcap", self.out_mcap, "log")
-        check_suffix("--save", self.save_path, "rrd")
-        check_distinct(self._outputs())
-
-    def _outputs(self) -> list[tuple[str, Path | None]]:
-        return [("--out", self.out), ("--out-mcap", self.out_mcap), ("--save", self.save_path)]
+        check_distinct(self.output_flags())
 
     @property
     def fusion_method(self) -> str:
@@ -136,6 +130,11 @@ class ReplayOptions:
             return Path(self.rerun.target)
         return None
 
+    def output_flags(self) -> tuple[tuple[str, Path | None], ...]:
+        """Every file output with the flag that names it."""
+        return (("--out", self.out), ("--out-mcap", self.out_mcap), ("--out-csv", self.out_csv),
+                ("--plot", self.plot), ("--save", self.save_path))
+
     def timing(self) -> Timing:
         return Timing(
             tolerance_ns=round(self.pose_tolerance_s * NS),
@@ -148,9 +147,9 @@ class ReplayOptions:
         """Refuse, before any work: an output that exists already (unless ``force``), is a
         folder or has no folder; an output that is the input ``log`` or the calibration
         file, or that another output names too (symlinks and hard links included)."""
-        check_distinct(self._outputs(), [("the input log", log),
-                                         ("the --calibration file", self.calibration)])
-        for flag, out in self._outputs():
+        check_distinct(self.output_flags(), [("the input log", log),
+                                             ("the --calibration file", self.calibration)])
+        for flag, out in self.output_flags():
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)
 

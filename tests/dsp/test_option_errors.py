@@ -37,9 +37,9 @@ REPLAY: list[tuple[list[str], str]] = [
     (["--image-topic", "/x"], "--image-topic '/x': the pattern must hold {robot} once"),
     (["--pose-topic", "/pose"], "--pose-topic '/pose': the pattern must hold {robot} once"),
     (["--pose-topic", "/{robot}/{robot}"], "--pose-topic '/{robot}/{robot}'"),
-    (["--out", "r.txt"], "--out r.txt: a results file's name ends in .json (e.g. r.json)"),
-    (["--out-mcap", "e.json"], "--out-mcap e.json: a log file's name ends in .mcap"),
-    (["--save", "r.json"], "--save r.json: a rrd file's name ends in .rrd (e.g. r.rrd)"),
+    (["--out", "r.txt"], "--out r.txt: the file name must end in .json (e.g. r.json)"),
+    (["--out-mcap", "e.json"], "--out-mcap e.json: the file name must end in .mcap"),
+    (["--save", "r.json"], "--save r.json: the file name must end in .rrd (e.g. r.rrd)"),
 ]
 
 RECORD: list[tuple[list[str], str]] = [
@@ -75,7 +75,7 @@ CALIBRATE: list[tuple[list[str], str]] = [
     (["--face-px", "100000"], "--face-px 100000"),
     (["--directions", "0,nan"], "--directions nan: give a finite number in [-360, 360] deg"),
     (["--directions", "inf"], "--directions inf"),
-    (["--plot", "c.jpg"], "--plot c.jpg: a figure file's name ends in .png (e.g. c.png)"),
+    (["--plot", "c.jpg"], "--plot c.jpg: the file name must end in .png"),
 ]
 
 EVAL: list[tuple[list[str], str]] = [
@@ -114,8 +114,8 @@ def test_record_refuses_a_log_name_without_mcap(tmp_path: Path,
     code = record_main([str(tmp_path / "scenario2.txt"), "--face-px", "256"])
     err = capsys.readouterr().err
     assert code == 2
-    assert err == (f"dsp-record: error: {tmp_path / 'scenario2.txt'}: a log file's name ends "
-                   "in .mcap (e.g. scenario2.mcap)\n")
+    assert err == (f"dsp-record: error: output {tmp_path / 'scenario2.txt'}: the file name must "
+                   f"end in .mcap (e.g. {tmp_path / 'scenario2.mcap'})\n")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -60,7 +60,7 @@ def test_two_outputs_never_share_a_file(log: Path, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     results = tmp_path / "r.json"
     code, _, err = run([log, "--out", results, "--save", results], capsys)
-    assert code == 2 and "--save" in err and "ends in .rrd" in err
+    assert code == 2 and "--save" in err and "must end in .rrd" in err
     one_line(err)
     rrd = tmp_path / "r.rrd"
     rrd.symlink_to(results)  # r.rrd -> r.json: one file under two names

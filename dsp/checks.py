@@ -22,9 +22,9 @@ __all__ = [
     "check_topic_pattern",
 ]
 
-MAX_TIME_S = 1e9
-"""The largest time in seconds an option takes (~31 years): nanoseconds stay well inside a
-64-bit integer."""
+MAX_TIME_S = 9e9
+"""The largest time [s] an option takes, either sign: stamps of real robots' logs are Unix
+times (1.7e9 s today), and 9e9 s in nanoseconds still fits a signed 64-bit integer."""
 
 
 def _num(x: float) -> str:

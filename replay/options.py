@@ -109,7 +109,7 @@ class ReplayOptions:
         check_number("--window", self.window_s, low=0, high=MAX_WINDOW_S, low_open=True,
                      unit="s")
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
-            check_number(flag, value, low=0, high=MAX_TIME_S, unit="s")
+            check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
         check_topic_pattern("--image-topic", self.image_topic)

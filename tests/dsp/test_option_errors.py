@@ -20,10 +20,10 @@ from replay.evaluate_cli import main as eval_main
 Main = Callable[[Sequence[str] | None], int]
 
 REPLAY: list[tuple[list[str], str]] = [
-    (["--start", "nan"], "--start nan: give a finite number in [0, 1000000000] s"),
-    (["--start", "-1"], "--start -1.0"),
+    (["--start", "nan"], "--start nan: give a finite number in [-9000000000, 9000000000] s"),
+    (["--start=-1e10"], "--start -10000000000.0"),
     (["--start", "inf"], "--start inf"),
-    (["--end", "1e300"], "--end 1e+300: give a finite number in [0, 1000000000] s"),
+    (["--end", "1e300"], "--end 1e+300: give a finite number in [-9000000000, 9000000000] s"),
     (["--end=-inf"], "--end -inf"),
     (["--start", "2", "--end", "1"], "--end 1.0 is before --start 2.0"),
     (["--window", "inf"], "--window inf: give a finite number in (0, 60] s"),

@@ -24,9 +24,10 @@ __all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "NS", "ReplayOptions", "
            "Timing"]
 
 METHODS = ("paper", "corrected")
-DEFAULT_FUSION = {"paper": "mean", "corrected": "weighted"}
-"""Paper mode fuses as the paper does (eq. 20-21); the corrected estimator by inverse
-covariance, the most accurate in dsp-eval's Table 1 and random scenes."""
+DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
+"""Paper mode fuses as the paper does (eq. 20-21); the corrected estimator tracks the ball
+(:mod:`estimator.tracker`): a fused position and velocity at every image stamp, robust to
+unsynchronised cameras and a moving ball (window fusions stay available)."""
 NS = 1_000_000_000
 MAX_WINDOW_S = 60.0
 """The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their

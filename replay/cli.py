@@ -2,7 +2,7 @@
 
     dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL
                          | --serve [--bind 127.0.0.1] [--port 9090] [--grpc-port 9876]]
-               [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
+               [--method paper|corrected] [--fusion mean|nearest|weighted|robust|track]
                [--out results.json] [--out-mcap estimates.mcap] [--out-csv estimates.csv]
                [--plot replay.png] [--force] ...
     dsp-replay LOG|FOLDER [...] --out-dir DIR [--out-mcap] [--workers N | --ray]   (batch)
@@ -14,6 +14,7 @@ Known problems end in one line on stderr and an exit code, without a traceback
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -64,7 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default)")
     p.add_argument("--fusion", choices=FUSION_METHODS,
                    help="how the robots' estimates are fused (default: mean in paper mode, "
-                   "as the paper does; weighted for the corrected estimator)")
+                   "as the paper does; for the corrected estimator track: a Kalman filter "
+                   "giving position and velocity at every image stamp)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
@@ -122,14 +124,19 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
 
 
 def _m(v: float | None) -> str:
-    return "-" if v is None else f"{v:.3f}"
+    """A metre figure for the table: "-" when there is none (or it is not finite)."""
+    return "-" if v is None or not math.isfinite(v) else f"{v:.3f}"
+
+
+def _rate(v: float) -> str:
+    return f"{v:.1f}" if math.isfinite(v) else "-"
 
 
 def format_summary(s: ReplaySummary) -> str:
     """A plain-text table of the replay."""
     lines = [f"replayed {s.path.name}: {s.frames} frames, {s.steps} steps "
-             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({s.frames_per_s:.1f} frames/s)"]
-    if s.estimator_ms is not None:
+             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({_rate(s.frames_per_s)} frames/s)"]
+    if s.estimator_ms is not None and math.isfinite(s.estimator_ms):
         lines.append(f"estimator time: {s.estimator_ms:.2f} ms/frame (decode + detect + locate)")
     lines.append(f"{'':10} {'frames':>7} {'detect':>7} {'estim':>7} {'rmse_m':>8} "
                  f"{'mean_m':>8} {'max_m':>8}")

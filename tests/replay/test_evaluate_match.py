@@ -107,4 +107,4 @@ def test_cli_rewrites_the_same_tables_from_the_same_logs(
 
 def test_cli_refuses_a_negative_sync_count(capsys: pytest.CaptureFixture[str]) -> None:
     assert evaluate_cli.main(["--suite", "match", "--sync-count", "-1"]) == 2
-    assert "--sync-count" in capsys.readouterr().err
+    assert "--sync-count -1" in capsys.readouterr().err

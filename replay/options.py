@@ -8,6 +8,7 @@ replay starts (:meth:`ReplayOptions.check_outputs`), since files come and go.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -85,6 +86,9 @@ class ReplayOptions:
     """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
     force: bool = False
     rerun: RerunTarget | None = None
+    threads: int | None = None
+    """Threads decoding and detecting images ahead (:mod:`replay.ahead`); None: the
+    machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
@@ -96,6 +100,8 @@ class ReplayOptions:
             raise UsageError(
                 f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
             )
+        if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
+            raise UsageError(f"--threads {self.threads}; must be >= 1")
         if not (math.isfinite(self.pose_tolerance_s) and self.pose_tolerance_s >= 0):
             raise UsageError(f"--pose-tolerance {self.pose_tolerance_s}; must be >= 0")
         if not (math.isfinite(self.window_s) and self.window_s > 0):
@@ -158,8 +164,20 @@ class ReplayOptions:
             "recover": self.recover,
         }
 
+    @property
+    def thread_count(self) -> int:
+        """The threads in use: the ones asked for, else the cores this process may use."""
+        if self.threads is not None:
+            return self.threads
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # not on Linux
+            return max(1, os.cpu_count() or 1)
+
     def as_dict(self) -> dict[str, Any]:
-        """All options as plain values (for hashing into a Rerun recording id)."""
+        """All options as plain values (for hashing into a Rerun recording id); not the
+        thread count, which changes nothing in the outputs."""
         d = asdict(self)
+        d.pop("threads")
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

@@ -1,41 +1,48 @@
 """``dsp-eval``: the paper's experiment end to end (record, replay, score) (thin CLI).
 
     dsp-eval [--camera ideal] [--calibration calib.json] [--out-dir eval/]
-    dsp-eval --suite random --count 200 --seed 1
+    dsp-eval --suite random --count 200 --seed 1 [--workers N | --ray]
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
-same command runs again; the tables are rewritten each run).
+same command runs again; the tables are rewritten each run). Scenes (record + replay under
+every configuration) run in a local process pool (``--workers``, default every core) or as
+Ray tasks (``--ray``); the tables are the same bytes whatever the worker count.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from dsp.atomic import atomic_output
+from dsp.checks import check_int
 from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
+from dsp.jsonio import dumps as strict_json
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate import (
-    CONFIGS,
     PAPER_SCENARIOS,
-    Recorder,
     paper_markdown,
     random_markdown,
     run_paper_suite,
     run_random_suite,
 )
+from replay.parallel import Outcome, Workers, add_worker_arguments, map_tasks, workers_from_args
+from replay.scenes import SceneMapper, SceneTask
 
-__all__ = ["build_parser", "main"]
+__all__ = ["SimRecorder", "build_parser", "main"]
 
 PROG = "dsp-eval"
+MAX_COUNT = 100_000
+MAX_SEED = 2**63 - 1 - MAX_COUNT
+"""Scene seeds run from --seed to --seed + --count - 1: all within 64 bits."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -53,23 +60,31 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: the camera model in the log's metadata)")
     p.add_argument("--out-dir", type=Path, default=Path("eval"), metavar="DIR",
                    help="logs and tables go here (default ./eval)")
+    add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
     return p
 
 
-def _recorder(camera: str, renderer: str) -> Recorder:
-    from recorder.record import RecordOptions, record  # lazy: replay alone does not need pybullet
+@dataclass(frozen=True)
+class SimRecorder:
+    """Records one scene with pybullet (a class, so a scene task pickles to other processes)."""
 
-    def run(path: Path, scenario: str, seed: int) -> None:
-        record(path, RecordOptions(scenario=scenario, seed=seed, camera=camera, renderer=renderer))
+    camera: str
+    renderer: str
 
-    return run
+    def __call__(self, path: Path, scenario: str, seed: int) -> None:
+        from recorder.record import RecordOptions, record  # lazy: replay alone needs no pybullet
+
+        record(path, RecordOptions(scenario=scenario, seed=seed, camera=self.camera,
+                                   renderer=self.renderer))
 
 
 def _check(args: argparse.Namespace) -> None:
     """Refuse bad options and a bad calibration before recording anything."""
-    if args.count < 1:
-        raise UsageError(f"--count {args.count}: give at least 1 scene")
+    check_int("--count", args.count, low=1, high=MAX_COUNT)
+    check_int("--seed", args.seed, low=0, high=MAX_SEED)
+    if args.out_dir.exists() and not args.out_dir.is_dir():
+        raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise InputError(f"{args.calibration}: calibration file not found")
@@ -79,34 +94,36 @@ def _check(args: argparse.Namespace) -> None:
             raise CalibrationError(args.calibration, str(err)) from err
 
 
-def _ticker(bar: Any) -> Callable[[str], None]:
-    """on_progress for the suites: called as each replay starts, so it counts the one before."""
-    started = [False]
+def _scene_mapper(workers: Workers, bar: Any) -> SceneMapper:
+    """map_scenes for the suites: scenes on ``workers``, the bar counting finished scenes;
+    the first scene that fails stops the others and is raised."""
 
-    def tick(msg: str) -> None:
-        if started[0]:
-            bar.update(1)
-        started[0] = True
-        bar.set_postfix_str(msg)
+    def done(i: int, outcome: Outcome[Any]) -> None:
+        bar.update(1)
 
-    return tick
+    def map_scenes(fn: Callable[[SceneTask], Any], tasks: Sequence[SceneTask]) -> list[Any]:
+        outcomes = map_tasks(fn, tasks, workers, on_done=done, fail_fast=True)
+        return [o.unwrap() for o in outcomes]
+
+    return map_scenes
 
 
-def _run_suite(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
+def _run_suite(args: argparse.Namespace,
+               workers: Workers) -> tuple[str, str, dict[str, Any]]:
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
-    record = _recorder(args.camera, args.renderer)
+    record = SimRecorder(args.camera, args.renderer)
     stem = f"{args.suite}-{args.camera}"
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
-    with progress_bar(scenes * len(CONFIGS), PROG, progress_enabled(args),
-                      unit="replay") as bar:
+    with progress_bar(scenes, PROG, progress_enabled(args), unit="scene") as bar:
+        map_scenes = _scene_mapper(workers, bar)
         if args.suite == "paper":
             suite = run_paper_suite(record, args.out_dir, camera=args.camera,
                                     calibration=args.calibration, seed=args.seed,
-                                    on_progress=_ticker(bar))
+                                    map_scenes=map_scenes)
             return stem, paper_markdown(suite), suite.to_dict()
         rsuite = run_random_suite(record, args.out_dir, camera=args.camera, count=args.count,
                                   seed=args.seed, calibration=args.calibration,
-                                  on_progress=_ticker(bar))
+                                  map_scenes=map_scenes)
     return f"{stem}-{args.count}-seed{args.seed}", random_markdown(rsuite), rsuite.to_dict()
 
 
@@ -115,13 +132,14 @@ def _main(argv: Sequence[str] | None) -> int:
     out_dir: Path = args.out_dir
     t0 = time.perf_counter()
     _check(args)
+    workers = workers_from_args(args)
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem, text, doc = _run_suite(args)
+    stem, text, doc = _run_suite(args, workers)
     md, js = out_dir / f"{stem}.md", out_dir / f"{stem}.json"
     with atomic_output(md, force=True) as tmp:  # tables are rewritten on every run
         tmp.write_text(text, encoding="utf-8")
     with atomic_output(js, force=True) as tmp:
-        tmp.write_text(json.dumps(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8")
+        tmp.write_text(strict_json(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8")
     echo(args, text)
     echo(args, f"wrote {md} and .json in {time.perf_counter() - t0:.0f} s")
     return 0

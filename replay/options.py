@@ -78,6 +78,9 @@ class ReplayOptions:
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
+    smooth: bool = False
+    """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
+    (``track`` fusion only); steps reach the sinks once the log is read."""
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
@@ -106,6 +109,9 @@ class ReplayOptions:
                 raise UsageError(f"{flag} {value}; must be a finite number of seconds")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
+        if self.smooth and self.fusion_method != "track":
+            raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
+                             f"{self.fusion_method!r}")
         named = [(flag, Path(p).resolve()) for flag, p in self.output_flags() if p is not None]
         for i, (flag, path) in enumerate(named):
             for other, other_path in named[i + 1:]:
@@ -157,6 +163,7 @@ class ReplayOptions:
             "pose_tolerance_s": self.pose_tolerance_s,
             "window_s": self.window_s,
             "recover": self.recover,
+            **({"smooth": True} if self.smooth else {}),  # files without it are unchanged
         }
 
     def as_dict(self) -> dict[str, Any]:

@@ -73,7 +73,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     :class:`~replay.errors.ReplayError` subclasses for known problems."""
     options = options or ReplayOptions()
     path = Path(path)
-    options.check_outputs()
+    options.check_outputs(path)
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
                    robots=options.robots, recover=options.recover) as reader:

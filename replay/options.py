@@ -10,6 +10,7 @@ paths are checked against the file system (and the input log) only when a replay
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -97,6 +98,9 @@ class ReplayOptions:
     """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
     force: bool = False
     rerun: RerunTarget | None = None
+    threads: int | None = None
+    """Threads decoding and detecting images ahead (:mod:`replay.ahead`); None: the
+    machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
@@ -108,6 +112,8 @@ class ReplayOptions:
             raise UsageError(
                 f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
             )
+        if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
+            raise UsageError(f"--threads {self.threads}; must be >= 1")
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
                      unit="s")
         check_number("--window", self.window_s, low=0, high=MAX_WINDOW_S, low_open=True,
@@ -177,8 +183,20 @@ class ReplayOptions:
             **({"smooth": True} if self.smooth else {}),  # files without it are unchanged
         }
 
+    @property
+    def thread_count(self) -> int:
+        """The threads in use: the ones asked for, else the cores this process may use."""
+        if self.threads is not None:
+            return self.threads
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # not on Linux
+            return max(1, os.cpu_count() or 1)
+
     def as_dict(self) -> dict[str, Any]:
-        """All options as plain values (for hashing into a Rerun recording id)."""
+        """All options as plain values (for hashing into a Rerun recording id); not the
+        thread count, which changes nothing in the outputs."""
         d = asdict(self)
+        d.pop("threads")
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

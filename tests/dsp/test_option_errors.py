@@ -40,6 +40,7 @@ REPLAY: list[tuple[list[str], str]] = [
     (["--out", "r.txt"], "--out r.txt: the file name must end in .json (e.g. r.json)"),
     (["--out-mcap", "e.json"], "--out-mcap e.json: the file name must end in .mcap"),
     (["--save", "r.json"], "--save r.json: the file name must end in .rrd (e.g. r.rrd)"),
+    (["--out-dir", "d", "--workers", "99999"], "--workers 99999: give at most 1024"),
 ]
 
 RECORD: list[tuple[list[str], str]] = [
@@ -79,6 +80,8 @@ CALIBRATE: list[tuple[list[str], str]] = [
 ]
 
 EVAL: list[tuple[list[str], str]] = [
+    (["--workers", "0"], "--workers 0: give at least 1"),
+    (["--workers", "100000"], "--workers 100000: give at most 1024"),
     (["--count", "0"], "--count 0: give a whole number in [1, 100000]"),
     (["--count", "1000000000"], "--count 1000000000"),
     (["--seed", "-5"], "--seed -5"),

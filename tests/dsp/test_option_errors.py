@@ -129,3 +129,18 @@ def test_calibrate_refuses_a_plot_on_its_json(tmp_path: Path,
     link.symlink_to(out)
     assert calibrate_main(["-o", str(out), "--plot", str(link), "--force"]) == 2
     assert "--out and --plot both name" in capsys.readouterr().err
+
+
+def test_eval_never_writes_its_table_over_the_calibration(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from estimator.calibration import LinearCalibration, calibration_to_json
+
+    calib = tmp_path / "paper-ideal.json"  # where dsp-eval's paper table goes
+    calib.write_text(calibration_to_json(LinearCalibration(0.0166, -0.5)))
+    before = calib.read_text()
+    code = eval_main(["--out-dir", str(tmp_path), "--calibration", str(calib)])
+    err = capsys.readouterr().err
+    assert code == 2 and err == (f"dsp-eval: error: the table {calib} is the --calibration "
+                                 "file; an output never overwrites an input, choose another "
+                                 "file\n")
+    assert calib.read_text() == before and [p.name for p in tmp_path.iterdir()] == [calib.name]

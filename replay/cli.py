@@ -1,6 +1,7 @@
 """``dsp-replay``: replay a log through the estimator (thin: parse, call, report).
 
-    dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL | --serve]
+    dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL
+                         | --serve [--bind 127.0.0.1] [--port 9090] [--grpc-port 9876]]
                [--method paper|corrected] [--fusion mean|nearest|weighted|robust|track]
                [--out results.json] [--out-mcap estimates.mcap] [--out-csv estimates.csv]
                [--plot replay.png] [--force] ...
@@ -20,10 +21,12 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, run_main
+from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, ReplayOptions, RerunTarget
+from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
 from replay.stats import ReplaySummary
 
@@ -46,7 +49,17 @@ def build_parser() -> argparse.ArgumentParser:
     viewer.add_argument("--connect", metavar="URL",
                         help="connect to a running viewer over gRPC "
                         "(e.g. rerun+http://127.0.0.1:9876/proxy)")
-    viewer.add_argument("--serve", action="store_true", help="serve the Rerun web viewer")
+    viewer.add_argument("--serve", action="store_true",
+                        help="serve the Rerun web viewer until Ctrl-C and print its URL")
+    p.add_argument("--bind", metavar="ADDR",
+                   help=f"with --serve: the address to serve on (default {DEFAULT_BIND}, this "
+                   "machine only; 0.0.0.0 for every interface)")
+    p.add_argument("--port", type=int, metavar="PORT",
+                   help=f"with --serve: the web viewer's port (default {DEFAULT_WEB_PORT}; "
+                   "0 picks a free one)")
+    p.add_argument("--grpc-port", type=int, metavar="PORT",
+                   help=f"with --serve: the data (gRPC) port (default {DEFAULT_GRPC_PORT}; "
+                   "0 picks a free one)")
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
                    "(default)")
@@ -81,7 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def options_from_args(args: argparse.Namespace) -> ReplayOptions:
+def options_from_args(args: argparse.Namespace, serve_url: str | None = None) -> ReplayOptions:
+    """The replay's options; ``serve_url`` is the gRPC URL of the server ``--serve`` runs."""
     check_suffix("--save", args.save, (".rrd",))
     check_suffix("--out", args.out, (".json",))
     check_suffix("--out-mcap", args.out_mcap, (".mcap",))
@@ -95,7 +109,7 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
     elif args.connect is not None:
         rerun = RerunTarget("connect", args.connect)
     elif args.serve:
-        rerun = RerunTarget("serve")
+        rerun = RerunTarget("serve", serve_url)
     robots = None
     if args.robots:
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
@@ -144,12 +158,39 @@ def format_summary(s: ReplaySummary) -> str:
     return "\n".join(lines)
 
 
+def _serve(args: argparse.Namespace) -> int:
+    """``--serve``: start the server, say where to look, replay into it, serve until Ctrl-C."""
+    from replay.rerun_live import ViewerServer
+
+    options_from_args(args)  # bad options are refused before a server starts
+    server = ViewerServer(
+        bind=args.bind or DEFAULT_BIND,
+        web_port=DEFAULT_WEB_PORT if args.port is None else args.port,
+        grpc_port=DEFAULT_GRPC_PORT if args.grpc_port is None else args.grpc_port)
+    with server:
+        print(f"{PROG}: serving the Rerun web viewer at {server.web_url} (open it in a "
+              "browser; Ctrl-C stops)", file=sys.stderr, flush=True)
+        summary = replay(args.log, options_from_args(args, server.grpc_url))
+        echo(args, format_summary(summary))
+        print(f"{PROG}: replay done; still serving at {server.web_url} until Ctrl-C",
+              file=sys.stderr, flush=True)
+        server.serve_forever()
+    print(f"{PROG}: stopped serving", file=sys.stderr)
+    return 0
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
+    live = [f for f, v in (("--bind", args.bind), ("--port", args.port),
+                           ("--grpc-port", args.grpc_port)) if v is not None]
+    if live and not args.serve:
+        raise UsageError(f"{', '.join(live)} only go with --serve")
     if is_batch(args):
         return run_batch(args, options_from_args)
     check_single(args)
     args.log = args.log[0]
+    if args.serve:
+        return _serve(args)
     echo(args, format_summary(replay(args.log, options_from_args(args))))
     return 0
 

@@ -21,7 +21,7 @@ from replay.evaluate import (
     run_random_suite,
 )
 
-# NOTES.md: the paper's four scenarios (robot x, y, yaw; ball)
+# docs/method.md: the paper's four scenarios (robot x, y, yaw; ball)
 PAPER_ROBOTS = {
     "scenario1": {"robot1": (-8.5, 0.0, 0.0), "robot2": (-2.0, 1.0, 0.0),
                   "robot3": (-2.0, -1.0, 0.0)},

@@ -39,16 +39,11 @@ from replay.errors import (
     TruncatedLogError,
 )
 
-__all__ = [
-    "ImageMessage",
-    "LogInfo",
-    "LogReader",
-    "PoseMessage",
-    "RecoveryLoss",
-    "TruthMessage",
-]
+__all__ = ["ImageMessage", "LogInfo", "LogReader", "PoseMessage", "RecoveryLoss",
+           "TruthMessage"]
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
+GT_ODOMETRY = contract.GT_BALL_ODOMETRY_TOPIC
 
 # Errors mcap (and its decompressors) raise on damaged bytes. lz4 raises RuntimeError.
 _READ_ERRORS: tuple[type[BaseException], ...] = (
@@ -66,9 +61,8 @@ except ImportError:  # pragma: no cover
     pass
 
 # ... and what a message that decodes to an unexpected shape raises in _convert.
-_DECODE_ERRORS: tuple[type[BaseException], ...] = (
-    *_READ_ERRORS, AttributeError, TypeError, IndexError, KeyError,
-)
+_DECODE_ERRORS: tuple[type[BaseException], ...] = (*_READ_ERRORS, AttributeError, TypeError,
+                                                   IndexError, KeyError)
 
 
 @dataclass(frozen=True)
@@ -103,11 +97,13 @@ class PoseMessage:
 
 @dataclass(frozen=True)
 class TruthMessage:
-    """The ball's true position in the field frame (evaluation only)."""
+    """The ball's true position [m], velocity [m/s] from Odometry, field frame (evaluation)."""
 
     stamp_ns: int
     x_m: float
     y_m: float
+    vx_m_s: float | None = None
+    vy_m_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -192,8 +188,7 @@ class LogReader:
         self._pose_pattern = pose_topic
         self._truth_topic = truth_topic
         self._robots_wanted = tuple(robots) if robots else None
-        self._recover = recover
-        self.recover = recover
+        self._recover = self.recover = recover
         self._validate = validate_crcs
         self._file: IO[bytes] | None = None
         self._cat = _Catalogue()
@@ -332,6 +327,8 @@ class LogReader:
             self._topic_kind[t] = ("image", r)
         for r, t in pose_topics.items():
             self._topic_kind[t] = ("pose", r)
+        if self._truth_topic == contract.GT_BALL_TOPIC and GT_ODOMETRY in topics:
+            self._truth_topic = GT_ODOMETRY  # the same truth with the ball's velocity
         has_truth = self._truth_topic in topics
         if has_truth:
             self._topic_kind[self._truth_topic] = ("truth", "")
@@ -433,6 +430,9 @@ def _convert(
         return PoseMessage(robot, stamp, float(p.x), float(p.y), float(q.x), float(q.y),
                            float(q.z), float(q.w))
     if kind == "truth":
+        if hasattr(msg, "twist"):  # nav_msgs/Odometry: the true position and velocity
+            p, v = msg.pose.pose.position, msg.twist.twist.linear
+            return TruthMessage(stamp, float(p.x), float(p.y), float(v.x), float(v.y))
         p = msg.pose.position if hasattr(msg, "pose") else msg.point
         return TruthMessage(stamp, float(p.x), float(p.y))
     if hasattr(msg, "format"):  # sensor_msgs/CompressedImage

@@ -18,26 +18,35 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                  "truth": {"x_m", "y_m"} | null, "error_m": float | null}, ...],
      "fused": [{"step", "stamp_ns", "t_s", "robots": [...], "x_m", "y_m",
                 "covariance": [[xx, xy], [yx, yy]], "truth": {...} | null,
-                "error_m": float | null}, ...],
+                "error_m": float | null,
+                "velocity_m_s": [vx, vy], "velocity_covariance": [[..], [..]],
+                "truth_velocity_m_s": [vx, vy], "velocity_error_m_s": float}, ...],
      "summary": {"frames", "steps", "fused_steps", "skipped": {reason: n},
                  "robots": {name: {"frames", "detections", "estimates", "rmse_m", "mean_error_m",
                                    "max_error_m", "errors"}},
-                 "fused": {"estimates", "rmse_m", "mean_error_m", "max_error_m", "errors"},
+                 "fused": {"estimates", "rmse_m", "mean_error_m", "max_error_m", "errors",
+                           "velocity": {"errors", "rmse_m_s", "mean_error_m_s",
+                                        "max_error_m_s"}},
                  "undecodable_messages"}}
 
 ``status`` is one of :data:`FRAME_STATUSES`. Errors are Euclidean distances [m] to the
 ground truth interpolated at the frame's (step's) stamp; RMSE = sqrt(mean(error^2)).
+The velocity keys are there only when the fusion estimates a velocity (``track``): the
+velocity [m/s] and its covariance [m^2/s^2]; the truth's velocity and the error's norm
+[m/s] only when the log holds the ball's true velocity (``/ground_truth/ball/odometry``),
+and so the summary's ``fused.velocity``.
 """
 
 from __future__ import annotations
 
 import enum
+import io
 import json
 import math
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import IO, Any, Protocol
 
 import numpy as np
 
@@ -127,6 +136,20 @@ class StepResult:
     fused: Any = None  # estimator.fusion.FusedEstimate | None
     truth: tuple[float, float] | None = None
     error_m: float | None = None
+    velocity_m_s: tuple[float, float] | None = None
+    """The fused velocity [m/s] (field frame), when the fusion estimates one (``track``)."""
+    velocity_covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
+    """Its 2 x 2 covariance [m^2/s^2]."""
+    truth_velocity_m_s: tuple[float, float] | None = None
+    """The ball's true velocity at the step's stamp, when the log holds it."""
+
+    @property
+    def velocity_error_m_s(self) -> float | None:
+        """|v - v_true| [m/s] when both are known."""
+        if self.velocity_m_s is None or self.truth_velocity_m_s is None:
+            return None
+        return math.hypot(self.velocity_m_s[0] - self.truth_velocity_m_s[0],
+                          self.velocity_m_s[1] - self.truth_velocity_m_s[1])
 
 
 def normalise(value: Any) -> Any:
@@ -181,7 +204,7 @@ def frame_to_dict(f: FrameResult) -> dict[str, Any]:
 
 def step_to_dict(s: StepResult) -> dict[str, Any]:
     fused = s.fused
-    return {
+    out: dict[str, Any] = {
         "step": s.step,
         "stamp_ns": s.stamp_ns,
         "t_s": s.stamp_ns / 1e9,
@@ -193,6 +216,16 @@ def step_to_dict(s: StepResult) -> dict[str, Any]:
         "truth": None if s.truth is None else {"x_m": s.truth[0], "y_m": s.truth[1]},
         "error_m": s.error_m,
     }
+    # velocity keys only where there is a velocity: window fusions' files stay as they were
+    if s.velocity_m_s is not None:
+        out["velocity_m_s"] = list(s.velocity_m_s)
+        out["velocity_covariance"] = (None if s.velocity_covariance is None
+                                      else [list(row) for row in s.velocity_covariance])
+    if s.truth_velocity_m_s is not None:
+        out["truth_velocity_m_s"] = list(s.truth_velocity_m_s)
+    if s.velocity_error_m_s is not None:
+        out["velocity_error_m_s"] = s.velocity_error_m_s
+    return out
 
 
 @dataclass(frozen=True)
@@ -268,16 +301,17 @@ class ResultsWriter(SinkBase):
         """Assemble the file when the replay succeeded, else discard it."""
         try:
             if ok:
-                self._write(self._out.tmp)
+                with self._out.guard():  # a full disk: one line naming the results file
+                    self._write(self._out.stream())
                 self._out.commit()
         finally:
             for spool in self._spools.values():
                 spool.close()
             self._out.discard()
 
-    def _write(self, path: Path) -> None:
+    def _write(self, stream: IO[bytes]) -> None:
         doc: dict[str, Any] = {**_head(self.header, self.stats), "frames": None, "fused": None}
-        with path.open("w", encoding="ascii", newline="\n") as out:
+        with io.TextIOWrapper(stream, encoding="ascii", newline="\n") as out:
             out.write("{\n")
             keys = sorted(doc)
             for i, key in enumerate(keys):

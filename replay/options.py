@@ -87,6 +87,9 @@ class ReplayOptions:
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
+    smooth: bool = False
+    """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
+    (``track`` fusion only); steps reach the sinks once the log is read."""
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
@@ -119,6 +122,9 @@ class ReplayOptions:
             check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
+        if self.smooth and self.fusion_method != "track":
+            raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
+                             f"{self.fusion_method!r}")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
@@ -174,6 +180,7 @@ class ReplayOptions:
             "pose_tolerance_s": self.pose_tolerance_s,
             "window_s": self.window_s,
             "recover": self.recover,
+            **({"smooth": True} if self.smooth else {}),  # files without it are unchanged
         }
 
     @property

@@ -67,6 +67,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; for the corrected estimator track: a Kalman filter "
                    "giving position and velocity at every image stamp)")
+    p.add_argument("--smooth", action="store_true",
+                   help="offline: smooth the track over the whole log (RTS smoother) instead "
+                   "of the causal estimate a robot would have live (--fusion track)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
@@ -82,6 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fusion window grouping the robots' images (default 0.05 s)")
     p.add_argument("--recover", action="store_true",
                    help="replay every complete chunk of a truncated or damaged log")
+    p.add_argument("--threads", type=int, metavar="N",
+                   help="threads decoding and detecting images ahead (default: the cores; "
+                   "1: serial); the outputs are the same whatever N")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
     p.add_argument("--out-mcap", type=Path, metavar="MCAP", nargs="?", const=OUT_MCAP_IN_DIR,
                    help="write estimates as MCAP (with --out-dir: no file name)")
@@ -114,11 +120,11 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     if args.robots:
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
     return ReplayOptions(
-        method=args.method, fusion=args.fusion, calibration=args.calibration,
+        method=args.method, fusion=args.fusion, calibration=args.calibration, smooth=args.smooth,
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
-        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun,
+        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun, threads=args.threads,
         progress=progress_enabled(args),
     )
 

@@ -10,6 +10,7 @@ paths are checked against the file system (and the input log) only when a replay
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -86,6 +87,9 @@ class ReplayOptions:
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
+    smooth: bool = False
+    """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
+    (``track`` fusion only); steps reach the sinks once the log is read."""
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
@@ -94,6 +98,9 @@ class ReplayOptions:
     """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
     force: bool = False
     rerun: RerunTarget | None = None
+    threads: int | None = None
+    """Threads decoding and detecting images ahead (:mod:`replay.ahead`); None: the
+    machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
@@ -105,6 +112,8 @@ class ReplayOptions:
             raise UsageError(
                 f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
             )
+        if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
+            raise UsageError(f"--threads {self.threads}; must be >= 1")
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
                      unit="s")
         check_number("--window", self.window_s, low=0, high=MAX_WINDOW_S, low_open=True,
@@ -113,6 +122,9 @@ class ReplayOptions:
             check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
+        if self.smooth and self.fusion_method != "track":
+            raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
+                             f"{self.fusion_method!r}")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
@@ -168,10 +180,23 @@ class ReplayOptions:
             "pose_tolerance_s": self.pose_tolerance_s,
             "window_s": self.window_s,
             "recover": self.recover,
+            **({"smooth": True} if self.smooth else {}),  # files without it are unchanged
         }
 
+    @property
+    def thread_count(self) -> int:
+        """The threads in use: the ones asked for, else the cores this process may use."""
+        if self.threads is not None:
+            return self.threads
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # not on Linux
+            return max(1, os.cpu_count() or 1)
+
     def as_dict(self) -> dict[str, Any]:
-        """All options as plain values (for hashing into a Rerun recording id)."""
+        """All options as plain values (for hashing into a Rerun recording id); not the
+        thread count, which changes nothing in the outputs."""
         d = asdict(self)
+        d.pop("threads")
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

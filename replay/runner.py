@@ -30,7 +30,7 @@ import numpy as np
 
 from dsp.errors import UsageError
 from estimator.errors import EstimatorError
-from replay.decode import decode_image
+from replay.ahead import Ahead
 from replay.errors import ImageDecodeError, MissingPosesError
 from replay.estimation import FrameEstimator
 from replay.options import ReplayOptions, Timing
@@ -86,13 +86,16 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, robots=info.robots,
             camera_metadata=info.cameras.by_robot(), source=str(reader.path),
-            calibration_file=options.calibration)
+            calibration_file=options.calibration, smooth=options.smooth)
         stats = ReplayStats(info.robots)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
-            stream = _Stream(reader, estimator, options.timing(), [stats, *outputs, *sinks])
+            ahead = stack.enter_context(Ahead(options.thread_count))
+            stream = _Stream(reader, estimator, options.timing(),
+                             estimator.sinks([stats, *outputs, *sinks]), ahead)
             with _progress(options, reader) as bar:
                 stream.run(bar)
+            estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
@@ -169,13 +172,14 @@ class _Stream:
     poses and step are complete, frames grouped into fusion steps, results to the sinks."""
 
     def __init__(self, reader: LogReader, estimator: FrameEstimator, timing: Timing,
-                 sinks: Sequence[Sink]) -> None:
+                 sinks: Sequence[Sink], ahead: Ahead) -> None:
         self.reader = reader
         self.robots = reader.info.robots
         self.has_truth = reader.info.has_truth
         self.estimator = estimator
         self.timing = timing
         self.sinks = sinks
+        self.ahead = ahead
         horizon = 2 * timing.lookahead_ns + timing.window_ns
         self.poses: dict[str, History[PoseMessage]] = {r: History(horizon) for r in self.robots}
         self.truth: History[TruthMessage] = History(horizon)
@@ -200,6 +204,8 @@ class _Stream:
                 if t.end_ns is not None and msg.stamp_ns > t.end_ns + t.lookahead_ns:
                     break
                 self.delay.push(msg)
+                if self._wanted(msg):
+                    self.ahead.push(msg)  # decoded and detected in the pool meanwhile
                 now = msg.log_time_ns
             for ready in self.delay.ready(now):
                 self._image(ready)
@@ -220,17 +226,22 @@ class _Stream:
         except EstimatorError:  # estimator.errors.GeometryError: a zero or NaN quaternion
             return None
 
-    def _image(self, img: ImageMessage) -> None:
+    def _wanted(self, img: ImageMessage) -> bool:
+        """Whether the image is within --start / --end."""
         t = self.timing
-        if t.start_ns is not None and img.stamp_ns < t.start_ns:
+        return not ((t.start_ns is not None and img.stamp_ns < t.start_ns)
+                    or (t.end_ns is not None and img.stamp_ns > t.end_ns))
+
+    def _image(self, img: ImageMessage) -> None:
+        if not self._wanted(img):
             return
-        if t.end_ns is not None and img.stamp_ns > t.end_ns:
-            return
+        decoded = self.ahead.take(img)
+        image = decoded.image
         t_start = time.perf_counter()
-        image = decode_image(img)
         outcome = self.estimator.estimate(
-            img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns))
-        elapsed = time.perf_counter() - t_start
+            img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns),
+            detected=decoded.detected)
+        elapsed = decoded.seconds + time.perf_counter() - t_start
         # the truth goes with every frame, so a missed ball can be told from an absent one
         truth = self._truth_at(img.stamp_ns)
         est = outcome.estimate

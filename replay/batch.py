@@ -39,6 +39,7 @@ import numpy as np
 from dsp.atomic import atomic_output, check_distinct
 from dsp.cli import progress_bar
 from dsp.errors import DspError, InputError, OutputExistsError, UsageError
+from dsp.text import printable
 from replay.batch_summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError
 from replay.options import ReplayOptions
@@ -201,7 +202,7 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
             row = outcome.value if outcome.failure is None else LogRow(
                 logs[i].name, outcome.failure.text)
             if outcome.failure is not None and outcome.failure.detail:
-                print(outcome.failure.detail, file=sys.stderr)
+                print(printable(outcome.failure.detail, lines=True), file=sys.stderr)
             rows[i] = row
             bar.update(1)
             bar.set_postfix_str(logs[i].name)

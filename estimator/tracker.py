@@ -7,23 +7,23 @@ default :class:`~estimator.fusion.CalibratedNoise`). Cameras need not be synchro
 filter predicts to each stamp, so a moving ball is not smeared over a fusion window.
 
 - **Gate.** An estimate whose Mahalanobis distance ``d^2 = nu^T S^-1 nu`` exceeds ``gate``
-  (chi-square, 2 degrees of freedom) is rejected: a false blob one robot sees off the ball
-  does not pull the track.
+  (chi-square, 2 degrees of freedom) is rejected: a false blob off the ball does not pull it.
 - **Manoeuvres** (kicks, bounces change the velocity within a frame). A rejected estimate
-  is kept for ``manoeuvre_ns``. When a later rejected estimate corroborates it (another
-  robot's, or the same robot's with no accepted estimate in between) and the two are
-  consistent with each other under a free velocity (``|dz|`` within ``max_speed dt`` and
-  their noise), the track is re-run from just before the first one with the velocity
-  covariance inflated by ``kick_sigma^2 I`` there (an impulse of unknown size). If both then
-  pass the gate, the kick is kept: the filter follows a bounce within one or two frames.
-  A position jump is not a kick: the inflated prediction still gates it.
+  waits ``manoeuvre_ns`` for a later rejected one to corroborate it (another robot's, or the
+  same robot's with nothing accepted between) under a free velocity (``|dz|`` within
+  ``max_speed dt`` and their noise). The track is then re-run from the last accepted
+  estimate before them with the velocity covariance inflated by ``kick_sigma^2 I`` (an
+  impulse of unknown size); the kick is kept if both then pass the gate.
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
-  velocity 0 with sigma ``kick_sigma``); it is confirmed by a second accepted estimate from
-  another robot (or from the same robot when no other robot reports). While tentative, two
-  rejected estimates consistent with each other start the track afresh from them.
-- **Loss and re-acquisition**: after ``lost_after_ns`` without an accepted estimate the
-  track is lost (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
+  velocity 0 with sigma ``kick_sigma``), confirmed by a second accepted estimate from another
+  robot (or the same robot when no other reports). While tentative, two rejected estimates
+  consistent with each other start the track afresh from them.
+- **Re-acquisition**: rejected estimates of the last ``reacquire_ns`` that agree on one
+  ball at constant velocity restart the track (confirmed) when the track heard nothing since
+  they began, or more robots support them (:mod:`estimator.tracker_reacquire`).
+- **Loss**: after ``lost_after_ns`` without an accepted estimate the track is lost
+  (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
 - **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
   after each, so an estimate stamped before the newest is inserted in stamp order and the
   track re-run from there. Causal: a state at t uses only estimates received so far.
@@ -46,6 +46,7 @@ from estimator.corrected import BallEstimate
 from estimator.errors import FusionError
 from estimator.fusion import CalibratedNoise, Covariance, FusedEstimate, Noise
 from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
+from estimator.tracker_reacquire import Candidate, reachable, reacquire_from
 from estimator.tracker_smoother import FilterNode, SmoothedTrack
 
 __all__ = [
@@ -84,15 +85,20 @@ class TrackerParams:
     """A track without an accepted estimate for this long is lost [ns]."""
     memory_ns: int = 300_000_000
     """How far back late estimates are re-inserted [ns] (>= manoeuvre_ns)."""
+    reacquire_ns: int = 300_000_000
+    """Window of rejected estimates that may agree on a new path [ns] (memory_ns at most)."""
+    reacquire_count: int = 2
+    """Fewest rejected estimates that agree on a new path and may restart the track."""
 
     def __post_init__(self) -> None:
         positive = (self.gate, self.kick_sigma_m_s, self.max_speed_m_s, self.lost_after_ns)
         if not (all(v > 0 for v in positive) and self.accel_noise_m2_s3 >= 0.0
-                and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns):
+                and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns
+                and self.reacquire_ns >= 0 and self.reacquire_count >= 2):
             raise FusionError(
                 f"tracker parameters {self}: gate, kick_sigma_m_s, max_speed_m_s and "
                 "lost_after_ns must be > 0, accel_noise_m2_s3 and friction_per_s >= 0, "
-                "0 <= manoeuvre_ns <= memory_ns"
+                "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2"
             )
 
 
@@ -157,6 +163,10 @@ class _Entry:
         return (self.m.stamp_ns, self.seq)
 
 
+def _candidate(e: _Entry) -> Candidate:
+    return Candidate(e.m.stamp_ns, e.m.robot, e.z, e.r, e.accepted)
+
+
 @dataclass
 class _Track:
     """The filter's state at ``anchor_ns`` and the entries after it, in (stamp, seq) order."""
@@ -213,6 +223,8 @@ class BallTracker:
                 self._explain_by_kick(track, e)
             else:
                 self._restart_from_pair(track, e)
+            if not e.accepted and self._track is track:
+                self._reacquire(track, e)
         track = self._track
         assert track is not None
         self._confirm(track, e)
@@ -229,18 +241,13 @@ class BallTracker:
     def _rerun(self, track: _Track, start: int) -> None:
         """Re-run the filter over entries[start:] from the state before them."""
         prm = self.params
-        if start > 0:
-            prev = track.entries[start - 1]
-            t_prev, state = prev.m.stamp_ns, prev.state
-        else:
-            t_prev, state = track.anchor_ns, track.anchor
+        prev = track.entries[start - 1] if start > 0 else None
+        t_prev, state = (prev.m.stamp_ns, prev.state) if prev else (track.anchor_ns, track.anchor)
         assert state is not None
         for e in track.entries[start:]:
             x, p = state
             if e.kick:  # an impulse of unknown size just before this estimate
-                p = p.copy()
-                p[2, 2] += prm.kick_sigma_m_s**2
-                p[3, 3] += prm.kick_sigma_m_s**2
+                p = p + np.diag([0.0, 0.0, 1.0, 1.0]) * prm.kick_sigma_m_s**2
             prior = predict((x, p), (e.m.stamp_ns - t_prev) / NS,
                             q=prm.accel_noise_m2_s3, friction_per_s=prm.friction_per_s)
             _, _, d2 = innovation(prior, e.z, e.r)
@@ -251,11 +258,8 @@ class BallTracker:
 
     def _consistent(self, a: _Entry, b: _Entry) -> bool:
         """Could one ball at a free velocity (|v| <= max_speed) give both estimates?"""
-        dt = abs(b.m.stamp_ns - a.m.stamp_ns) / NS
-        reach = (self.params.max_speed_m_s * dt) ** 2
-        c = a.r + b.r + reach * np.eye(2)
-        dz = b.z - a.z
-        return float(dz @ np.linalg.solve(c, dz)) <= self.params.gate
+        return reachable(_candidate(a), _candidate(b), max_speed_m_s=self.params.max_speed_m_s,
+                         gate=self.params.gate)
 
     def _partners(self, track: _Track, e: _Entry, window_ns: int) -> list[_Entry]:
         """Rejected entries before ``e`` within ``window_ns`` that may corroborate it, the
@@ -279,11 +283,14 @@ class BallTracker:
         first try under which both f and e pass the gate."""
         for f in self._partners(track, e, self.params.manoeuvre_ns):
             i = track.entries.index(f)
-            f.kick = True
+            while i > 0 and not track.entries[i - 1].accepted:
+                i -= 1  # the kick came after the last accepted estimate
+            k = track.entries[i]
+            k.kick = True
             self._rerun(track, i)
             if f.accepted and e.accepted:
                 return
-            f.kick = False
+            k.kick = False
             self._rerun(track, i)
 
     def _restart_from_pair(self, track: _Track, e: _Entry) -> None:
@@ -293,15 +300,36 @@ class BallTracker:
         for f in self._partners(track, e, self.params.memory_ns):
             if f.m.robot == e.m.robot and others:
                 continue  # one robot alone may not overrule the others
-            i = track.entries.index(f)
-            later = track.entries[i + 1:]
-            for x in later:
-                x.kick = False
-            self._fold(track, i)  # the false start's record ends before f
-            fresh = self._new_track(f, later)
-            self._rerun(fresh, 0)
-            self._track = fresh
+            self._restart_at(track, f)
             return
+
+    def _restart_at(self, track: _Track, f: _Entry) -> _Track:
+        """A new track from ``f``; the entries after it are re-run."""
+        i = track.entries.index(f)
+        later = track.entries[i + 1:]
+        for x in later:
+            x.kick = False
+        self._fold(track, i)  # the old track's record ends before f
+        fresh = self._new_track(f, later)
+        self._rerun(fresh, 0)
+        self._track = fresh
+        return fresh
+
+    def _reacquire(self, track: _Track, e: _Entry) -> None:
+        """Restart from rejected estimates that agree on another path, when
+        :func:`~estimator.tracker_reacquire.reacquire_from` says so (a bounce the gate
+        missed, or a track started on a false blob)."""
+        prm = self.params
+        i = track.entries.index(e)
+        before = track.entries[i - 1].state if i > 0 else track.anchor
+        assert before is not None
+        first = reacquire_from(
+            [_candidate(x) for x in track.entries[:i + 1]],
+            track_speed_m_s=math.hypot(before[0][2], before[0][3]),
+            window_ns=prm.reacquire_ns, count=prm.reacquire_count,
+            max_speed_m_s=prm.max_speed_m_s, gate=prm.gate)
+        if first is not None:
+            self._restart_at(track, track.entries[first]).confirmed = True
 
     def _confirm(self, track: _Track, e: _Entry) -> None:
         """A tentative track is confirmed by an accepted estimate from a robot it has not

@@ -303,7 +303,7 @@ class FrameEstimator:
             tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m, f.estimate.y_m,
                                        _covariance(sigma)))
         state = tracker.state_at(stamp_ns)
-        if state is None:
+        if state is None or not state.confirmed:  # a tentative track may be a false blob
             return None, None, None
         fused = fusion.FusedEstimate(state.x_m, state.y_m, state.position_covariance,
                                      tracker.accepted_at(stamp_ns))

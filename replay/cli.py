@@ -19,6 +19,7 @@ from dsp import contract
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from estimator.fusion import FUSION_METHODS
 from replay.options import METHODS, ReplayOptions, RerunTarget
+from replay.recovery import describe as describe_recovery
 from replay.runner import replay
 from replay.stats import ReplaySummary
 
@@ -62,6 +63,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fusion window grouping the robots' images (default 0.05 s)")
     p.add_argument("--recover", action="store_true",
                    help="replay every complete chunk of a truncated or damaged log")
+    p.add_argument("--max-chunk-mib", type=float, default=128.0, metavar="MIB",
+                   help="refuse chunks larger than this, compressed or not (default 128)")
+    p.add_argument("--max-image-mpx", type=float, default=40.0, metavar="MPX",
+                   help="skip images whose header declares more megapixels (default 40)")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
     p.add_argument("--out-mcap", type=Path, metavar="MCAP", help="write estimates as MCAP")
     add_common_arguments(p, force=True)
@@ -87,6 +92,7 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
         force=args.force, rerun=rerun, progress=progress_enabled(args),
+        max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx,
     )
 
 
@@ -110,11 +116,7 @@ def format_summary(s: ReplaySummary) -> str:
     if s.undecodable_messages:
         lines.append(f"undecodable messages: {s.undecodable_messages}")
     if s.recovered is not None:
-        rec = s.recovered
-        lines.append(
-            f"recovered: lost {rec['lost_bytes']} of {rec['file_bytes']} bytes"
-            f"{' (truncated)' if rec['truncated'] else ''}, {rec['bad_chunks']} bad chunks"
-        )
+        lines.extend(describe_recovery(s.recovered))
     for out in s.outputs:
         lines.append(f"wrote {out}")
     return "\n".join(lines)

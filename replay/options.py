@@ -15,6 +15,7 @@ from typing import Any
 from dsp import contract
 from dsp.errors import OutputExistsError, UsageError
 from estimator.fusion import FUSION_METHODS
+from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
 __all__ = ["DEFAULT_FUSION", "METHODS", "NS", "ReplayOptions", "RerunTarget", "Timing"]
 
@@ -83,6 +84,10 @@ class ReplayOptions:
     rerun: RerunTarget | None = None
     progress: bool | None = None
     """Show a progress bar: None = when stderr is a terminal."""
+    max_chunk_mib: float = 128.0
+    """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
+    max_image_mpx: float = 40.0
+    """Refuse to decode an image whose header declares more megapixels than this."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -98,6 +103,10 @@ class ReplayOptions:
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
             if value is not None and not math.isfinite(value):
                 raise UsageError(f"{flag} {value}; must be a finite number of seconds")
+        for flag, limit in (("--max-chunk-mib", self.max_chunk_mib),
+                            ("--max-image-mpx", self.max_image_mpx)):
+            if not (math.isfinite(limit) and 0 < limit <= 1 << 20):
+                raise UsageError(f"{flag} {limit}; must be a positive number")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
         outputs = [p for p in (self.out, self.out_mcap) if p is not None]
@@ -123,6 +132,16 @@ class ReplayOptions:
             start_ns=None if self.start_s is None else round(self.start_s * NS),
             end_ns=None if self.end_s is None else round(self.end_s * NS),
         )
+
+    def limits(self) -> Limits:
+        """The reader's size limits in bytes."""
+        chunk = int(self.max_chunk_mib * 1024 * 1024)
+        return Limits(max_message_bytes=min(DEFAULT_MAX_MESSAGE_BYTES, chunk),
+                      max_chunk_bytes=chunk)
+
+    @property
+    def max_image_pixels(self) -> int:
+        return int(self.max_image_mpx * 1_000_000)
 
     def check_outputs(self) -> None:
         """Refuse to overwrite an existing output unless ``force``."""

@@ -30,8 +30,8 @@ import numpy as np
 
 from dsp.errors import UsageError
 from estimator.errors import EstimatorError
-from replay.decode import decode_image
-from replay.errors import ImageDecodeError, MissingPosesError
+from replay.decode import DEFAULT_MAX_PIXELS, decode_image
+from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
 from replay.estimation import FrameEstimator
 from replay.options import ReplayOptions, Timing
 from replay.reader import ImageMessage, LogReader, PoseMessage, TruthMessage
@@ -75,7 +75,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     options.check_outputs()
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
-                   robots=options.robots, recover=options.recover) as reader:
+                   robots=options.robots, recover=options.recover,
+                   limits=options.limits()) as reader:
         info = reader.info
         if options.robots is not None:
             unknown = sorted(set(options.robots) - set(info.robots))
@@ -89,9 +90,11 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             stream = _Stream(reader, estimator, options.timing(), [stats, *outputs, *sinks])
+            stream.max_pixels = options.max_image_pixels
             with _progress(options, reader) as bar:
                 stream.run(bar)
-            _check_outcome(path, stats)
+            _check_outcome(path, stats, reader)
+            _warn(reader, options)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
     return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap) if p is not None))
@@ -124,14 +127,24 @@ def _open_outputs(stack: contextlib.ExitStack, reader: LogReader, options: Repla
 def _recovered(reader: LogReader) -> dict[str, Any] | None:
     if not reader.recover:
         return None
-    loss = reader.loss
-    return {"truncated": loss.truncated, "lost_bytes": loss.lost_bytes,
-            "file_bytes": loss.file_bytes, "bad_chunks": loss.bad_chunks}
+    return reader.loss.to_dict()
 
 
-def _check_outcome(path: Path, stats: ReplayStats) -> None:
+def _warn(reader: LogReader, options: ReplayOptions) -> None:
+    """What the user must know about a replay that worked: fallbacks and skipped messages."""
+    lines = [] if options.calibration is not None else list(reader.info.warnings)
+    if reader.bad_messages:
+        lines.append(f"{reader.path}: skipped {reader.undecodable} bad message(s): "
+                     + ", ".join(f"{k} {v}" for k, v in sorted(reader.bad_messages.items())))
+    for line in lines:
+        print(f"warning: {line}", file=sys.stderr)
+
+
+def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
     if stats.frames == 0:
-        return
+        raise NoFramesError(path, "no image in the selected time range and robots"
+                            + (" (the log's readable part holds none)" if reader.recover
+                               else ""))
     bad = stats.skipped.get(FrameStatus.BAD_IMAGE.value, 0)
     if bad == stats.frames:
         raise ImageDecodeError(path, f"none of the {bad} images decodes")
@@ -174,6 +187,7 @@ class _Stream:
         self.delay = DelayLine(timing.lookahead_ns)
         self.grouper: FusionGrouper[FrameResult] = FusionGrouper(timing.window_ns)
         self.frames = 0
+        self.max_pixels = DEFAULT_MAX_PIXELS
         self.steps = 0
 
     def run(self, bar: Any) -> None:
@@ -218,7 +232,7 @@ class _Stream:
         if t.end_ns is not None and img.stamp_ns > t.end_ns:
             return
         t_start = time.perf_counter()
-        image = decode_image(img)
+        image = decode_image(img, max_pixels=self.max_pixels)
         outcome = self.estimator.estimate(
             img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns))
         elapsed = time.perf_counter() - t_start

@@ -29,7 +29,7 @@ from replay.mcap_records import (
 from replay.mcap_scan import Block, Damage, DataScan, scan_data
 from replay.mcap_summary import Summary, compare, read_footer, read_summary
 
-__all__ = ["Catalogue", "build_catalogue", "load_block"]
+__all__ = ["Catalogue", "build_catalogue", "check_definition", "load_block", "read_all_blocks"]
 
 
 @dataclass
@@ -111,11 +111,11 @@ def build_catalogue(f: IO[bytes], path: Path, size: int, limits: Limits, *, reco
     cat.channels.update(scan.channels)
     cat.damage.extend(scan.damage)
     if recover or summary is None or read_chunks or (scan.chunks and not summary.channels):
-        _read_all_blocks(f, cat, limits, recover=recover, validate_crcs=validate_crcs)
+        read_all_blocks(f, cat, limits, recover=recover, validate_crcs=validate_crcs)
     return cat
 
 
-def _read_all_blocks(f: IO[bytes], cat: Catalogue, limits: Limits, *, recover: bool,
+def read_all_blocks(f: IO[bytes], cat: Catalogue, limits: Limits, *, recover: bool,
                      validate_crcs: bool) -> None:
     """Decompress every block: schemas and channels the chunks define, message counts, CRCs."""
     counts: dict[int, int] = {}
@@ -156,12 +156,13 @@ def check_definition(cat: Catalogue, rec: Schema | Channel, block: Block) -> Non
     known = table.get(rec.id)
     if known is None:
         if kind == "channel" and cat.summary is not None and cat.summary.channels:
-            raise CorruptLogError(cat.path, f"the summary lacks channel {rec.id}, which the "
-                                  f"block at byte {block.offset} defines")
+            raise CorruptLogError(cat.path, "the summary disagrees with the data: it lacks "
+                                  f"channel {rec.id}, which the block at byte {block.offset} "
+                                  "defines")
         table[rec.id] = rec  # type: ignore[assignment]
     elif known != rec:
-        raise CorruptLogError(cat.path, f"the block at byte {block.offset} defines {kind} "
-                              f"{rec.id} differently from the summary")
+        raise CorruptLogError(cat.path, "the summary disagrees with the data: the block at "
+                              f"byte {block.offset} defines {kind} {rec.id} differently")
 
 
 def load_block(f: IO[bytes], block: Block, limits: Limits, *,

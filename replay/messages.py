@@ -77,10 +77,16 @@ def _stamp(msg: Any) -> int:
     return stamp
 
 
+MAX_ABS_VALUE = 1e9
+"""Positions (metres) and quaternion components beyond this are not a robot on a field."""
+
+
 def _finite(*values: Any) -> tuple[float, ...]:
     out = tuple(float(v) for v in values)
     if not all(math.isfinite(v) for v in out):
         raise BadMessage("non-finite value")
+    if any(abs(v) > MAX_ABS_VALUE for v in out):
+        raise BadMessage("value out of range")
     return out
 
 

@@ -35,7 +35,13 @@ from mcap_ros2.decoder import DecoderFactory
 
 from dsp import contract
 from dsp import metadata as meta
-from replay.catalogue import Catalogue, build_catalogue, check_definition, load_block
+from replay.catalogue import (
+    Catalogue,
+    build_catalogue,
+    check_definition,
+    load_block,
+    read_all_blocks,
+)
 from replay.errors import (
     CorruptLogError,
     InputNotFoundError,
@@ -153,7 +159,13 @@ class LogReader:
                 self.loss = RecoveryLoss.from_damage(
                     size, cat.damage, cat.problems,
                     max((b.end_ns for b in blocks), default=None))
-            self.info = self._make_info()
+            try:
+                self.info = self._make_info()
+            except (NoImageTopicsError, MissingPosesError):
+                if not cat.chunks_checked:  # a damaged summary would say it better
+                    read_all_blocks(self._file, cat, self.limits, recover=False,
+                                    validate_crcs=self._validate)
+                raise
         except BaseException:
             self.close()
             raise

@@ -24,6 +24,14 @@ centroid is accurate to a few hundredths of a pixel, where the binary mask alone
 accurate to about 0.5 / sqrt(radius) px (digitisation noise). ``subpixel=False`` gives
 the paper's plain binary moments.
 
+Search. The chain runs only where the colour is: the threshold is first tested on a
+subsample of one pixel in ``search_stride_px``^2, and thresholding, OPEN, outlines and
+moments run in boxes around the hits, grown until each holds whole blobs with an empty
+margin (:mod:`estimator.detection_regions`). The numbers are those of the whole image, for
+every blob with a pixel on the sampling grid (any blob holding a ``search_stride_px`` square,
+and any anti-aliased ball of radius >= 2 px at the default 3); ``search_stride_px=1``
+processes the whole image.
+
 Plausibility (several blobs). A blob is plausible when ``min_area_px <= area <=
 max_area_px``, its circularity ``4 pi A / P^2`` (contour area A and perimeter P) is at
 least ``min_circularity`` and its fill ratio (pixels / bounding box area, pi/4 for a disc
@@ -34,6 +42,7 @@ plausible first, then by the shape score ``min(circularity, 1) * (1 - |fill - pi
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -41,6 +50,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from estimator.detection_regions import Region, search_regions
 from estimator.errors import DetectionError
 
 __all__ = ["Detection", "DetectionParams", "detect_ball", "detect_blobs"]
@@ -67,6 +77,10 @@ class DetectionParams:
     """Centre of the ignored disc; None: the image centre ((w - 1) / 2, (h - 1) / 2)."""
     subpixel: bool = True
     """Weight edge pixels by their ball coverage (see the module docstring)."""
+    search_stride_px: int = 3
+    """Coarse-to-fine search: the colour is first tested on one pixel in
+    ``search_stride_px``^2, and the full chain runs only in boxes around the hits (see the
+    module docstring); the results are the whole image's. 1: process the whole image."""
 
     def __post_init__(self) -> None:
         for name, lo, hi in (("H", 0, 179), ("S", 0, 255), ("V", 0, 255)):
@@ -87,6 +101,10 @@ class DetectionParams:
             raise DetectionError(
                 f"area limits [{self.min_area_px}, {self.max_area_px}] px are not "
                 "0 <= min <= max; fix min_area_px / max_area_px"
+            )
+        if self.search_stride_px < 1:
+            raise DetectionError(
+                f"search_stride_px = {self.search_stride_px}; use 1 (whole image) or more"
             )
         if self.ignore_radius_px < 0:
             raise DetectionError(
@@ -122,8 +140,22 @@ def _check_image(image_bgr: npt.NDArray[np.uint8]) -> None:
         )
 
 
-def _threshold(image_bgr: npt.NDArray[np.uint8], params: DetectionParams) -> npt.NDArray[np.uint8]:
-    hsv = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2HSV)
+@functools.lru_cache(maxsize=4)
+def _keep_mask(height: int, width: int, centre_16: tuple[int, int], radius_16: int
+               ) -> npt.NDArray[np.uint8]:
+    """255 outside the ignored disc, 0 inside (centre and radius in 1/16 px), read-only."""
+    keep = np.full((height, width), 255, np.uint8)
+    cv2.circle(keep, centre_16, radius_16, 0, thickness=-1, shift=4)
+    keep.setflags(write=False)
+    return keep
+
+
+def _threshold(pixels: npt.NDArray[np.uint8], params: DetectionParams,
+               origin: tuple[int, int] | None, image_shape: tuple[int, ...]
+               ) -> npt.NDArray[np.uint8]:
+    """The colour mask of ``pixels``: the image, a ROI of it starting at ``origin``, or (origin
+    None) a subsample, which is not masked by the ignored disc."""
+    hsv = cv2.cvtColor(pixels, cv2.COLOR_BGR2HSV)
     lo, hi = params.hsv_lower, params.hsv_upper
     if lo[0] <= hi[0]:
         mask = cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
@@ -131,18 +163,13 @@ def _threshold(image_bgr: npt.NDArray[np.uint8], params: DetectionParams) -> npt
         upper = cv2.inRange(hsv, np.array(lo, np.uint8), np.array((179, hi[1], hi[2]), np.uint8))
         lower = cv2.inRange(hsv, np.array((0, lo[1], lo[2]), np.uint8), np.array(hi, np.uint8))
         mask = cv2.bitwise_or(upper, lower)
-    if params.ignore_radius_px > 0:
-        h, w = mask.shape
+    if params.ignore_radius_px > 0 and origin is not None:
+        h, w = image_shape[:2]
         cu, cv = params.ignore_centre_px or ((w - 1) / 2.0, (h - 1) / 2.0)
-        shift = 4  # sub-pixel centre and radius, 1/16 px
-        cv2.circle(
-            mask,
-            (round(cu * 16), round(cv * 16)),
-            round(params.ignore_radius_px * 16),
-            0,
-            thickness=-1,
-            shift=shift,
-        )
+        keep = _keep_mask(h, w, (round(cu * 16), round(cv * 16)),
+                          round(params.ignore_radius_px * 16))
+        x0, y0 = origin
+        mask = cv2.bitwise_and(mask, keep[y0:y0 + mask.shape[0], x0:x0 + mask.shape[1]])
     return np.asarray(mask, dtype=np.uint8)
 
 
@@ -186,60 +213,88 @@ def _weights(
     return np.asarray(weights, dtype=np.float64)
 
 
+def _regions(image_bgr: npt.NDArray[np.uint8], params: DetectionParams) -> list[Region]:
+    """Where to run the full chain: boxes around the coarse hits, or the whole image."""
+    shape = image_bgr.shape
+
+    def threshold(pixels: npt.NDArray[np.uint8], origin: tuple[int, int] | None
+                  ) -> npt.NDArray[np.uint8]:
+        return _threshold(pixels, params, origin, shape)
+
+    if params.search_stride_px > 1:
+        band = max(_PAD, params.open_kernel_px // 2) + 1
+        regions = search_regions(image_bgr, threshold, stride=params.search_stride_px,
+                                 band=band)
+        if regions is not None:
+            return regions
+    height, width = shape[:2]
+    return [Region(0, 0, width, height, threshold(image_bgr, (0, 0)))]
+
+
+def _measure(contour: npt.NDArray[np.int32], image_bgr: npt.NDArray[np.uint8],
+             region: Region, params: DetectionParams
+             ) -> tuple[tuple[bool, float, float, float, float], Detection] | None:
+    """One blob's detection and ranking key (None: it weighs nothing)."""
+    height, width = image_bgr.shape[:2]
+    x, y, w, h = cv2.boundingRect(contour)
+    x0, y0 = max(x - _PAD, 0), max(y - _PAD, 0)
+    x1, y1 = min(x + w + _PAD, width), min(y + h + _PAD, height)
+    # The blob: its opened outline filled (holes closed), grown back by the OPEN's
+    # kernel, intersected with the threshold mask plus the filled outline.
+    filled = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.drawContours(filled, [contour], 0, 255, thickness=-1, offset=(-x0, -y0))
+    grown = cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1 else filled
+    mask = region.mask[y0 - region.y0:y1 - region.y0, x0 - region.x0:x1 - region.x0]
+    blob = np.asarray(cv2.bitwise_or(cv2.bitwise_and(grown, mask), filled), dtype=np.uint8)
+    weights = _weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel)
+    m00 = float(weights.sum())
+    if m00 <= 0.0:
+        return None
+    vs, us = np.mgrid[y0:y1, x0:x1]
+    cx = float((weights * us).sum()) / m00  # eq. 1: Cx = M10 / M00
+    cy = float((weights * vs).sum()) / m00  # eq. 2: Cy = M01 / M00
+    contour_area = float(cv2.contourArea(contour))
+    perimeter = float(cv2.arcLength(contour, True))
+    circularity = 4.0 * math.pi * contour_area / perimeter**2 if perimeter > 0 else 0.0
+    fill = float(np.count_nonzero(blob)) / float(w * h)
+    plausible = (
+        params.min_area_px <= m00 <= params.max_area_px
+        and circularity >= params.min_circularity
+        and params.min_fill_ratio <= fill <= params.max_fill_ratio
+    )
+    score = min(circularity, 1.0) * max(0.0, 1.0 - abs(fill - _PI_4) / _PI_4)
+    detection = Detection(
+        cx_px=cx,
+        cy_px=cy,
+        area_px=m00,
+        bbox_px=(int(x), int(y), int(w), int(h)),
+        circularity=circularity,
+        outline_px=contour.reshape(-1, 2).astype(np.int32),
+    )
+    return (not plausible, -score, -m00, cy, cx), detection
+
+
 def _candidates(
     image_bgr: npt.NDArray[np.uint8], params: DetectionParams
 ) -> list[tuple[bool, Detection]]:
     """(plausible, detection) for every blob, best first."""
     _check_image(image_bgr)
-    mask = _threshold(image_bgr, params)
+    kernel = None
     if params.open_kernel_px > 1:
         kernel = cv2.getStructuringElement(
             cv2.MORPH_ELLIPSE, (params.open_kernel_px, params.open_kernel_px)
         )
-        opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
-    else:
-        opened = mask
-    contours, _ = cv2.findContours(opened, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    height, width = mask.shape
-    ranked: list[tuple[tuple[bool, float, float, float, float], Detection]] = []
-    for contour in contours:
-        x, y, w, h = cv2.boundingRect(contour)
-        x0, y0 = max(x - _PAD, 0), max(y - _PAD, 0)
-        x1, y1 = min(x + w + _PAD, width), min(y + h + _PAD, height)
-        # The blob: its opened outline filled (holes closed), grown back by the OPEN's
-        # kernel, intersected with the threshold mask plus the filled outline.
-        filled = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.drawContours(filled, [contour], 0, 255, thickness=-1, offset=(-x0, -y0))
-        grown = cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1 else filled
-        blob = np.asarray(
-            cv2.bitwise_or(cv2.bitwise_and(grown, mask[y0:y1, x0:x1]), filled), dtype=np.uint8
-        )
-        weights = _weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel)
-        m00 = float(weights.sum())
-        if m00 <= 0.0:
-            continue
-        vs, us = np.mgrid[y0:y1, x0:x1]
-        cx = float((weights * us).sum()) / m00  # eq. 1: Cx = M10 / M00
-        cy = float((weights * vs).sum()) / m00  # eq. 2: Cy = M01 / M00
-        contour_area = float(cv2.contourArea(contour))
-        perimeter = float(cv2.arcLength(contour, True))
-        circularity = 4.0 * math.pi * contour_area / perimeter**2 if perimeter > 0 else 0.0
-        fill = float(np.count_nonzero(blob)) / float(w * h)
-        plausible = (
-            params.min_area_px <= m00 <= params.max_area_px
-            and circularity >= params.min_circularity
-            and params.min_fill_ratio <= fill <= params.max_fill_ratio
-        )
-        score = min(circularity, 1.0) * max(0.0, 1.0 - abs(fill - _PI_4) / _PI_4)
-        detection = Detection(
-            cx_px=cx,
-            cy_px=cy,
-            area_px=m00,
-            bbox_px=(int(x), int(y), int(w), int(h)),
-            circularity=circularity,
-            outline_px=contour.reshape(-1, 2).astype(np.int32),
-        )
-        ranked.append(((not plausible, -score, -m00, cy, cx), detection))
+    blobs: list[tuple[npt.NDArray[np.int32], Region]] = []
+    for region in _regions(image_bgr, params):
+        opened = region.mask if kernel is None else cv2.morphologyEx(
+            region.mask, cv2.MORPH_OPEN, kernel)
+        contours, _ = cv2.findContours(opened, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                       offset=(region.x0, region.y0))
+        blobs.extend((np.asarray(c, np.int32), region) for c in contours)
+    # findContours' own order over the whole image (last-found first; a contour starts
+    # at its blob's first pixel in raster order), so equal keys rank as they always did
+    blobs.sort(key=lambda b: (int(b[0][0, 0, 1]), int(b[0][0, 0, 0])), reverse=True)
+    ranked = [m for c, r in blobs if (m := _measure(c, image_bgr, r, params)) is not None]
     ranked.sort(key=lambda item: item[0])
     return [(not key[0], detection) for key, detection in ranked]
 

@@ -18,13 +18,10 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from dsp.errors import UsageError
 from estimator.calibration import (
-    PAPER_CALIBRATION,
-    Calibration,
     FitResult,
     fit_linear,
     fit_lookup,
@@ -43,7 +40,6 @@ __all__ = [
     "Sample",
     "calibrate",
     "distances_m",
-    "plot_png",
     "sample_ranges",
 ]
 
@@ -195,97 +191,3 @@ def calibrate(camera: CameraModel, samples: Sequence[Sample]) -> CalibrationRun:
         paper_procedure=fit_linear(*_arrays(forward)),
         per_direction=per_direction,
     )
-
-
-# --- the figure (like the paper's Fig. 10, with residuals) -----------------------------------
-_W, _H = 1000, 760
-_COLOURS = [(200, 80, 0), (0, 140, 0), (0, 0, 200), (160, 0, 160), (0, 140, 160), (90, 90, 90)]
-
-
-def _model_curve(model: Calibration, r: np.ndarray) -> np.ndarray:
-    out = np.full(r.shape, np.nan)
-    for i, ri in enumerate(r):
-        try:
-            out[i] = float(model.range_m(float(ri)))
-        except CalibrationError:
-            pass
-    return out
-
-
-def plot_png(run: CalibrationRun) -> bytes:
-    """Samples, the fitted models and the paper's line (top); residuals of the best model
-    per direction (bottom). Drawn with OpenCV, returned as PNG bytes."""
-    img = np.full((_H, _W, 3), 255, np.uint8)
-    r_all, d_all = _arrays(run.samples)
-    r_max = max(float(r_all.max()) * 1.05, 1.0)
-    d_max = max(float(d_all.max()) * 1.1, 1.0)
-    best = run.best.model
-    resid = d_all - _model_curve(best, r_all)
-    res_lim = max(float(np.nanmax(np.abs(resid))) * 1.2, 0.01) if len(resid) else 0.01
-    top = (70, 40, _W - 30, 470)       # x0, y0, x1, y1
-    bot = (70, 540, _W - 30, _H - 50)
-
-    def to_px(box: tuple[int, int, int, int], x: float, y: float, ylo: float, yhi: float
-              ) -> tuple[int, int]:
-        x0, y0, x1, y1 = box
-        return (round(x0 + (x1 - x0) * x / r_max),
-                round(y1 - (y1 - y0) * (y - ylo) / (yhi - ylo)))
-
-    font = cv2.FONT_HERSHEY_SIMPLEX
-    for box, ylo, yhi, label in ((top, 0.0, d_max, "range d [m]"),
-                                 (bot, -res_lim, res_lim, "residual [m]")):
-        cv2.rectangle(img, box[:2], box[2:], (0, 0, 0), 1)
-        cv2.putText(img, label, (box[0] - 60, box[1] - 10), font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
-        for k in range(6):
-            yv = ylo + (yhi - ylo) * k / 5
-            px = to_px(box, 0, yv, ylo, yhi)
-            digits = 3 if yhi - ylo < 0.2 else 2
-            cv2.putText(img, f"{yv:.{digits}f}", (5, px[1] + 4), font, 0.4, (0, 0, 0), 1,
-                        cv2.LINE_AA)
-            xv = r_max * k / 5
-            qx = to_px(box, xv, ylo, ylo, yhi)
-            cv2.putText(img, f"{xv:.0f}", (qx[0] - 10, box[3] + 16), font, 0.4, (0, 0, 0), 1,
-                        cv2.LINE_AA)
-    cv2.putText(img, "pixel radius r [px]", (_W // 2 - 70, _H - 12), font, 0.5, (0, 0, 0), 1,
-                cv2.LINE_AA)
-    zero = to_px(bot, 0, 0.0, -res_lim, res_lim)
-    cv2.line(img, (bot[0], zero[1]), (bot[2], zero[1]), (150, 150, 150), 1)
-    directions = sorted(run.per_direction)
-    for s in run.samples:
-        if not math.isfinite(s.r_px):
-            continue
-        colour = _COLOURS[directions.index(s.direction_deg) % len(_COLOURS)]
-        cv2.circle(img, to_px(top, s.r_px, s.range_m, 0.0, d_max), 3, colour, -1, cv2.LINE_AA)
-        res = s.range_m - float(_model_curve(best, np.array([s.r_px]))[0])
-        if math.isfinite(res):
-            cv2.circle(img, to_px(bot, s.r_px, res, -res_lim, res_lim), 3, colour, -1,
-                       cv2.LINE_AA)
-    grid = np.linspace(0.0, r_max, 300)
-    curves = [(PAPER_CALIBRATION, (0, 0, 0), "paper eq. 4")] + [
-        (f.model, _COLOURS[(i + 3) % len(_COLOURS)], f"{f.model.name}") for i, f in
-        enumerate(run.fits)]
-    for model, colour, _ in curves:
-        ys = _model_curve(model, grid)
-        pts = [to_px(top, x, y, 0.0, d_max) for x, y in zip(grid, ys, strict=False)
-               if math.isfinite(y) and 0.0 <= y <= d_max]
-        if len(pts) > 1:
-            cv2.polylines(img, [np.array(pts, np.int32)], False, colour, 1, cv2.LINE_AA)
-    cam = str(run.camera.get("model", "?"))
-    cv2.putText(img, f"camera {cam}: samples by direction, fitted models, paper's line",
-                (top[0] + 90, 25), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
-    y = top[1] + 20
-    for i, direction in enumerate(directions):
-        cv2.circle(img, (top[0] + 15, y - 4), 4, _COLOURS[i % len(_COLOURS)], -1)
-        cv2.putText(img, f"{direction:g} deg", (top[0] + 25, y), font, 0.45, (0, 0, 0), 1,
-                    cv2.LINE_AA)
-        y += 18
-    for _model, colour, label in curves:
-        cv2.line(img, (top[0] + 8, y - 4), (top[0] + 22, y - 4), colour, 2)
-        cv2.putText(img, label, (top[0] + 25, y), font, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-        y += 18
-    cv2.putText(img, f"residuals of the best model ({best.name})", (bot[0] + 90, bot[1] - 10),
-                font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
-    ok, buf = cv2.imencode(".png", img)
-    if not ok:  # pragma: no cover - OpenCV always encodes a uint8 BGR image
-        raise RuntimeError("PNG encoding failed")
-    return bytes(buf)

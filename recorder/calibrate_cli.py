@@ -18,12 +18,21 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from dsp.atomic import atomic_output
-from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
+from dsp.cli import (
+    add_common_arguments,
+    check_suffix,
+    echo,
+    progress_bar,
+    progress_enabled,
+    run_main,
+)
 from dsp.errors import UsageError
+from dsp.plotting import FIGURE_SUFFIXES, save
 from estimator.calibration import calibration_to_json
 from estimator.camera import make_camera
-from recorder.calibrate import PAPER_FIT, CalibrationRun, calibrate, distances_m, plot_png
+from recorder.calibrate import PAPER_FIT, CalibrationRun, calibrate, distances_m
 from recorder.calibrate import sample_ranges as _sample_ranges
+from recorder.calibrate_figure import calibration_figure
 from recorder.omni import DEFAULT_FACE_PX
 
 __all__ = ["build_parser", "format_report", "main"]
@@ -40,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", type=Path, required=True, metavar="JSON",
                    help="calibration file to write (dsp-replay --calibration reads it)")
     p.add_argument("--plot", type=Path, metavar="PNG",
-                   help="figure of samples, fits and residuals (default: OUT with .png)")
+                   help="figure of samples, fits and residuals, .png or .svg "
+                   "(default: OUT with .png)")
     p.add_argument("--no-plot", action="store_true", help="write no figure")
     p.add_argument("--start-m", type=float, default=0.4, metavar="M",
                    help="first range in metres (default %(default)s)")
@@ -100,7 +110,9 @@ def format_report(run: CalibrationRun, renderer: str) -> str:
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     out: Path = args.out
+    check_suffix("-o/--out", out, (".json",))
     plot: Path | None = None if args.no_plot else (args.plot or out.with_suffix(".png"))
+    check_suffix("--plot", plot, FIGURE_SUFFIXES)
     outputs = [out] if plot is None else [out, plot]
     for path in outputs:
         if not path.parent.is_dir():
@@ -129,7 +141,7 @@ def _main(argv: Sequence[str] | None) -> int:
         doc["holdout_rms_m"] = round(run.holdout_rms_m[run.best.model.name], 6)
         tmp[0].write_bytes((json.dumps(doc, sort_keys=True, indent=2) + "\n").encode())
         if plot is not None:
-            tmp[1].write_bytes(plot_png(run))
+            save(calibration_figure(run), tmp[1], fmt=plot.suffix.lower().lstrip("."))
     echo(args, format_report(run, renderer))
     wrote = f"wrote {out}" + (f" and {plot}" if plot is not None else "")
     echo(args, f"{wrote} in {time.perf_counter() - t0:.1f} s")

@@ -28,10 +28,10 @@ from typing import Any
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
 from dsp import contract as c
 from dsp import metadata as meta
+from dsp.cli import progress_bar
 from dsp.errors import OutputExistsError, UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
@@ -93,7 +93,8 @@ class RecordOptions:
     face_px: int = DEFAULT_FACE_PX
     renderer: str = "auto"
     force: bool = False
-    progress: bool = False
+    progress: bool | None = False
+    """True a bar, False none, None plain lines (:func:`dsp.cli.progress_bar`)."""
 
     def __post_init__(self) -> None:
         if self.camera not in CAMERA_MODELS:
@@ -251,7 +252,7 @@ class _Simulation:
         self.steps_done = 0
         self.frames_done = 0
 
-    def run(self, writer: LogWriter, bar: tqdm[Any]) -> None:
+    def run(self, writer: LogWriter, bar: Any) -> None:
         """Two pose ticks per camera frame; images on the even ones."""
         for k in range(2 * self.plan.frames):
             t_ns = k * self.plan.pose_period_ns
@@ -349,8 +350,7 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
             writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())
             writer.metadata(c.CAMERAS_METADATA, cameras.to_metadata())
             writer.metadata(c.RECORDER_METADATA, recorder.to_metadata())
-            with tqdm(total=plan.frames, unit="frame", disable=not options.progress,
-                      leave=False, desc=path.name) as bar:
+            with progress_bar(plan.frames, path.name, options.progress, unit="frame") as bar:
                 sim.run(writer, bar)
 
         messages = _write_log(path, fill,

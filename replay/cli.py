@@ -2,7 +2,8 @@
 
     dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL | --serve]
                [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
-               [--out results.json] [--out-mcap estimates.mcap] [--force] ...
+               [--out results.json] [--out-mcap estimates.mcap] [--out-csv estimates.csv]
+               [--plot replay.png] [--force] ...
 
 Known problems end in one line on stderr and an exit code, without a traceback
 (:func:`dsp.cli.run_main`: 1 bad input, 2 usage, 3 output exists, 130 interrupted).
@@ -16,7 +17,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp import contract
-from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, run_main
+from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.recovery import describe as describe_recovery
@@ -69,11 +71,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip images whose header declares more megapixels (default 40)")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
     p.add_argument("--out-mcap", type=Path, metavar="MCAP", help="write estimates as MCAP")
+    p.add_argument("--out-csv", type=Path, metavar="CSV",
+                   help="write the per-frame and fused estimates as CSV, one row each")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="draw error over time and the top-down track (.png or .svg)")
     add_common_arguments(p, force=True)
     return p
 
 
 def options_from_args(args: argparse.Namespace) -> ReplayOptions:
+    check_suffix("--save", args.save, (".rrd",))
+    check_suffix("--out", args.out, (".json",))
+    check_suffix("--out-mcap", args.out_mcap, (".mcap",))
+    check_suffix("--out-csv", args.out_csv, (".csv",))
+    check_suffix("--plot", args.plot, FIGURE_SUFFIXES)
     rerun = None
     if args.rerun:
         rerun = RerunTarget("spawn")
@@ -91,7 +102,8 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
-        force=args.force, rerun=rerun, progress=progress_enabled(args),
+        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun,
+        progress=progress_enabled(args),
         max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx,
     )
 

@@ -80,10 +80,15 @@ class ReplayOptions:
     recover: bool = False
     out: Path | None = None
     out_mcap: Path | None = None
+    out_csv: Path | None = None
+    """The estimates as CSV (:mod:`replay.exports`)."""
+    plot: Path | None = None
+    """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
     force: bool = False
     rerun: RerunTarget | None = None
     progress: bool | None = None
-    """Show a progress bar: None = when stderr is a terminal."""
+    """Show progress: True a bar, False none, None a bar when stderr is a terminal and
+    plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
     max_chunk_mib: float = 128.0
     """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
     max_image_mpx: float = 40.0
@@ -109,9 +114,11 @@ class ReplayOptions:
                 raise UsageError(f"{flag} {limit}; must be a positive number")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
-        outputs = [p for p in (self.out, self.out_mcap) if p is not None]
-        if len(outputs) == 2 and Path(outputs[0]).resolve() == Path(outputs[1]).resolve():
-            raise UsageError("--out and --out-mcap name the same file")
+        named = [(flag, Path(p).resolve()) for flag, p in self.output_flags() if p is not None]
+        for i, (flag, path) in enumerate(named):
+            for other, other_path in named[i + 1:]:
+                if path == other_path:
+                    raise UsageError(f"{flag} and {other} name the same file")
 
     @property
     def fusion_method(self) -> str:
@@ -124,6 +131,11 @@ class ReplayOptions:
         if self.rerun is not None and self.rerun.mode == "save" and self.rerun.target:
             return Path(self.rerun.target)
         return None
+
+    def output_flags(self) -> tuple[tuple[str, Path | None], ...]:
+        """Every file output with the flag that names it."""
+        return (("--out", self.out), ("--out-mcap", self.out_mcap), ("--out-csv", self.out_csv),
+                ("--plot", self.plot), ("--save", self.save_path))
 
     def timing(self) -> Timing:
         return Timing(
@@ -145,7 +157,7 @@ class ReplayOptions:
 
     def check_outputs(self) -> None:
         """Refuse to overwrite an existing output unless ``force``."""
-        for out in (self.out, self.out_mcap, self.save_path):
+        for _flag, out in self.output_flags():
             if out is not None and Path(out).exists() and not self.force:
                 raise OutputExistsError(out)
 

@@ -86,7 +86,7 @@ class RerunSink(SinkBase):
         self.centres = centres
         self.field = info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD]
         opts = options.as_dict()
-        for key in ("rerun", "out", "out_mcap", "force", "progress"):
+        for key in ("rerun", "out", "out_mcap", "out_csv", "plot", "force", "progress"):
             opts.pop(key, None)
         self.recording_id = recording_id(digest, opts)
         self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)

@@ -42,6 +42,7 @@ from replay.results import (
     ResultsWriter,
     StepResult,
 )
+from replay.selection import check_selected, check_selection
 from replay.sink import Sink
 from replay.stats import ReplayStats, ReplaySummary
 from replay.sync import (
@@ -82,6 +83,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             unknown = sorted(set(options.robots) - set(info.robots))
             if unknown:
                 raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
+        check_selection(path, info, options)
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, robots=info.robots,
             camera_metadata=info.cameras.by_robot(), source=str(reader.path),
@@ -93,11 +95,13 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             stream.max_pixels = options.max_image_pixels
             with _progress(options, reader) as bar:
                 stream.run(bar)
+            check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader)
             _warn(reader, options)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
     return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
-        Path(p) for p in (options.out, options.out_mcap) if p is not None))
+        Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
+        if p is not None))
 
 
 def _open_outputs(stack: contextlib.ExitStack, reader: LogReader, options: ReplayOptions,
@@ -115,6 +119,10 @@ def _open_outputs(stack: contextlib.ExitStack, reader: LogReader, options: Repla
         from replay.mcap_sink import McapSink
 
         sinks.append(stack.enter_context(McapSink(Path(options.out_mcap), force=options.force)))
+    if options.out_csv is not None or options.plot is not None:
+        from replay.exports import open_exports
+
+        sinks.extend(open_exports(stack, info, options))
     if options.rerun is not None:
         from replay.rerun_sink import RerunSink
 
@@ -157,15 +165,15 @@ def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
 
 @contextlib.contextmanager
 def _progress(options: ReplayOptions, reader: LogReader) -> Iterator[Any]:
-    """A progress bar over the log's messages, or None (``progress`` None: on a terminal)."""
-    show = options.progress if options.progress is not None else sys.stderr.isatty()
-    if not show:
+    """Progress over the log's messages (``progress`` None: a bar on a terminal, plain
+    lines otherwise; :func:`dsp.cli.progress_bar`), or None when there is none."""
+    if options.progress is False:
         yield None
         return
-    from tqdm import tqdm
+    from dsp.cli import progress_bar
 
-    with tqdm(total=reader.info.message_count, unit="msg", desc=reader.path.name,
-              leave=False, file=sys.stderr) as bar:
+    show = True if options.progress is None and sys.stderr.isatty() else options.progress
+    with progress_bar(reader.info.message_count, reader.path.name, show, unit="msg") as bar:
         yield bar
 
 

@@ -141,13 +141,13 @@ def parse(*argv: str) -> argparse.Namespace:
 
 @pytest.mark.parametrize(("argv", "tty", "expected"), [
     ((), True, True),                      # default: a bar on a terminal
-    ((), False, False),                    # ... and none in a pipe or a log file
+    ((), False, None),                     # ... and plain lines in a pipe or a log file
     (("--progress",), False, True),        # explicit wins
     (("--no-progress",), True, False),
     (("--quiet",), True, False),           # quiet: no bar ...
     (("--quiet", "--progress"), False, True),  # ... unless asked for
 ])
-def test_one_progress_rule(argv: tuple[str, ...], tty: bool, expected: bool) -> None:
+def test_one_progress_rule(argv: tuple[str, ...], tty: bool, expected: bool | None) -> None:
     assert progress_enabled(parse(*argv), Stream(tty)) is expected
 
 
@@ -167,12 +167,12 @@ def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.mark.parametrize(("argv", "expected"), [
-    ((), False),  # under pytest stderr is no terminal
+    ((), None),  # under pytest stderr is no terminal: plain lines
     (("--progress",), True),
     (("--quiet",), False),
 ])
 def test_dsp_replay_passes_the_decided_progress(
-    log: Path, argv: tuple[str, ...], expected: bool, monkeypatch: pytest.MonkeyPatch,
+    log: Path, argv: tuple[str, ...], expected: bool | None, monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     seen: list[ReplayOptions] = []

@@ -14,7 +14,8 @@ import pytest
 from dsp.errors import UsageError
 from estimator.calibration import LinearCalibration, calibration_from_json
 from estimator.camera import make_camera
-from recorder.calibrate import Sample, calibrate, distances_m, plot_png, sample_ranges
+from recorder.calibrate import Sample, calibrate, distances_m, sample_ranges
+from recorder.calibrate_figure import plot_png
 
 
 def test_distances_follow_the_papers_procedure() -> None:
@@ -83,6 +84,21 @@ def test_the_figure_is_a_png() -> None:
     run = calibrate(make_camera("ideal"), _samples(lambda d: d / 0.017))
     png = plot_png(run)
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    # drawn by matplotlib without the metadata that varies: the same run, the same bytes
+    assert plot_png(run) == png and b"Software" not in png
+
+
+def test_an_output_with_the_wrong_extension_is_refused_before_rendering(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from recorder.calibrate_cli import main
+
+    assert main(["-o", str(tmp_path / "cal.txt")]) == 2
+    assert main(["-o", str(tmp_path / "cal.json"), "--plot", str(tmp_path / "cal.jpg")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert "-o/--out" in err[0] and "must end in .json" in err[0]
+    assert "--plot" in err[1] and "must end in .png or .svg" in err[1]
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize("camera", ["ideal", "fisheye", "mirror"])

@@ -1,0 +1,142 @@
+"""The coarse-to-fine search (estimator.detection_regions) gives the whole image's results.
+
+Every comparison is against ``search_stride_px=1`` (the whole image thresholded, opened and
+traced, the reference path): the same blobs in the same order, every field equal, outlines
+included.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+import pytest
+from test_estimator_detection import ORANGE_BGR, draw_disc, field_image
+
+from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
+from estimator.errors import DetectionError
+
+GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
+
+
+def _as_tuples(blobs: list[Detection]) -> list[tuple[Any, ...]]:
+    return [(b.cx_px, b.cy_px, b.area_px, b.bbox_px, b.circularity, b.outline_px.tolist())
+            for b in blobs]
+
+
+def _same_as_whole_image(image: npt.NDArray[np.uint8], params: DetectionParams) -> list[Detection]:
+    blobs = detect_blobs(image, params)
+    whole = detect_blobs(image, dataclasses.replace(params, search_stride_px=1))
+    assert _as_tuples(blobs) == _as_tuples(whole)
+    return blobs
+
+
+def _golden_frames() -> list[npt.NDArray[np.uint8]]:
+    from replay.decode import decode_image
+    from replay.reader import ImageMessage, LogReader
+
+    frames = []
+    for log in sorted(GOLDEN.glob("*.mcap")):
+        with LogReader(log) as reader:
+            for msg in reader.messages():
+                if isinstance(msg, ImageMessage):
+                    image = decode_image(msg)
+                    assert image is not None
+                    frames.append(image)
+    return frames
+
+
+def test_every_golden_frame_gives_the_whole_images_blobs() -> None:
+    frames = _golden_frames()
+    assert len(frames) == 48
+    params = [DetectionParams(), DetectionParams(ignore_radius_px=100.0),
+              DetectionParams(open_kernel_px=7, search_stride_px=4)]
+    balls = 0
+    for frame, p in itertools.product(frames, params):
+        balls += len(_same_as_whole_image(frame, p))
+    assert balls >= 3 * 36  # the ball in most frames
+    lines = DetectionParams(hsv_lower=(0, 0, 200), hsv_upper=(179, 60, 255))  # white lines
+    assert sum(len(_same_as_whole_image(frame, lines)) for frame in frames[::4]) > 50
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_scenes_give_the_whole_images_blobs(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    image = field_image(301)
+    for _ in range(int(rng.integers(5, 40))):  # discs, some cut by the border, some touching
+        x, y, r = rng.uniform(-6, 307), rng.uniform(-6, 307), rng.uniform(0.5, 14)
+        colour = (int(rng.integers(0, 60)), int(rng.integers(60, 160)), int(rng.integers(200, 256)))
+        cv2.circle(image, (round(x * 16), round(y * 16)), round(r * 16), colour, -1,
+                   cv2.LINE_AA, shift=4)
+    image[rng.random(image.shape[:2]) < 0.01] = ORANGE_BGR  # speckle
+    for p in (DetectionParams(), DetectionParams(ignore_radius_px=60.5,
+                                                 ignore_centre_px=(100.3, 150.7)),
+              DetectionParams(open_kernel_px=5, search_stride_px=2), DetectionParams(
+                  open_kernel_px=1, subpixel=False, search_stride_px=5)):
+        _same_as_whole_image(image, p)
+
+
+@pytest.mark.parametrize("radius", [2.0, 2.5, 3.0])
+def test_a_tiny_ball_at_the_image_edge_is_found(radius: float) -> None:
+    # every phase of the sampling grid (and sub-pixel offsets), along each border and in
+    # the corners, as close to the border as draw_disc can draw
+    size = 121
+    edge = math.ceil(radius) + 1.0
+    phases = (0.0, 1.0, 2.0, 0.5, 1.3, 2.7)
+    found = listed = 0
+    for du, dv in itertools.product(phases, phases):
+        for cx, cy in ((edge + du, 60 + dv), (size - 1 - edge - du, 60 + dv),
+                       (60 + du, edge + dv), (60 + du, size - 1 - edge - dv),
+                       (edge + du, edge + dv), (size - 1 - edge - du, size - 1 - edge - dv)):
+            image = field_image(size)
+            draw_disc(image, cx, cy, radius)
+            blobs = _same_as_whole_image(image, DetectionParams())
+            assert len(blobs) == 1, (cx, cy)
+            assert math.hypot(blobs[0].cx_px - cx, blobs[0].cy_px - cy) < 0.3
+            listed += 1
+            found += detect_ball(image) is not None
+    # the plausibility rules (e.g. the fill ratio of a 3 x 4 box) reject half the radius-2
+    # positions and a few radius-2.5 ones on the whole image as well; the search rejects
+    # exactly those (compared above)
+    assert found >= {2.0: 0.45, 2.5: 0.95, 3.0: 1.0}[radius] * listed
+
+
+def test_a_ball_cut_by_the_image_border_is_found() -> None:
+    for radius, inside in itertools.product((2.0, 2.5, 3.0, 6.0), (0.6, 1.0, 1.5)):
+        for cx, cy in ((inside, 50.3), (99 - inside, 50.3), (50.3, inside), (50.3, 99 - inside)):
+            image = field_image(100)
+            cv2.circle(image, (round(cx * 16), round(cy * 16)), round(radius * 16), ORANGE_BGR,
+                       -1, cv2.LINE_AA, shift=4)
+            _same_as_whole_image(image, DetectionParams())
+            assert detect_blobs(image), (radius, cx, cy)
+
+
+def test_a_tiny_ball_on_the_rim_of_a_recorded_frame_is_found() -> None:
+    frame = _golden_frames()[0].copy()  # no ball in it; the image circle's rim at r ~ 540
+    assert detect_ball(frame) is None
+    cx, cy = 539.5 + 520 * math.cos(0.7), 539.5 + 520 * math.sin(0.7)
+    draw_disc(frame, cx, cy, 2.5)
+    ball = detect_ball(frame)
+    assert ball is not None
+    assert math.hypot(ball.cx_px - cx, ball.cy_px - cy) < 0.3
+    _same_as_whole_image(frame, DetectionParams())
+
+
+def test_a_big_ball_and_a_mostly_orange_image_fall_back_to_the_whole_image() -> None:
+    image = field_image(400)
+    cv2.circle(image, (200, 210), 150, ORANGE_BGR, -1, cv2.LINE_AA)  # most of the image
+    blobs = _same_as_whole_image(image, DetectionParams())
+    assert len(blobs) == 1
+    image[:] = ORANGE_BGR
+    assert len(_same_as_whole_image(image, DetectionParams())) == 1
+
+
+def test_search_stride_must_be_positive() -> None:
+    with pytest.raises(DetectionError, match="search_stride_px = 0"):
+        DetectionParams(search_stride_px=0)

@@ -55,6 +55,7 @@ from replay.mcap_records import MAGIC, Limits, Malformed
 from replay.mcap_scan import Block
 from replay.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage, convert
 from replay.recovery import RecoveryLoss
+from replay.schemas import definition_mismatch
 
 __all__ = [
     "ImageMessage",
@@ -233,6 +234,10 @@ class LogReader:
         what = f"topic {shown(channel.topic)}"
         if schema is None:
             raise SchemaError(self.path, what, f"schema {channel.schema_id} is not in the log")
+        if schema.encoding == "ros2msg":
+            mismatch = definition_mismatch(schema.name, schema.data.decode("utf-8", "replace"))
+            if mismatch is not None:
+                raise SchemaError(self.path, what, f"{schema.name}: {mismatch}")
         try:
             decoder = self._decoders.decoder_for(channel.message_encoding, schema)
         except Exception as err:  # the ROS 2 message parser raises many kinds on bad text

@@ -250,3 +250,26 @@ def test_recorder_log_without_a_camera_is_an_error(tmp_path: Path) -> None:
 def test_not_mcap(tmp_path: Path) -> None:
     with pytest.raises(NotMcapError):
         replay(_write(tmp_path, b"PK\x03\x04" + bytes(100)))
+
+
+def test_float64_redeclared_float32_is_refused(tmp_path: Path) -> None:
+    raw = read_raw(GOLDEN / "scenario2.mcap")
+    for sid, (name, enc, text) in raw.schemas.items():
+        if name == "geometry_msgs/msg/PoseStamped":
+            raw.schemas[sid] = (name, enc, text.replace(b"float64", b"float32"))
+    with pytest.raises(SchemaError, match=r"float32 x.*ROS 2 definition"):
+        replay(_write(tmp_path, write_raw(raw)))
+
+
+def test_rosbag2_style_definitions_are_accepted() -> None:
+    from replay.schemas import definition_mismatch
+
+    text = ("# A Pose with reference coordinate frame and timestamp\nstd_msgs/Header header\n"
+            "Pose pose\n" + "=" * 80 + "\nMSG: geometry_msgs/Pose\n# comment\n"
+            "Point position\nQuaternion orientation\n" + "=" * 80 + "\nMSG: std_msgs/Header\n"
+            "builtin_interfaces/Time stamp\nstring frame_id\n" + "=" * 80
+            + "\nMSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\n"
+            "float64 w 1\n")
+    assert definition_mismatch("geometry_msgs/msg/PoseStamped", text) is None
+    assert definition_mismatch("geometry_msgs/msg/PoseStamped",
+                               text.replace("float64 w", "float32 w")) is not None

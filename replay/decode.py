@@ -4,13 +4,19 @@
 Untrusted bytes are checked before OpenCV sees them: the dimensions are read from the
 header (PNG IHDR, JPEG SOF, BMP info header) and an image over ``max_pixels`` is refused
 before anything is allocated; a PNG's chunk CRCs are checked so a damaged one is refused
-without libpng printing to stderr. Anything that does not decode gives None.
+without libpng printing to stderr, and libjpeg's warnings about damaged data are silenced.
+Anything that does not decode gives None.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
 import struct
+import sys
+import threading
 import zlib
+from collections.abc import Iterator
 
 import cv2
 import numpy as np
@@ -27,6 +33,27 @@ _SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 
 
 # errors only: no "[ WARN ] ... PNG input buffer is incomplete" lines on stderr
 cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+
+
+_STDERR_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """File descriptor 2 to /dev/null for the duration (libjpeg's warnings bypass Python)."""
+    with _STDERR_LOCK:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            try:
+                os.dup2(devnull, 2)
+                yield
+            finally:
+                os.dup2(saved, 2)
+                os.close(devnull)
+        finally:
+            os.close(saved)
 
 
 def _png_size(data: bytes) -> tuple[int, int] | None:
@@ -110,7 +137,11 @@ def decode_image(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     if width <= 0 or height <= 0 or width * height > max_pixels:
         return None
     try:
-        img = cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR)
+        if _fmt == "jpeg":
+            with _quiet_stderr():  # libjpeg prints "Corrupt JPEG data: ..." on fd 2
+                img = cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR)
+        else:
+            img = cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR)
     except cv2.error:
         return None
     if img is None or not img.size or img.shape[0] * img.shape[1] > max_pixels:

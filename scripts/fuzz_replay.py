@@ -94,6 +94,27 @@ def campaign(n: int, seed: int, *, timeout_s: float = 60.0, kinds: list[str] | N
             "by_kind": rows, "total": total, "findings": findings[:200]}
 
 
+def merge(reports: list[dict[str, Any]]) -> dict[str, Any]:
+    """One report from campaigns run side by side (different seeds)."""
+    out: dict[str, Any] = {"seed": "+".join(str(r["seed"]) for r in reports),
+                           "cases": sum(r["cases"] for r in reports),
+                           "seconds": max(r["seconds"] for r in reports), "by_kind": {},
+                           "findings": [f for r in reports for f in r["findings"]][:200]}
+    for r in reports:
+        for kind, row in r["by_kind"].items():
+            into = out["by_kind"].setdefault(kind, {})
+            for k, v in row.items():
+                into[k] = max(into.get(k, 0), v) if k in ("peak_rss", "max_s") else (
+                    into.get(k, 0) + v)
+    total: dict[str, Any] = {}
+    for row in out["by_kind"].values():
+        for k, v in row.items():
+            total[k] = max(total.get(k, 0), v) if k in ("peak_rss", "max_s") else (
+                total.get(k, 0) + v)
+    out["total"] = total
+    return out
+
+
 def format_report(report: dict[str, Any]) -> str:
     cols = ("cases", "error", "ok", "changed", "silent", "uncovered", "traceback", "hang")
     lines = [f"{'kind':12}" + "".join(f"{c:>10}" for c in cols) + f"{'peak RSS':>11}"]
@@ -117,7 +138,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--timeout", type=float, default=60.0, help="seconds per case")
     p.add_argument("--kinds", help="comma-separated mutation kinds (default all)")
     p.add_argument("--report", type=Path, help="write the figures and findings as JSON")
+    p.add_argument("--merge", type=Path, nargs="+", metavar="REPORT",
+                   help="print one table from reports of campaigns run side by side")
     args = p.parse_args(argv)
+    if args.merge:
+        merged = merge([json.loads(r.read_text()) for r in args.merge])
+        print(format_report(merged))
+        return 1 if failed(merged) else 0
     kinds = args.kinds.split(",") if args.kinds else None
     report = campaign(args.cases, args.seed, timeout_s=args.timeout, kinds=kinds,
                       progress=True)

@@ -273,3 +273,33 @@ def test_rosbag2_style_definitions_are_accepted() -> None:
     assert definition_mismatch("geometry_msgs/msg/PoseStamped", text) is None
     assert definition_mismatch("geometry_msgs/msg/PoseStamped",
                                text.replace("float64 w", "float32 w")) is not None
+
+
+def test_damaged_images_print_nothing(capfd: pytest.CaptureFixture[str]) -> None:
+    import cv2
+    import numpy as np
+
+    img = np.zeros((120, 120, 3), np.uint8)
+    cv2.circle(img, (60, 60), 20, (0, 0, 255), -1)
+    rng = random.Random(5)
+    for ext, fmt in ((".jpg", "jpeg"), (".png", "png")):
+        data = cv2.imencode(ext, img)[1].tobytes()
+        for _ in range(20):
+            buf = bytearray(data)
+            buf[rng.randrange(30, len(buf))] ^= 1 << rng.randrange(8)
+            decode_image(ImageMessage("robot1", 0, 0, fmt, bytes(buf)))
+        assert decode_image(ImageMessage("robot1", 0, 0, fmt, data[: len(data) // 2])) is None
+    captured = capfd.readouterr()
+    assert captured.err == "" and captured.out == ""
+
+
+def test_recover_reads_the_complete_messages_of_an_unchunked_tail(tmp_path: Path) -> None:
+    raw = read_raw(GOLDEN / "rolling.mcap")
+    path = _write(tmp_path, write_raw(raw, use_chunking=False), "unchunked.mcap")
+    full = replay(path).frames
+    data = path.read_bytes()
+    cut = _write(tmp_path, data[: len(data) // 2], "cut.mcap")
+    summary = replay(cut, ReplayOptions(recover=True))
+    assert 0.35 * full <= summary.frames < full
+    rec = summary.recovered
+    assert rec is not None and rec["truncated"] and rec["bad_chunks"] == 0

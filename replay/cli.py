@@ -104,7 +104,7 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
         out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun,
         progress=progress_enabled(args),
-        max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx,
+        max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx, quiet=args.quiet,
     )
 
 

@@ -89,6 +89,8 @@ class ReplayOptions:
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
+    quiet: bool = False
+    """Print no warnings (a log without camera metadata, skipped bad messages)."""
     max_chunk_mib: float = 128.0
     """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
     max_image_mpx: float = 40.0

@@ -140,6 +140,8 @@ def _recovered(reader: LogReader) -> dict[str, Any] | None:
 
 def _warn(reader: LogReader, options: ReplayOptions) -> None:
     """What the user must know about a replay that worked: fallbacks and skipped messages."""
+    if options.quiet:
+        return
     lines = [] if options.calibration is not None else list(reader.info.warnings)
     if reader.bad_messages:
         lines.append(f"{reader.path}: skipped {reader.undecodable} bad message(s): "

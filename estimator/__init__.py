@@ -3,7 +3,8 @@
 Detection (:mod:`estimator.detection`), paper mode (:mod:`estimator.paper`), the corrected
 estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`:
 models, fitting and JSON form in ``calibration_models``, ``calibration_fit`` and
-``calibration_json``), fusion of several robots (:mod:`estimator.fusion`), geometry,
+``calibration_json``), fusion of several robots (:mod:`estimator.fusion`), the ball tracker
+(:mod:`estimator.tracker`, its model :mod:`estimator.tracker_model`), geometry,
 errors and the paper's numbers (:mod:`estimator.constants`). Camera models live in
 :mod:`estimator.camera` (imported on demand, not re-exported here).
 """
@@ -48,10 +49,12 @@ from estimator.errors import (
 from estimator.fusion import (
     FUSION_METHODS,
     RANGE_SIGMA_COEFFICIENTS,
+    CalibratedNoise,
     FusedEstimate,
     Fusion,
     MeanFusion,
     NearestFusion,
+    Noise,
     NoiseModel,
     RobustFusion,
     WeightedFusion,
@@ -67,6 +70,7 @@ from estimator.geometry import (
     yaw_from_quaternion,
 )
 from estimator.paper import locate_ball, rpy_from_quaternion
+from estimator.tracker import BallTracker, Measurement, TrackerParams, TrackFusion, TrackState
 
 __all__ = [
     "BALL_RADIUS_M",
@@ -79,6 +83,8 @@ __all__ = [
     "PAPER_R2",
     "RANGE_SIGMA_COEFFICIENTS",
     "BallEstimate",
+    "BallTracker",
+    "CalibratedNoise",
     "Calibration",
     "CalibrationError",
     "CalibrationFormatError",
@@ -96,12 +102,17 @@ __all__ = [
     "LinearCalibration",
     "LookupCalibration",
     "MeanFusion",
+    "Measurement",
     "MirrorCalibration",
     "NearestFusion",
+    "Noise",
     "NoiseModel",
     "OutOfRangeError",
     "RobotPose",
     "RobustFusion",
+    "TrackFusion",
+    "TrackState",
+    "TrackerParams",
     "UnknownFusionError",
     "WeightedFusion",
     "ball_visibility",

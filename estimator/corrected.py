@@ -47,6 +47,10 @@ class BallEstimate:
     """How much of the ball the blob shows: detected area / the area a whole ball at this
     range would have (:func:`ball_visibility`), 1 when unknown. A partly hidden ball's
     centroid is biased, so fusion trusts it less."""
+    r_px: float | None = None
+    """Pixel radius of the centroid from the image centre (eq. 3), None when unknown: the
+    calibrated noise model (:class:`estimator.fusion.CalibratedNoise`) takes the
+    calibration's slope there."""
 
 
 def ball_visibility(area_px: float, expected_area_px: float) -> float:
@@ -81,4 +85,5 @@ def estimate_ball(
         bearing_rad=theta,
         x_m=pose.x_m + d * math.cos(phi),
         y_m=pose.y_m + d * math.sin(phi),
+        r_px=r,
     )

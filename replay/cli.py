@@ -1,9 +1,10 @@
 """``dsp-replay``: replay a log through the estimator (thin: parse, call, report).
 
     dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL | --serve]
-               [--method paper|corrected] [--fusion mean|nearest|weighted|robust]
+               [--method paper|corrected] [--fusion mean|nearest|weighted|robust|track]
                [--out results.json] [--out-mcap estimates.mcap] [--out-csv estimates.csv]
                [--plot replay.png] [--force] ...
+    dsp-replay LOG|FOLDER [...] --out-dir DIR [--out-mcap] [--workers N | --ray]   (batch)
 
 Known problems end in one line on stderr and an exit code, without a traceback
 (:func:`dsp.cli.run_main`: 1 bad input, 2 usage, 3 output exists, 130 interrupted).
@@ -20,6 +21,7 @@ from dsp import contract
 from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, run_main
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
+from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.recovery import describe as describe_recovery
 from replay.runner import replay
@@ -36,7 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
         "evaluate against ground truth, and show it in Rerun.",
     )
-    p.add_argument("log", type=Path, help="the MCAP log to replay")
+    p.add_argument("log", type=Path, nargs="+",
+                   help="the MCAP log to replay (with --out-dir: logs and folders of logs)")
     viewer = p.add_mutually_exclusive_group()
     viewer.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
     viewer.add_argument("--save", type=Path, metavar="RRD", help="save a Rerun .rrd file")
@@ -49,7 +52,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default)")
     p.add_argument("--fusion", choices=FUSION_METHODS,
                    help="how the robots' estimates are fused (default: mean in paper mode, "
-                   "as the paper does; weighted for the corrected estimator)")
+                   "as the paper does; for the corrected estimator track: a Kalman filter "
+                   "giving position and velocity at every image stamp)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
@@ -70,11 +74,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-image-mpx", type=float, default=40.0, metavar="MPX",
                    help="skip images whose header declares more megapixels (default 40)")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
-    p.add_argument("--out-mcap", type=Path, metavar="MCAP", help="write estimates as MCAP")
+    p.add_argument("--out-mcap", type=Path, metavar="MCAP", nargs="?", const=OUT_MCAP_IN_DIR,
+                   help="write estimates as MCAP (with --out-dir: no file name)")
     p.add_argument("--out-csv", type=Path, metavar="CSV",
                    help="write the per-frame and fused estimates as CSV, one row each")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="draw error over time and the top-down track (.png or .svg)")
+    add_batch_arguments(p)
     add_common_arguments(p, force=True)
     return p
 
@@ -136,6 +142,10 @@ def format_summary(s: ReplaySummary) -> str:
 
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
+    if is_batch(args):
+        return run_batch(args, options_from_args)
+    check_single(args)
+    args.log = args.log[0]
     echo(args, format_summary(replay(args.log, options_from_args(args))))
     return 0
 

@@ -10,10 +10,17 @@ far the image got:
                      NO_DETECTION)
 
 A frame without a ball is not a skipped frame: NO_DETECTION still carries the pose.
+
+:meth:`FrameEstimator.step` fuses one step's frames: a window fusion of their estimates, or
+(``track``) the ball tracker fed with each estimate at its own stamp, with its calibrated
+covariance (:class:`~estimator.fusion.CalibratedNoise`), and read at the step's stamp, with
+the ball's velocity. The tracker makes a step at every image stamp
+(:meth:`FrameEstimator.step_window_ns`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -30,7 +37,8 @@ from estimator import corrected, detection, fusion, paper
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.errors import EstimatorError
 from estimator.geometry import RobotPose
-from replay.results import FrameStatus, RobotEstimate
+from estimator.tracker import BallTracker, Measurement
+from replay.results import FrameResult, FrameStatus, RobotEstimate, StepResult
 from replay.sync import PoseMatch
 
 __all__ = ["DEFAULT_CENTRE_PX", "FrameEstimator", "FrameOutcome", "FrameStatus"]
@@ -64,6 +72,8 @@ class _Cameras:
     centres: Mapping[str, tuple[float, float]]
     models: Mapping[str, cam.CameraModel]
     calibrations: Mapping[str, cal.Calibration]
+    fit_rms_m: float = 0.0
+    """The calibration file's fit residual RMS [m] when it records one (0: a camera model)."""
 
     def visibility(self, robot: str, det: detection.Detection, range_m: float) -> float:
         """How much of the ball the blob shows, when the log names the camera model."""
@@ -125,21 +135,28 @@ def _cameras(robots: Sequence[str], metadata: Mapping[str, Mapping[str, Any]], s
             centres[robot] = (float(model.centre_px[0]), float(model.centre_px[1]))
             calibrations[robot] = cal.CameraCalibration(model)
             models[robot] = model
+    fit_rms_m = 0.0
     if calibration_file is not None:
-        model_from_file = _read_calibration(Path(calibration_file))
+        model_from_file, fit_rms_m = _read_calibration(Path(calibration_file))
         calibrations = dict.fromkeys(robots, model_from_file)
-    return _Cameras(centres, models, calibrations)
+    return _Cameras(centres, models, calibrations, fit_rms_m)
 
 
-def _read_calibration(path: Path) -> cal.Calibration:
+def _read_calibration(path: Path) -> tuple[cal.Calibration, float]:
+    """The calibration in ``path`` and its fit's residual RMS [m] (0 when not recorded)."""
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
     try:
-        return cal.calibration_from_json(text)
+        model = cal.calibration_from_json(text)
+        fit = json.loads(text).get("fit") or {}
+        rms = float(fit.get("rms_m", 0.0)) if isinstance(fit, dict) else 0.0
     except (ValueError, TypeError, KeyError, EstimatorError) as err:
         raise CalibrationError(path, str(err)) from err
+    if not (math.isfinite(rms) and rms >= 0.0):
+        raise CalibrationError(path, f"fit rms_m = {rms} must be a finite number >= 0")
+    return model, rms
 
 
 class FrameEstimator:
@@ -151,7 +168,14 @@ class FrameEstimator:
         self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
-        self.fusion = fusion.get_fusion(fusion_method)
+        self.noise: fusion.Noise = fusion.CalibratedNoise(
+            calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
+        self.tracker: BallTracker | None = None
+        if fusion_method == "track":
+            self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
+            self.tracker = BallTracker()
+        else:  # the window fusions keep their own noise model (NoiseModel)
+            self.fusion = fusion.get_fusion(fusion_method)
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
@@ -186,12 +210,53 @@ class FrameEstimator:
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate)
 
     def fuse(self, estimates: Sequence[RobotEstimate]) -> fusion.FusedEstimate | None:
-        """The robots' estimates of one step, fused; None when there are none."""
+        """The robots' estimates of one step, fused by the window fusion (the tracker's
+        one-shot form for ``track``); None when there are none."""
         if not estimates:
             return None
-        return self.fusion.fuse([
-            corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
-                                   range_m=e.range_m, bearing_rad=e.bearing_rad,
-                                   x_m=e.x_m, y_m=e.y_m, visibility=e.visibility)
-            for e in estimates
-        ])
+        return self.fusion.fuse([_ball(e) for e in estimates])
+
+    def step_window_ns(self, window_ns: int) -> int:
+        """The window that groups frames into steps: the fusion window, or 1 ns for the
+        tracker, which gives a fused estimate at every image stamp."""
+        return 1 if self.tracker is not None else window_ns
+
+    def step(self, index: int, stamp_ns: int, frames: tuple[FrameResult, ...],
+             truth: tuple[float, float] | None,
+             truth_velocity: tuple[float, float] | None = None) -> StepResult:
+        """One fusion step at ``stamp_ns`` from its frames (in robot order), scored against
+        the truth when given."""
+        velocity = velocity_cov = None
+        if self.tracker is None:
+            fused = self.fuse([f.estimate for f in frames if f.estimate is not None])
+        else:
+            fused, velocity, velocity_cov = self._track(self.tracker, stamp_ns, frames)
+        err = None
+        if fused is not None and truth is not None:
+            err = math.hypot(fused.x_m - truth[0], fused.y_m - truth[1])
+        return StepResult(index, stamp_ns, frames, fused, truth, err, velocity_m_s=velocity,
+                          velocity_covariance=velocity_cov, truth_velocity_m_s=truth_velocity)
+
+    def _track(self, tracker: BallTracker, stamp_ns: int, frames: tuple[FrameResult, ...]) -> (
+        tuple[fusion.FusedEstimate | None, tuple[float, float] | None, fusion.Covariance | None]
+    ):
+        """Each frame's estimate into the tracker at its own stamp; the track at stamp_ns."""
+        for f in frames:
+            if f.estimate is None:
+                continue
+            sigma = self.noise.covariance(_ball(f.estimate, f.r_px))
+            tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m, f.estimate.y_m,
+                                       ((float(sigma[0, 0]), float(sigma[0, 1])),
+                                        (float(sigma[1, 0]), float(sigma[1, 1])))))
+        state = tracker.state_at(stamp_ns)
+        if state is None:
+            return None, None, None
+        fused = fusion.FusedEstimate(state.x_m, state.y_m, state.position_covariance,
+                                     tracker.accepted_at(stamp_ns))
+        return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
+
+
+def _ball(e: RobotEstimate, r_px: float | None = None) -> corrected.BallEstimate:
+    return corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
+                                  range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m,
+                                  y_m=e.y_m, visibility=e.visibility, r_px=r_px)

@@ -17,17 +17,24 @@ Everything here is deterministic given the logs: the tables hold no timings.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from estimator.fusion import FUSION_METHODS
-from replay.options import ReplayOptions
-from replay.results import DECIMALS, ResultsCollector
-from replay.runner import replay
+from replay.results import DECIMALS
+from replay.scenes import (
+    CONFIGS,
+    Config,
+    Recorder,
+    Replays,
+    SceneMapper,
+    SceneTask,
+    run_scene,
+    serial_map,
+)
 
 __all__ = [
     "CONFIGS",
@@ -36,6 +43,7 @@ __all__ = [
     "PAPER_TABLE1",
     "Config",
     "PaperSuite",
+    "RandomScene",
     "RandomSuite",
     "ScenarioScore",
     "paper_markdown",
@@ -43,6 +51,8 @@ __all__ = [
     "run_paper_suite",
     "run_random_suite",
     "score_paper_scenario",
+    "score_paper_scene",
+    "score_random_scene",
 ]
 
 PAPER_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
@@ -58,23 +68,6 @@ PAPER_TABLE1 = {
 PAPER_RMSE_M = 0.383
 DISTANCE_BANDS_M = ((0.0, 3.0), (3.0, 6.0), (6.0, 9.0), (9.0, math.inf))
 DUAL_SIGHT_RANGE_M = 9.0
-
-
-@dataclass(frozen=True)
-class Config:
-    method: str
-    fusion: str
-
-    @property
-    def label(self) -> str:
-        return f"{self.method}/{self.fusion}"
-
-
-CONFIGS = (Config("paper", "mean"),
-           *(Config("corrected", f) for f in FUSION_METHODS))
-
-Recorder = Callable[[Path, str, int], None]
-"""record(path, scenario, seed): writes one log."""
 
 
 @dataclass(frozen=True)
@@ -145,14 +138,6 @@ def _rounded(obj: Any) -> Any:
     return obj
 
 
-def _replay_results(log: Path, config: Config, calibration: Path | None) -> dict[str, Any]:
-    """The replay's frames and fused steps, as its results file would hold them."""
-    collected = ResultsCollector()
-    replay(log, ReplayOptions(method=config.method, fusion=config.fusion,
-                              calibration=calibration, progress=False), sinks=[collected])
-    return {"frames": collected.frames, "fused": collected.fused}
-
-
 def score_paper_scenario(name: str, results: dict[str, Any]) -> ScenarioScore:
     """A scenario's Table 1 row from a replay's results."""
     fused = [f for f in results["fused"] if f.get("x_m") is not None]
@@ -166,22 +151,23 @@ def score_paper_scenario(name: str, results: dict[str, Any]) -> ScenarioScore:
         detections=sum(1 for f in frames if f.get("detection")), frames=len(frames))
 
 
+def score_paper_scene(task: SceneTask, replays: Replays) -> list[tuple[str, ScenarioScore]]:
+    """A paper scenario's Table 1 row under each config: (config label, score)."""
+    return [(config.label, score_paper_scenario(task.scenario, results))
+            for config, results in replays]
+
+
 def run_paper_suite(record: Recorder, workdir: Path, *, camera: str,
                     calibration: Path | None = None, seed: int = 0,
                     configs: Sequence[Config] = CONFIGS,
-                    on_progress: Callable[[str], None] | None = None) -> PaperSuite:
+                    map_scenes: SceneMapper = serial_map) -> PaperSuite:
     suite = PaperSuite(camera=camera,
                        calibration=calibration.name if calibration else "camera metadata")
-    for name in PAPER_SCENARIOS:
-        log = workdir / f"{name}-{camera}.mcap"
-        if not log.exists():
-            record(log, name, seed)
-        for config in configs:
-            if on_progress:
-                on_progress(f"{name} {config.label}")
-            results = _replay_results(log, config, calibration)
-            suite.scores.setdefault(config.label, []).append(
-                score_paper_scenario(name, results))
+    tasks = [SceneTask(score_paper_scene, name, seed, workdir / f"{name}-{camera}.mcap", record,
+                       calibration, tuple(configs)) for name in PAPER_SCENARIOS]
+    for scores in map_scenes(run_scene, tasks):
+        for label, score in scores:
+            suite.scores.setdefault(label, []).append(score)
     return suite
 
 
@@ -277,33 +263,52 @@ class RandomSuite:
         })
 
 
+@dataclass(frozen=True)
+class RandomScene:
+    """What one random scene adds to the suite."""
+
+    dual_sight: bool
+    robot_errors: tuple[tuple[float, float], ...]
+    robot_frames: tuple[tuple[float, bool], ...]
+    fused_errors: tuple[tuple[str, float], ...]
+    """(config label, error [m] of the scene's mean fused estimate), dual-sight scenes only."""
+
+
+def score_random_scene(task: SceneTask, replays: Replays) -> RandomScene:
+    dual_sight = False
+    errors: list[tuple[float, float]] = []
+    frames: list[tuple[float, bool]] = []
+    fused_errors: list[tuple[str, float]] = []
+    for config, res in replays:
+        if config == task.configs[0]:  # which robots see the ball: the same for all
+            dual_sight = _scene_has_dual_sight(res)
+        if config == Config("corrected", "mean"):
+            _collect_robot_errors(errors, frames, res)
+        if dual_sight:
+            fused = [f for f in res["fused"] if f.get("error_m") is not None]
+            if fused:
+                ex = float(np.mean([f["x_m"] - f["truth"]["x_m"] for f in fused]))
+                ey = float(np.mean([f["y_m"] - f["truth"]["y_m"] for f in fused]))
+                fused_errors.append((config.label, math.hypot(ex, ey)))
+    return RandomScene(dual_sight, tuple(errors), tuple(frames), tuple(fused_errors))
+
+
 def run_random_suite(record: Recorder, workdir: Path, *, camera: str, count: int, seed: int,
                      calibration: Path | None = None,
                      configs: Sequence[Config] = CONFIGS,
-                     on_progress: Callable[[str], None] | None = None) -> RandomSuite:
+                     map_scenes: SceneMapper = serial_map) -> RandomSuite:
     suite = RandomSuite(camera=camera,
                         calibration=calibration.name if calibration else "camera metadata",
                         count=count, seed=seed)
-    for i in range(count):
-        log = workdir / f"random-{seed + i}-{camera}.mcap"
-        if not log.exists():
-            record(log, "random", seed + i)
-        dual_sight = False
-        for config in configs:
-            if on_progress:
-                on_progress(f"scene {i + 1}/{count} {config.label}")
-            res = _replay_results(log, config, calibration)
-            if config == configs[0]:  # which robots see the ball: the same for all
-                dual_sight = _scene_has_dual_sight(res)
-                suite.dual_sight_scenes += int(dual_sight)
-            if config == Config("corrected", "mean"):
-                _collect_robot_errors(suite, res)
-            if dual_sight:
-                fused = [f for f in res["fused"] if f.get("error_m") is not None]
-                if fused:
-                    ex = float(np.mean([f["x_m"] - f["truth"]["x_m"] for f in fused]))
-                    ey = float(np.mean([f["y_m"] - f["truth"]["y_m"] for f in fused]))
-                    suite.fused_errors.setdefault(config.label, []).append(math.hypot(ex, ey))
+    tasks = [SceneTask(score_random_scene, "random", seed + i,
+                       workdir / f"random-{seed + i}-{camera}.mcap", record, calibration,
+                       tuple(configs)) for i in range(count)]
+    for scene in map_scenes(run_scene, tasks):
+        suite.dual_sight_scenes += int(scene.dual_sight)
+        suite.robot_errors.extend(scene.robot_errors)
+        suite.robot_frames.extend(scene.robot_frames)
+        for label, err in scene.fused_errors:
+            suite.fused_errors.setdefault(label, []).append(err)
     return suite
 
 
@@ -322,11 +327,12 @@ def _scene_has_dual_sight(res: dict[str, Any]) -> bool:
     return len({f["robot"] for f, d in _ranges(res) if d <= DUAL_SIGHT_RANGE_M}) >= 2
 
 
-def _collect_robot_errors(suite: RandomSuite, res: dict[str, Any]) -> None:
+def _collect_robot_errors(errors: list[tuple[float, float]], frames: list[tuple[float, bool]],
+                          res: dict[str, Any]) -> None:
     for f, d in _ranges(res):
-        suite.robot_frames.append((d, f.get("detection") is not None))
+        frames.append((d, f.get("detection") is not None))
         if f.get("error_m") is not None:
-            suite.robot_errors.append((d, float(f["error_m"])))
+            errors.append((d, float(f["error_m"])))
 
 
 def random_markdown(suite: RandomSuite) -> str:
@@ -353,3 +359,4 @@ def random_markdown(suite: RandomSuite) -> str:
         lines.append(f"| {label} | {s['scenes']} | {_fmt(s['rmse_m'])} | {_fmt(s['median_m'])} "
                      f"| {_fmt(s['p95_m'])} | {_fmt(s['max_m'])} |")
     return "\n".join(lines) + "\n"
+

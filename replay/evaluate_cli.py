@@ -1,11 +1,13 @@
 """``dsp-eval``: the paper's experiment end to end (record, replay, score) (thin CLI).
 
     dsp-eval [--camera ideal] [--calibration calib.json] [--out-dir eval/]
-    dsp-eval --suite random --count 200 --seed 1
+    dsp-eval --suite random --count 200 --seed 1 [--workers N | --ray]
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
-same command runs again; the tables are rewritten each run).
+same command runs again; the tables are rewritten each run). Scenes (record + replay under
+every configuration) run in a local process pool (``--workers``, default every core) or as
+Ray tasks (``--ray``); the tables are the same bytes whatever the worker count.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import json
 import sys
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,16 +27,16 @@ from dsp.errors import CalibrationError, InputError, UsageError
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate import (
-    CONFIGS,
     PAPER_SCENARIOS,
-    Recorder,
     paper_markdown,
     random_markdown,
     run_paper_suite,
     run_random_suite,
 )
+from replay.parallel import Outcome, Workers, add_worker_arguments, map_tasks, workers_from_args
+from replay.scenes import SceneMapper, SceneTask
 
-__all__ = ["build_parser", "main"]
+__all__ = ["SimRecorder", "build_parser", "main"]
 
 PROG = "dsp-eval"
 
@@ -53,17 +56,23 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: the camera model in the log's metadata)")
     p.add_argument("--out-dir", type=Path, default=Path("eval"), metavar="DIR",
                    help="logs and tables go here (default ./eval)")
+    add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
     return p
 
 
-def _recorder(camera: str, renderer: str) -> Recorder:
-    from recorder.record import RecordOptions, record  # lazy: replay alone does not need pybullet
+@dataclass(frozen=True)
+class SimRecorder:
+    """Records one scene with pybullet (a class, so a scene task pickles to other processes)."""
 
-    def run(path: Path, scenario: str, seed: int) -> None:
-        record(path, RecordOptions(scenario=scenario, seed=seed, camera=camera, renderer=renderer))
+    camera: str
+    renderer: str
 
-    return run
+    def __call__(self, path: Path, scenario: str, seed: int) -> None:
+        from recorder.record import RecordOptions, record  # lazy: replay alone needs no pybullet
+
+        record(path, RecordOptions(scenario=scenario, seed=seed, camera=self.camera,
+                                   renderer=self.renderer))
 
 
 def _check(args: argparse.Namespace) -> None:
@@ -79,34 +88,36 @@ def _check(args: argparse.Namespace) -> None:
             raise CalibrationError(args.calibration, str(err)) from err
 
 
-def _ticker(bar: Any) -> Callable[[str], None]:
-    """on_progress for the suites: called as each replay starts, so it counts the one before."""
-    started = [False]
+def _scene_mapper(workers: Workers, bar: Any) -> SceneMapper:
+    """map_scenes for the suites: scenes on ``workers``, the bar counting finished scenes;
+    the first scene that fails stops the others and is raised."""
 
-    def tick(msg: str) -> None:
-        if started[0]:
-            bar.update(1)
-        started[0] = True
-        bar.set_postfix_str(msg)
+    def done(i: int, outcome: Outcome[Any]) -> None:
+        bar.update(1)
 
-    return tick
+    def map_scenes(fn: Callable[[SceneTask], Any], tasks: Sequence[SceneTask]) -> list[Any]:
+        outcomes = map_tasks(fn, tasks, workers, on_done=done, fail_fast=True)
+        return [o.unwrap() for o in outcomes]
+
+    return map_scenes
 
 
-def _run_suite(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
+def _run_suite(args: argparse.Namespace,
+               workers: Workers) -> tuple[str, str, dict[str, Any]]:
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
-    record = _recorder(args.camera, args.renderer)
+    record = SimRecorder(args.camera, args.renderer)
     stem = f"{args.suite}-{args.camera}"
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
-    with progress_bar(scenes * len(CONFIGS), PROG, progress_enabled(args),
-                      unit="replay") as bar:
+    with progress_bar(scenes, PROG, progress_enabled(args), unit="scene") as bar:
+        map_scenes = _scene_mapper(workers, bar)
         if args.suite == "paper":
             suite = run_paper_suite(record, args.out_dir, camera=args.camera,
                                     calibration=args.calibration, seed=args.seed,
-                                    on_progress=_ticker(bar))
+                                    map_scenes=map_scenes)
             return stem, paper_markdown(suite), suite.to_dict()
         rsuite = run_random_suite(record, args.out_dir, camera=args.camera, count=args.count,
                                   seed=args.seed, calibration=args.calibration,
-                                  on_progress=_ticker(bar))
+                                  map_scenes=map_scenes)
     return f"{stem}-{args.count}-seed{args.seed}", random_markdown(rsuite), rsuite.to_dict()
 
 
@@ -115,8 +126,9 @@ def _main(argv: Sequence[str] | None) -> int:
     out_dir: Path = args.out_dir
     t0 = time.perf_counter()
     _check(args)
+    workers = workers_from_args(args)
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem, text, doc = _run_suite(args)
+    stem, text, doc = _run_suite(args, workers)
     md, js = out_dir / f"{stem}.md", out_dir / f"{stem}.json"
     with atomic_output(md, force=True) as tmp:  # tables are rewritten on every run
         tmp.write_text(text, encoding="utf-8")

@@ -2,7 +2,11 @@
 
 - ``/estimate/{robot}/ball``: geometry_msgs/msg/PointStamped, one per robot estimate;
 - ``/estimate/ball``: geometry_msgs/msg/PoseWithCovarianceStamped, the fused estimate, with
-  the 2x2 position covariance in the x/y block of the 6x6 row-major matrix (other entries 0).
+  the 2x2 position covariance in the x/y block of the 6x6 row-major matrix (other entries 0);
+- ``/estimate/ball/odometry``: nav_msgs/msg/Odometry (frame ``field``, child ``ball``), the
+  tracked ball's position and velocity with both 2x2 covariances, when the fusion estimates
+  a velocity (``track``). Its schema is registered with its first message, so a window
+  fusion's file is as it was.
 
 Schemas and messages come from ``dsp.contract``; ``log_time`` = ``publish_time``
 = the estimate's stamp (sim time), never the wall clock. Written to a temporary name and
@@ -22,10 +26,13 @@ from dsp.atomic import AtomicFile
 from replay.results import FrameResult, StepResult
 from replay.sink import SinkBase
 
-__all__ = ["FUSED_TOPIC", "ROBOT_TOPIC", "McapSink"]
+__all__ = ["BALL_FRAME", "FUSED_TOPIC", "ODOMETRY_TOPIC", "ROBOT_TOPIC", "McapSink"]
 
 ROBOT_TOPIC = "/estimate/{robot}/ball"
 FUSED_TOPIC = contract.ESTIMATE_TOPIC
+ODOMETRY_TOPIC = contract.ESTIMATE_ODOMETRY_TOPIC
+BALL_FRAME = "ball"
+"""The Odometry's child_frame_id."""
 
 
 class McapSink(SinkBase):
@@ -63,6 +70,21 @@ class McapSink(SinkBase):
             FUSED_TOPIC,
             self._schemas[contract.POSE_WITH_COVARIANCE_STAMPED],
             contract.pose_with_covariance_stamped(t, fused.x_m, fused.y_m, fused.covariance),
+            log_time=t,
+            publish_time=t,
+        )
+        if result.velocity_m_s is None:
+            return
+        if contract.ODOMETRY not in self._schemas:
+            self._schemas[contract.ODOMETRY] = self._writer.register_msgdef(
+                contract.ODOMETRY, contract.MESSAGE_DEFINITIONS[contract.ODOMETRY])
+        vx, vy = result.velocity_m_s
+        self._writer.write_message(
+            ODOMETRY_TOPIC,
+            self._schemas[contract.ODOMETRY],
+            contract.odometry(t, BALL_FRAME, fused.x_m, fused.y_m, vx, vy,
+                              position_covariance=fused.covariance,
+                              velocity_covariance=result.velocity_covariance),
             log_time=t,
             publish_time=t,
         )

@@ -55,11 +55,13 @@ class PoseMessage:
 
 @dataclass(frozen=True)
 class TruthMessage:
-    """The ball's true position in the field frame (evaluation only)."""
+    """The ball's true position [m], velocity [m/s] from Odometry, field frame (evaluation)."""
 
     stamp_ns: int
     x_m: float
     y_m: float
+    vx_m_s: float | None = None
+    vy_m_s: float | None = None
 
 
 class BadMessage(Exception):
@@ -107,6 +109,10 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
             raise BadMessage("zero quaternion")
         return PoseMessage(robot, stamp, x, y, qx, qy, qz, qw)
     if kind == "truth":
+        if hasattr(msg, "twist"):  # nav_msgs/Odometry: the true position and velocity
+            p, v = msg.pose.pose.position, msg.twist.twist.linear
+            tx, ty, vx, vy = _finite(p.x, p.y, v.x, v.y)
+            return TruthMessage(stamp, tx, ty, vx, vy)
         p = msg.pose.position if hasattr(msg, "pose") else msg.point
         tx, ty = _finite(p.x, p.y)
         return TruthMessage(stamp, tx, ty)

@@ -20,9 +20,10 @@ from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
 __all__ = ["DEFAULT_FUSION", "METHODS", "NS", "ReplayOptions", "RerunTarget", "Timing"]
 
 METHODS = ("paper", "corrected")
-DEFAULT_FUSION = {"paper": "mean", "corrected": "weighted"}
-"""Paper mode fuses as the paper does (eq. 20-21); the corrected estimator by inverse
-covariance, the most accurate in dsp-eval's Table 1 and random scenes."""
+DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
+"""Paper mode fuses as the paper does (eq. 20-21); the corrected estimator tracks the ball
+(:mod:`estimator.tracker`): a fused position and velocity at every image stamp, robust to
+unsynchronised cameras and a moving ball (window fusions stay available)."""
 NS = 1_000_000_000
 RERUN_MODES = ("spawn", "save", "connect", "serve")
 

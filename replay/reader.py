@@ -67,6 +67,8 @@ __all__ = [
     "TruthMessage",
 ]
 
+GT_ODOMETRY = contract.GT_BALL_ODOMETRY_TOPIC
+
 
 @dataclass(frozen=True)
 class LogInfo:
@@ -201,6 +203,8 @@ class LogReader:
         pose_topics = {r: contract.topic_for(self._pose_pattern, r) for r in image_robots}
         kinds: dict[str, tuple[str, str]] = {t: ("image", r) for r, t in image_topics.items()}
         kinds.update({t: ("pose", r) for r, t in pose_topics.items()})
+        if self._truth_topic == contract.GT_BALL_TOPIC and GT_ODOMETRY in topics:
+            self._truth_topic = GT_ODOMETRY  # the same truth with the ball's velocity
         has_truth = self._truth_topic in topics
         if has_truth:
             kinds[self._truth_topic] = ("truth", "")

@@ -18,15 +18,23 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                  "truth": {"x_m", "y_m"} | null, "error_m": float | null}, ...],
      "fused": [{"step", "stamp_ns", "t_s", "robots": [...], "x_m", "y_m",
                 "covariance": [[xx, xy], [yx, yy]], "truth": {...} | null,
-                "error_m": float | null}, ...],
+                "error_m": float | null,
+                "velocity_m_s": [vx, vy], "velocity_covariance": [[..], [..]],
+                "truth_velocity_m_s": [vx, vy], "velocity_error_m_s": float}, ...],
      "summary": {"frames", "steps", "fused_steps", "skipped": {reason: n},
                  "robots": {name: {"frames", "detections", "estimates", "rmse_m", "mean_error_m",
                                    "max_error_m", "errors"}},
-                 "fused": {"estimates", "rmse_m", "mean_error_m", "max_error_m", "errors"},
+                 "fused": {"estimates", "rmse_m", "mean_error_m", "max_error_m", "errors",
+                           "velocity": {"errors", "rmse_m_s", "mean_error_m_s",
+                                        "max_error_m_s"}},
                  "undecodable_messages"}}
 
 ``status`` is one of :data:`FRAME_STATUSES`. Errors are Euclidean distances [m] to the
 ground truth interpolated at the frame's (step's) stamp; RMSE = sqrt(mean(error^2)).
+The velocity keys are there only when the fusion estimates a velocity (``track``): the
+velocity [m/s] and its covariance [m^2/s^2]; the truth's velocity and the error's norm
+[m/s] only when the log holds the ball's true velocity (``/ground_truth/ball/odometry``),
+and so the summary's ``fused.velocity``.
 """
 
 from __future__ import annotations
@@ -127,6 +135,20 @@ class StepResult:
     fused: Any = None  # estimator.fusion.FusedEstimate | None
     truth: tuple[float, float] | None = None
     error_m: float | None = None
+    velocity_m_s: tuple[float, float] | None = None
+    """The fused velocity [m/s] (field frame), when the fusion estimates one (``track``)."""
+    velocity_covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
+    """Its 2 x 2 covariance [m^2/s^2]."""
+    truth_velocity_m_s: tuple[float, float] | None = None
+    """The ball's true velocity at the step's stamp, when the log holds it."""
+
+    @property
+    def velocity_error_m_s(self) -> float | None:
+        """|v - v_true| [m/s] when both are known."""
+        if self.velocity_m_s is None or self.truth_velocity_m_s is None:
+            return None
+        return math.hypot(self.velocity_m_s[0] - self.truth_velocity_m_s[0],
+                          self.velocity_m_s[1] - self.truth_velocity_m_s[1])
 
 
 def normalise(value: Any) -> Any:
@@ -181,7 +203,7 @@ def frame_to_dict(f: FrameResult) -> dict[str, Any]:
 
 def step_to_dict(s: StepResult) -> dict[str, Any]:
     fused = s.fused
-    return {
+    out: dict[str, Any] = {
         "step": s.step,
         "stamp_ns": s.stamp_ns,
         "t_s": s.stamp_ns / 1e9,
@@ -193,6 +215,16 @@ def step_to_dict(s: StepResult) -> dict[str, Any]:
         "truth": None if s.truth is None else {"x_m": s.truth[0], "y_m": s.truth[1]},
         "error_m": s.error_m,
     }
+    # velocity keys only where there is a velocity: window fusions' files stay as they were
+    if s.velocity_m_s is not None:
+        out["velocity_m_s"] = list(s.velocity_m_s)
+        out["velocity_covariance"] = (None if s.velocity_covariance is None
+                                      else [list(row) for row in s.velocity_covariance])
+    if s.truth_velocity_m_s is not None:
+        out["truth_velocity_m_s"] = list(s.truth_velocity_m_s)
+    if s.velocity_error_m_s is not None:
+        out["velocity_error_m_s"] = s.velocity_error_m_s
+    return out
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,6 @@ from replay.results import (
     FrameStatus,
     ResultsHeader,
     ResultsWriter,
-    StepResult,
 )
 from replay.selection import check_selected, check_selection
 from replay.sink import Sink
@@ -52,6 +51,7 @@ from replay.sync import (
     PoseMatch,
     interpolate_pose,
     interpolate_truth,
+    interpolate_truth_velocity,
 )
 
 __all__ = ["file_digest", "replay"]
@@ -195,7 +195,8 @@ class _Stream:
         self.poses: dict[str, History[PoseMessage]] = {r: History(horizon) for r in self.robots}
         self.truth: History[TruthMessage] = History(horizon)
         self.delay = DelayLine(timing.lookahead_ns)
-        self.grouper: FusionGrouper[FrameResult] = FusionGrouper(timing.window_ns)
+        self.grouper: FusionGrouper[FrameResult] = FusionGrouper(
+            estimator.step_window_ns(timing.window_ns))
         self.frames = 0
         self.max_pixels = DEFAULT_MAX_PIXELS
         self.steps = 0
@@ -273,12 +274,9 @@ class _Stream:
 
     def _step(self, t0: int, frames: dict[str, FrameResult]) -> None:
         ordered = tuple(frames[r] for r in self.robots if r in frames)
-        fused = self.estimator.fuse([f.estimate for f in ordered if f.estimate is not None])
-        truth = self._truth_at(t0)
-        err = None
-        if fused is not None and truth is not None:
-            err = math.hypot(fused.x_m - truth[0], fused.y_m - truth[1])
-        step = StepResult(self.steps, t0, ordered, fused, truth, err)
+        velocity = None if not self.has_truth else interpolate_truth_velocity(
+            self.truth, t0, self.timing.tolerance_ns)
+        step = self.estimator.step(self.steps, t0, ordered, self._truth_at(t0), velocity)
         self.steps += 1
         for sink in self.sinks:
             sink.step(step)

@@ -17,7 +17,7 @@ import numpy as np
 from replay.results import FrameResult, StepResult
 from replay.sink import SinkBase
 
-__all__ = ["ErrorStats", "ReplayStats", "ReplaySummary", "RobotSummary"]
+__all__ = ["ErrorStats", "ReplayStats", "ReplaySummary", "RobotSummary", "VelocitySummary"]
 
 
 @dataclass
@@ -59,6 +59,16 @@ class RobotSummary:
 
 
 @dataclass(frozen=True)
+class VelocitySummary:
+    """Errors |v - v_true| of the fused velocity [m/s]."""
+
+    errors: int
+    rmse_m_s: float | None
+    mean_error_m_s: float | None
+    max_error_m_s: float | None
+
+
+@dataclass(frozen=True)
 class ReplaySummary:
     """What a replay did. ``wall_s``, ``frames_per_s`` and ``estimator_ms`` are machine
     dependent: they go to the terminal and Rerun, never into results files."""
@@ -76,6 +86,9 @@ class ReplaySummary:
     wall_s: float
     estimator_ms: float | None
     outputs: tuple[Path, ...] = ()
+    fused_velocity: VelocitySummary | None = None
+    """The fused velocity's errors [m/s], when the fusion estimates a velocity and the log
+    holds the true one."""
 
     @property
     def frames_per_s(self) -> float:
@@ -106,6 +119,7 @@ class ReplayStats(SinkBase):
         self.skipped: dict[str, int] = {}
         self.per_robot = {r: _RobotCounts() for r in robots}
         self.fused_errors = ErrorStats()
+        self.velocity_errors = ErrorStats()
         self.estimator_s = 0.0
         self.estimator_n = 0
         self.undecodable = 0
@@ -133,6 +147,9 @@ class ReplayStats(SinkBase):
             self.fused_steps += 1
             if result.error_m is not None:
                 self.fused_errors.add(result.error_m)
+            velocity_error = result.velocity_error_m_s
+            if velocity_error is not None:
+                self.velocity_errors.add(velocity_error)
 
     def finish(self, *, undecodable: int, recovered: dict[str, Any] | None) -> None:
         """What only the reader knows once the log is read."""
@@ -151,9 +168,19 @@ class ReplayStats(SinkBase):
                     **c.errors.to_dict()}
                 for r, c in self.per_robot.items()
             },
-            "fused": {"estimates": self.fused_steps, **self.fused_errors.to_dict()},
+            "fused": {"estimates": self.fused_steps, **self.fused_errors.to_dict(),
+                      **self._velocity_dict()},
             "undecodable_messages": self.undecodable,
         }
+
+    def _velocity_dict(self) -> dict[str, Any]:
+        """``{"velocity": {...}}`` when there are velocity errors, else nothing (so a
+        window fusion's summary is as it was)."""
+        v = self.velocity_errors
+        if not v.n:
+            return {}
+        return {"velocity": {"errors": v.n, "rmse_m_s": v.rmse_m, "mean_error_m_s": v.mean_m,
+                             "max_error_m_s": v.max_abs}}
 
     def summary(self, path: Path, *, wall_s: float,
                 outputs: tuple[Path, ...] = ()) -> ReplaySummary:
@@ -173,4 +200,7 @@ class ReplayStats(SinkBase):
             estimator_ms=(1e3 * self.estimator_s / self.estimator_n) if self.estimator_n
             else None,
             outputs=outputs,
+            fused_velocity=None if not self.velocity_errors.n else VelocitySummary(
+                self.velocity_errors.n, self.velocity_errors.rmse_m, self.velocity_errors.mean_m,
+                self.velocity_errors.max_abs),
         )

@@ -25,6 +25,7 @@ __all__ = [
     "PoseMatch",
     "interpolate_pose",
     "interpolate_truth",
+    "interpolate_truth_velocity",
 ]
 
 T = TypeVar("T", PoseMessage, TruthMessage)
@@ -123,6 +124,29 @@ def interpolate_truth(history: History[TruthMessage], t_ns: int, tolerance_ns: i
     p = before if before is not None else after
     assert p is not None
     return (p.x_m, p.y_m)
+
+
+def _velocity(p: TruthMessage | None) -> tuple[float, float] | None:
+    if p is None or p.vx_m_s is None or p.vy_m_s is None:
+        return None
+    return (p.vx_m_s, p.vy_m_s)
+
+
+def interpolate_truth_velocity(history: History[TruthMessage], t_ns: int, tolerance_ns: int) -> (
+    tuple[float, float] | None
+):
+    """The ball's true velocity at ``t_ns`` (linear), from samples that carry one
+    (nav_msgs/Odometry); None when no sample is near enough or the nearest has none."""
+    before, after = history.neighbours(t_ns)
+    near = [p for p in (before, after) if p is not None]
+    if not near or min(abs(t_ns - p.stamp_ns) for p in near) > tolerance_ns:
+        return None
+    vb, va = _velocity(before), _velocity(after)
+    if before is not None and after is not None and vb is not None and va is not None and (
+            after.stamp_ns != before.stamp_ns):
+        s = (t_ns - before.stamp_ns) / (after.stamp_ns - before.stamp_ns)
+        return (vb[0] + s * (va[0] - vb[0]), vb[1] + s * (va[1] - vb[1]))
+    return _velocity(min(near, key=lambda p: abs(t_ns - p.stamp_ns)))
 
 
 class DelayLine:

@@ -18,7 +18,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from estimator.fusion import FUSION_METHODS as FUSIONS
+from estimator.fusion import FUSION_METHODS
+
+FUSIONS: list[str] = list(FUSION_METHODS)
 
 
 def _load(path: Path) -> dict[str, Any]:
@@ -30,11 +32,20 @@ def _mm(v: float | None) -> str:
     return "-" if v is None else f"{v:.4f}"
 
 
+def _rmse(table: dict[str, Any], label: str) -> str:
+    """A configuration's RMSE, "-" when the file predates it (e.g. a fusion added since)."""
+    return _mm(table[label]["rmse_m"]) if label in table else "-"
+
+
 def summarise(dirs: list[Path]) -> str:
+    papers = [path for d in dirs for path in sorted(d.glob("paper-*.json"))]
+    # the fusions the files hold (a file that predates a fusion shows "-" for it)
+    fusions = [x for x in FUSIONS
+               if any(f"corrected/{x}" in _load(path)["configs"] for path in papers)] or FUSIONS
     lines = [
         "| camera | calibration (held-out RMS) | Table 1, paper mode | Table 1, corrected: "
-        + " / ".join(FUSIONS) + " | random scenes (two robots within 9 m) | fused RMSE: "
-        + " / ".join(FUSIONS) + " | weighted p95 / max |",
+        + " / ".join(fusions) + " | random scenes (two robots within 9 m) | fused RMSE: "
+        + " / ".join(fusions) + " | weighted p95 / max |",
         "|---|---|---|---|---|---|---|",
     ]
     for d in dirs:
@@ -57,12 +68,12 @@ def summarise(dirs: list[Path]) -> str:
                 fused_n = f["corrected/weighted"]["scenes"]
                 scenes = (f"{r['dual_sight_scenes']} of {r['count']} (seed {r['seed']}); "
                           f"{fused_n} fused")
-                fused = " / ".join(_mm(f[f"corrected/{x}"]["rmse_m"]) for x in FUSIONS)
+                fused = " / ".join(_rmse(f, f"corrected/{x}") for x in fusions)
                 w = f["corrected/weighted"]
                 tail = f"{_mm(w['p95_m'])} / {_mm(w['max_m'])}"
             lines.append(
                 f"| {camera} | {cal} | {_mm(configs['paper/mean']['rmse_m'])} | "
-                + " / ".join(_mm(configs[f"corrected/{x}"]["rmse_m"]) for x in FUSIONS)
+                + " / ".join(_rmse(configs, f"corrected/{x}") for x in fusions)
                 + f" | {scenes} | {fused} | {tail} |")
     return "\n".join(lines) + "\n"
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -58,6 +58,8 @@ class SyntheticLog:
     image_stamps_ns: list[int] = field(default_factory=list)
     pose_stamps_ns: list[int] = field(default_factory=list)
     n_images: int = 0
+    all_image_stamps_ns: list[int] = field(default_factory=list)
+    """Every robot's image stamps, in write order."""
 
     def ball_at(self, t_ns: int) -> tuple[float, float]:
         return self.ball  # static unless ball_velocity was given (see write_log)
@@ -124,12 +126,18 @@ def write_log(
     centre_px: tuple[float, float] = CENTRE_PX,
     pose_schema: str = contract.POSE_STAMPED,
     pose_topic: str = contract.POSE_TOPIC,
+    camera_phases_ns: dict[str, int] | None = None,
+    ball_path: Callable[[int], tuple[tuple[float, float], tuple[float, float]]] | None = None,
+    with_odometry: bool = False,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
     bytes are garbage; ``image_encoding`` is "png", "jpeg" or "bgr8"/"rgb8"/"mono8" (raw).
     ``pose_schema`` POSE_WITH_COVARIANCE_STAMPED writes poses as a localiser (AMCL) does,
-    on ``pose_topic``."""
+    on ``pose_topic``. ``camera_phases_ns={"robot2": 17_000_000}`` delays a robot's images
+    (free-running, unsynchronised cameras); ``ball_path(t_ns) -> ((x, y), (vx, vy))`` moves
+    the ball any way (instead of ``ball + ball_velocity t``); ``with_odometry`` writes the
+    true position and velocity on /ground_truth/ball/odometry too."""
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -142,9 +150,14 @@ def write_log(
         x, y, yaw = robots[name]
         return x, y, yaw + yaw_rate_rad_s * t_ns / NS
 
-    def ball_at(t_ns: int) -> tuple[float, float]:
+    def ball_state(t_ns: int) -> tuple[tuple[float, float], tuple[float, float]]:
+        if ball_path is not None:
+            return ball_path(t_ns)
         s = t_ns / NS
-        return ball[0] + ball_velocity[0] * s, ball[1] + ball_velocity[1] * s
+        return (ball[0] + ball_velocity[0] * s, ball[1] + ball_velocity[1] * s), ball_velocity
+
+    def ball_at(t_ns: int) -> tuple[float, float]:
+        return ball_state(t_ns)[0]
 
     # events: (time, order, kind, robot); at equal times poses precede images
     events: list[tuple[int, int, str, str]] = []
@@ -153,8 +166,9 @@ def write_log(
             events.append((t, 0, "pose", name))
         if with_truth:
             events.append((t, 1, "truth", ""))
-    for t in range(image_offset_ns, end_ns + 1, image_dt):
-        for name in robots:
+    phases = camera_phases_ns or {}
+    for name in robots:
+        for t in range(image_offset_ns + phases.get(name, 0), end_ns + 1, image_dt):
             events.append((t, 2, "image", name))
     events.sort(key=lambda e: (e[0], e[1]))
 
@@ -197,11 +211,16 @@ def write_log(
                 if name == next(iter(robots)):
                     log.pose_stamps_ns.append(t)
             elif kind == "truth":
-                bx, by = ball_at(t)
+                (bx, by), (vx, vy) = ball_state(t)
                 writer.write_message(
                     contract.GT_BALL_TOPIC, schemas[contract.POSE_STAMPED],
                     _pose_msg(t, bx, by, 0.0), log_time=t, publish_time=t,
                 )
+                if with_odometry:
+                    writer.write_message(
+                        contract.GT_BALL_ODOMETRY_TOPIC, schemas[contract.ODOMETRY],
+                        contract.odometry(t, "ball", bx, by, vx, vy), log_time=t,
+                        publish_time=t)
             else:
                 u, v = ball_pixel(robot_at(name, t), ball_at(t), centre_px)
                 img = render(u, v)
@@ -236,6 +255,7 @@ def write_log(
                 writer.write_message(topic, schema, msg, log_time=t, publish_time=t)
                 if name == next(iter(robots)):
                     log.image_stamps_ns.append(t)
+                log.all_image_stamps_ns.append(t)
                 image_index += 1
         writer.finish()
     log.n_images = image_index

@@ -22,6 +22,7 @@ from dsp.cli import RENDERERS, add_common_arguments, progress_enabled, run_main
 from dsp.errors import DspError, InputError, OutputExistsError, UsageError
 from estimator.camera import CAMERA_MODELS
 from replay import ReplayOptions
+from replay.parallel import Workers
 
 COMMANDS = {
     "dsp-record": "recorder.cli",
@@ -225,20 +226,14 @@ def test_dsp_record_takes_a_robot_count(tmp_path: Path, capsys: pytest.CaptureFi
     assert list(tmp_path.iterdir()) == []
 
 
-def test_dsp_eval_counts_replays_on_its_bar() -> None:
+def test_dsp_eval_counts_finished_scenes_on_its_bar() -> None:
     class Bar:
         n = 0
-        postfix = ""
 
         def update(self, k: int) -> None:
             self.n += k
 
-        def set_postfix_str(self, s: str) -> None:
-            self.postfix = s
-
     bar = Bar()
-    tick = replay.evaluate_cli._ticker(bar)
-    tick("scenario1 paper/mean")
-    assert bar.n == 0 and bar.postfix == "scenario1 paper/mean"  # started, not done
-    tick("scenario1 corrected/mean")
-    assert bar.n == 1 and bar.postfix == "scenario1 corrected/mean"
+    map_scenes = replay.evaluate_cli._scene_mapper(Workers(count=1), bar)
+    assert map_scenes(lambda t: 2 * t, [1, 2, 3]) == [2, 4, 6]  # in order
+    assert bar.n == 3

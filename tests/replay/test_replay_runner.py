@@ -146,16 +146,22 @@ def test_estimates_mcap_reads_back(static_log: Path, tmp_path: Path) -> None:
             if channel.topic == "/estimate/ball":
                 assert decoded.pose.pose.position.x == pytest.approx(DEFAULT_BALL[0], abs=0.03)
                 assert decoded.pose.covariance[0] > 0
+    # the default fusion (track) also writes the ball's odometry at every step
     assert topics == {"/estimate/robot1/ball": 6, "/estimate/robot2/ball": 6,
-                      "/estimate/robot3/ball": 6, "/estimate/ball": 6}
+                      "/estimate/robot3/ball": 6, "/estimate/ball": 6,
+                      "/estimate/ball/odometry": 6}
     from rosbags.highlevel import AnyReader
 
     with AnyReader([out]) as bag:
-        assert bag.message_count == 24
+        assert bag.message_count == 30
         for conn, _t, raw in bag.messages():
             msg = bag.deserialize(raw, conn.msgtype)
             if conn.topic == "/estimate/robot1/ball":
                 assert msg.point.y == pytest.approx(DEFAULT_BALL[1], abs=0.03)
+            if conn.topic == "/estimate/ball/odometry":  # a still ball
+                assert (msg.header.frame_id, msg.child_frame_id) == ("field", "ball")
+                assert msg.pose.pose.position.x == pytest.approx(DEFAULT_BALL[0], abs=0.03)
+                assert abs(msg.twist.twist.linear.x) < 0.1 and msg.twist.covariance[0] > 0
 
 
 def test_save_rrd_holds_the_scene(static_log: Path, tmp_path: Path) -> None:
@@ -232,7 +238,7 @@ def test_frames_without_a_ball_are_not_skipped(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("method", "fusion", "expected"), [
-    ("paper", None, "mean"), ("corrected", None, "weighted"), ("corrected", "nearest", "nearest"),
+    ("paper", None, "mean"), ("corrected", None, "track"), ("corrected", "nearest", "nearest"),
 ])
 def test_default_fusion_follows_the_method(static_log: Path, tmp_path: Path, method: str,
                                            fusion: str | None, expected: str) -> None:

@@ -44,6 +44,9 @@ def rolling_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _replay(log: Path, out: Path, **options: Any) -> dict[str, Any]:
+    # the window fusion: these tests pin how frames group into windows (and the tracker's
+    # state depends on where the replay starts; its steps: tests/replay/test_track_replay.py)
+    options.setdefault("fusion", "weighted")
     replay(log, ReplayOptions(method="corrected", out=out, progress=False, **options))
     doc: dict[str, Any] = json.loads(out.read_text(encoding="ascii"))
     return doc

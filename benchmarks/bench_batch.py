@@ -1,0 +1,199 @@
+"""Benchmark scale-out: serial vs a local process pool vs Ray, on the same work, side by side.
+
+    python benchmarks/bench_batch.py [--count 6] [--workers 2] [--repeat 1] [--no-ray]
+
+One command prints everything (a Markdown table, the load average before and after each run):
+
+1. ``dsp-eval --suite random --count N`` (pybullet recording + 6 replays per scene), each
+   run in a fresh folder, with ``--workers 1``, ``--workers W`` and ``--ray`` (joining a
+   running local Ray head with W CPUs, as on a cluster; a Ray started per command costs its
+   start-up on top, measured apart); the JSON tables must be byte-identical.
+2. ``dsp-replay LOGS --out-dir`` over the N logs the serial run recorded, the same three
+   ways; every output must be byte-identical.
+3. The per-task overhead: ``map_tasks`` over no-op tasks, for the pool (its start included)
+   and Ray (connected), as (time for M tasks - time for 2) / (M - 2).
+
+Each command runs in a child process, so the times include imports and start-up, as a user
+sees them. Runs of the modes are interleaved (repeat r: serial, pool, ray) so a change of
+load on a shared machine falls on all of them; the load average is printed beside each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _noop(x: int) -> int:
+    return x
+
+
+def _load() -> str:
+    return "/".join(f"{v:.1f}" for v in os.getloadavg())
+
+
+def _run(cmd: list[str], env: dict[str, str]) -> float:
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        sys.exit(f"bench_batch: {' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}")
+    return wall
+
+
+def _files(d: Path, pattern: str) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(d.glob(pattern))}
+
+
+def _compare(runs: dict[str, dict[str, bytes]]) -> str:
+    first = next(iter(runs.values()))
+    same = all(files == first for files in runs.values())
+    return f"byte-identical ({len(first)} files)" if same else "DIFFERENT"
+
+
+def _modes(workers: int, ray_address: str | None) -> dict[str, tuple[list[str], dict[str, str]]]:
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    modes = {"--workers 1": (["--workers", "1"], env),
+             f"--workers {workers}": (["--workers", str(workers)], env)}
+    if ray_address is not None:
+        modes["--ray"] = (["--ray"], {**env, "RAY_ADDRESS": ray_address})
+    return modes
+
+
+def bench_eval(tmp: Path, count: int, workers: int, repeat: int,
+               ray_address: str | None) -> tuple[dict[str, list[float]], str, Path]:
+    modes = _modes(workers, ray_address)
+    times: dict[str, list[float]] = {m: [] for m in modes}
+    outputs: dict[str, dict[str, bytes]] = {}
+    for r in range(repeat):
+        for mode, (flags, env) in modes.items():
+            out = tmp / f"eval-{r}-{mode.replace(' ', '')}"
+            load = _load()
+            wall = _run([sys.executable, "-m", "replay.evaluate_cli", "--suite", "random",
+                         "--count", str(count), "--out-dir", str(out), "-q", *flags], env)
+            times[mode].append(wall)
+            outputs[f"{mode} #{r}"] = _files(out, "*")  # the logs, the tables
+            print(f"  dsp-eval {mode}: {wall:.1f} s (load {load} -> {_load()})", flush=True)
+    logs = tmp / "eval-0---workers1"
+    return times, _compare(outputs), logs
+
+
+def bench_replay(tmp: Path, logs: Path, workers: int, repeat: int,
+                 ray_address: str | None) -> tuple[dict[str, list[float]], str]:
+    modes = _modes(workers, ray_address)
+    times: dict[str, list[float]] = {m: [] for m in modes}
+    outputs: dict[str, dict[str, bytes]] = {}
+    for r in range(repeat):
+        for mode, (flags, env) in modes.items():
+            out = tmp / f"replay-{r}-{mode.replace(' ', '')}"
+            load = _load()
+            wall = _run([sys.executable, "-m", "replay.cli", str(logs), "--out-dir", str(out),
+                         "--out-mcap", "-q", *flags], env)
+            times[mode].append(wall)
+            outputs[f"{mode} #{r}"] = _files(out, "*")
+            print(f"  dsp-replay batch {mode}: {wall:.1f} s (load {load} -> {_load()})",
+                  flush=True)
+    return times, _compare(outputs)
+
+
+def _per_task(run: Callable[[int], None], tasks: int) -> tuple[float, float]:
+    """(seconds for 2 tasks, seconds per extra task)."""
+    t0 = time.perf_counter()
+    run(2)
+    t2 = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run(tasks)
+    tm = time.perf_counter() - t0
+    return t2, max(0.0, tm - t2) / (tasks - 2)
+
+
+def bench_overhead(workers: int, tasks: int, use_ray: bool) -> dict[str, tuple[float, float]]:
+    sys.path.insert(0, str(ROOT))
+    from replay.parallel import Workers, map_tasks
+
+    out = {"pool": _per_task(
+        lambda n: map_tasks(_noop, list(range(n)), Workers(count=workers)) and None, tasks)}
+    if use_ray:
+        out["ray"] = _per_task(
+            lambda n: map_tasks(_noop, list(range(n)), Workers(ray=True)) and None, tasks)
+    return out
+
+
+def _start_ray(workers: int) -> tuple[str | None, float]:
+    """A local Ray head in this process (the commands join it with RAY_ADDRESS); None when
+    Ray is not installed."""
+    try:
+        import ray
+    except ImportError:
+        print("Ray is not installed: pip install -e '.[ray]'; skipping the Ray runs")
+        return None, 0.0
+    import logging
+
+    t0 = time.perf_counter()
+    ctx = ray.init(address="local", num_cpus=workers, include_dashboard=False,
+                   logging_level=logging.ERROR, log_to_driver=False)
+    return str(ctx.address_info["gcs_address"]), time.perf_counter() - t0
+
+
+def _row(what: str, times: dict[str, list[float]], check: str) -> str:
+    med = {m: statistics.median(t) for m, t in times.items()}
+    serial, *rest = med
+    cells = [f"{med[m]:.1f} s" for m in med]
+    ratios = [f"{med[serial] / med[m]:.2f}x" for m in rest]
+    ray_vs_pool = ""
+    if "--ray" in med:
+        ray_vs_pool = f"{100 * (med['--ray'] / med[rest[0]] - 1):+.0f}%"
+    return f"| {what} | " + " | ".join(cells + ratios) + f" | {ray_vs_pool} | {check} |"
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--count", type=int, default=6, help="random scenes (default 6)")
+    p.add_argument("--workers", type=int, default=2, help="pool size and Ray CPUs (default 2)")
+    p.add_argument("--repeat", type=int, default=1, help="runs of each mode (medians)")
+    p.add_argument("--tasks", type=int, default=40, help="no-op tasks for the overhead")
+    p.add_argument("--no-ray", action="store_true", help="leave out the Ray runs")
+    args = p.parse_args()
+    print(f"{os.cpu_count()} CPUs; load average {_load()} (1/5/15 min) at the start")
+    ray_address, ray_start_s = (None, 0.0) if args.no_ray else _start_ray(args.workers)
+    tmp = Path(tempfile.mkdtemp(prefix="bench-batch-"))
+    try:
+        eval_times, eval_check, logs = bench_eval(tmp, args.count, args.workers, args.repeat,
+                                                  ray_address)
+        replay_times, replay_check = bench_replay(tmp, logs, args.workers, args.repeat,
+                                                  ray_address)
+        overhead = bench_overhead(args.workers, args.tasks, ray_address is not None)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    modes = list(eval_times)
+    print(f"\nload average at the end: {_load()}\n")
+    print("| work | " + " | ".join(modes) + " | " + " | ".join(
+        f"speed-up {m}" for m in modes[1:]) + " | ray vs pool | outputs |")
+    print("|---" * (2 * len(modes) + 2) + "|")
+    print(_row(f"`dsp-eval --suite random --count {args.count}`", eval_times, eval_check))
+    print(_row(f"`dsp-replay` batch of those {args.count} logs", replay_times, replay_check))
+    print()
+    for name, (t2, per) in overhead.items():
+        print(f"{name}: 2 no-op tasks {t2:.2f} s (start-up included), then "
+              f"{1e3 * per:.1f} ms per task ({args.tasks} tasks)")
+    if ray_address is not None:
+        print(f"ray: starting a local instance took {ray_start_s:.1f} s (paid by each "
+              "--ray command when no RAY_ADDRESS is set)")
+        import ray
+
+        ray.shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,380 @@
+"""The ball tracker: robots' estimates at their own stamps -> the ball's position and velocity.
+
+A Kalman filter over ``x = [p_x, p_y, v_x, v_y]`` (the model and its equations:
+:mod:`estimator.tracker_model`), fed one robot estimate at a time, each at its own stamp
+[integer ns] with its own 2 x 2 covariance R (a :class:`~estimator.fusion.Noise` model, by
+default :class:`~estimator.fusion.CalibratedNoise`). Cameras need not be synchronised: the
+filter predicts to each stamp, so a moving ball is not smeared over a fusion window.
+
+- **Gate.** An estimate whose Mahalanobis distance ``d^2 = nu^T S^-1 nu`` exceeds ``gate``
+  (chi-square, 2 degrees of freedom) is rejected: a false blob one robot sees off the ball
+  does not pull the track.
+- **Manoeuvres** (kicks, bounces change the velocity within a frame). A rejected estimate
+  is kept for ``manoeuvre_ns``. When a later rejected estimate corroborates it (another
+  robot's, or the same robot's with no accepted estimate in between) and the two are
+  consistent with each other under a free velocity (``|dz|`` within ``max_speed dt`` and
+  their noise), the track is re-run from just before the first one with the velocity
+  covariance inflated by ``kick_sigma^2 I`` there (an impulse of unknown size). If both then
+  pass the gate, the kick is kept: the filter follows a bounce within one or two frames.
+  A position jump is not a kick: the inflated prediction still gates it.
+- **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
+- **Initialisation**: the first estimate starts a *tentative* track (position from it,
+  velocity 0 with sigma ``kick_sigma``); it is confirmed by a second accepted estimate from
+  another robot (or from the same robot when no other robot reports). While tentative, two
+  rejected estimates consistent with each other start the track afresh from them.
+- **Loss and re-acquisition**: after ``lost_after_ns`` without an accepted estimate the
+  track is lost (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
+- **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
+  after each, so an estimate stamped before the newest is inserted in stamp order and the
+  track re-run from there. Causal: a state at t uses only estimates received so far.
+
+Deterministic: no randomness; estimates with equal stamps are processed in arrival order.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from estimator.corrected import BallEstimate
+from estimator.errors import FusionError
+from estimator.fusion import CalibratedNoise, Covariance, FusedEstimate, Noise
+from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
+
+__all__ = [
+    "GATE_CHI2_999",
+    "BallTracker",
+    "Measurement",
+    "TrackFusion",
+    "TrackState",
+    "TrackerParams",
+]
+
+GATE_CHI2_999 = 13.815510557964274
+"""chi-square quantile, 2 degrees of freedom, 0.999: -2 ln(0.001)."""
+NS = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class TrackerParams:
+    """The tracker's tuning (units in the names)."""
+
+    accel_noise_m2_s3: float = 1.0
+    """q: spectral density of the white acceleration noise [m^2/s^3]: small, since kicks
+    and bounces are handled apart (velocity sigma grows by sqrt(q dt), 0.13 m/s in 17 ms)."""
+    friction_per_s: float = 0.05
+    """beta: the rolling ball's velocity decays as exp(-beta t) [1/s] (0.05: the simulator's
+    linear damping, pybullet's v *= (1 - 0.05)^dt)."""
+    gate: float = GATE_CHI2_999
+    """Largest accepted Mahalanobis distance squared d^2."""
+    kick_sigma_m_s: float = 6.0
+    """Sigma of a kick's velocity change, and of the velocity of a new track [m/s]."""
+    max_speed_m_s: float = 12.0
+    """Fastest ball: bounds how far two estimates that corroborate each other may lie."""
+    manoeuvre_ns: int = 150_000_000
+    """How long a rejected estimate waits to be corroborated [ns]."""
+    lost_after_ns: int = NS
+    """A track without an accepted estimate for this long is lost [ns]."""
+    memory_ns: int = 300_000_000
+    """How far back late estimates are re-inserted [ns] (>= manoeuvre_ns)."""
+
+    def __post_init__(self) -> None:
+        positive = (self.gate, self.kick_sigma_m_s, self.max_speed_m_s, self.lost_after_ns)
+        if not (all(v > 0 for v in positive) and self.accel_noise_m2_s3 >= 0.0
+                and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns):
+            raise FusionError(
+                f"tracker parameters {self}: gate, kick_sigma_m_s, max_speed_m_s and "
+                "lost_after_ns must be > 0, accel_noise_m2_s3 and friction_per_s >= 0, "
+                "0 <= manoeuvre_ns <= memory_ns"
+            )
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One robot's estimate of the ball's position at its stamp, with its covariance."""
+
+    stamp_ns: int
+    robot: str
+    x_m: float
+    y_m: float
+    covariance: Covariance
+    """R [m^2], 2 x 2, symmetric positive definite."""
+
+
+@dataclass(frozen=True)
+class TrackState:
+    """The track at one stamp: position [m], velocity [m/s] and their covariances."""
+
+    stamp_ns: int
+    x_m: float
+    y_m: float
+    vx_m_s: float
+    vy_m_s: float
+    position_covariance: Covariance
+    velocity_covariance: Covariance
+    confirmed: bool
+    """False while the track rests on one estimate (or on one robot's alone)."""
+
+    @property
+    def speed_m_s(self) -> float:
+        return math.hypot(self.vx_m_s, self.vy_m_s)
+
+
+def _cov(m: Matrix) -> Covariance:
+    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
+
+
+def _state(stamp_ns: int, g: Gaussian, confirmed: bool) -> TrackState:
+    x, p = g
+    return TrackState(stamp_ns, float(x[0]), float(x[1]), float(x[2]), float(x[3]),
+                      _cov(p[:2, :2]), _cov(p[2:, 2:]), confirmed)
+
+
+@dataclass(eq=False)
+class _Entry:
+    """A measurement in the tracker's memory and the filter's state after it."""
+
+    m: Measurement
+    seq: int
+    z: Matrix
+    r: Matrix
+    kick: bool = False
+    accepted: bool = False
+    state: Gaussian | None = None
+    """Posterior when accepted, else the prediction to its stamp."""
+
+    @property
+    def key(self) -> tuple[int, int]:
+        return (self.m.stamp_ns, self.seq)
+
+
+@dataclass
+class _Track:
+    """The filter's state at ``anchor_ns`` and the entries after it, in (stamp, seq) order."""
+
+    anchor_ns: int
+    anchor: Gaussian
+    entries: list[_Entry] = field(default_factory=list)
+    confirmed: bool = False
+    robots: set[str] = field(default_factory=set)
+    """Robots whose estimates this track has accepted."""
+    anchor_accepted_ns: int = 0
+    anchor_robot: str | None = None
+    """The robot whose estimate is the anchor (a new track's first), None once pruned."""
+
+
+class BallTracker:
+    """The causal ball tracker (module docstring). Feed :meth:`update` with estimates in
+    (about) stamp order; read :meth:`state_at` at any stamp."""
+
+    def __init__(self, params: TrackerParams | None = None) -> None:
+        self.params = params or TrackerParams()
+        self._track: _Track | None = None
+        self._seq = 0
+        self.late = 0
+        """Estimates dropped because they were older than the tracker's memory."""
+
+    # --- feeding --------------------------------------------------------------------------
+    def update(self, m: Measurement) -> bool:
+        """Add one estimate; True when the track accepted it (it started the track, passed
+        the gate, or a manoeuvre explained it)."""
+        r = np.array(m.covariance, dtype=np.float64)
+        e = _Entry(m, self._seq, np.array([m.x_m, m.y_m]), 0.5 * (r + r.T))
+        self._seq += 1
+        track = self._track
+        if track is not None and m.stamp_ns - self._last_accepted_ns(track) > (
+                self.params.lost_after_ns):
+            track = self._track = None  # lost: start afresh
+        if track is None:
+            self._track = _Track(m.stamp_ns, self._initial(e), robots={m.robot},
+                                 anchor_accepted_ns=m.stamp_ns, anchor_robot=m.robot)
+            return True
+        if m.stamp_ns < track.anchor_ns:
+            self.late += 1
+            return False
+        i = bisect.bisect_right([x.key for x in track.entries], e.key)
+        track.entries.insert(i, e)
+        self._rerun(track, i)
+        if not e.accepted:
+            if track.confirmed:
+                self._explain_by_kick(track, e)
+            else:
+                self._restart_from_pair(track, e)
+        track = self._track
+        assert track is not None
+        self._confirm(track, e)
+        self._prune(track, m.stamp_ns)
+        return e.accepted
+
+    def _initial(self, e: _Entry) -> Gaussian:
+        """A new track at an estimate: its position and R, velocity 0 with sigma kick."""
+        p = np.zeros((4, 4))
+        p[:2, :2] = e.r
+        p[2, 2] = p[3, 3] = self.params.kick_sigma_m_s**2
+        return np.array([e.z[0], e.z[1], 0.0, 0.0]), p
+
+    def _rerun(self, track: _Track, start: int) -> None:
+        """Re-run the filter over entries[start:] from the state before them."""
+        prm = self.params
+        if start > 0:
+            prev = track.entries[start - 1]
+            t_prev, state = prev.m.stamp_ns, prev.state
+        else:
+            t_prev, state = track.anchor_ns, track.anchor
+        assert state is not None
+        for e in track.entries[start:]:
+            x, p = state
+            if e.kick:  # an impulse of unknown size just before this estimate
+                p = p.copy()
+                p[2, 2] += prm.kick_sigma_m_s**2
+                p[3, 3] += prm.kick_sigma_m_s**2
+            prior = predict((x, p), (e.m.stamp_ns - t_prev) / NS,
+                            q=prm.accel_noise_m2_s3, friction_per_s=prm.friction_per_s)
+            _, _, d2 = innovation(prior, e.z, e.r)
+            e.accepted = d2 <= prm.gate
+            e.state = update(prior, e.z, e.r) if e.accepted else prior
+            t_prev, state = e.m.stamp_ns, e.state
+
+    def _consistent(self, a: _Entry, b: _Entry) -> bool:
+        """Could one ball at a free velocity (|v| <= max_speed) give both estimates?"""
+        dt = abs(b.m.stamp_ns - a.m.stamp_ns) / NS
+        reach = (self.params.max_speed_m_s * dt) ** 2
+        c = a.r + b.r + reach * np.eye(2)
+        dz = b.z - a.z
+        return float(dz @ np.linalg.solve(c, dz)) <= self.params.gate
+
+    def _partners(self, track: _Track, e: _Entry, window_ns: int) -> list[_Entry]:
+        """Rejected entries before ``e`` within ``window_ns`` that may corroborate it, the
+        most recent first: another robot's, or the same robot's when no entry between them
+        was accepted."""
+        out = []
+        accepted_between = False
+        i = track.entries.index(e)
+        for f in reversed(track.entries[:i]):
+            if e.m.stamp_ns - f.m.stamp_ns > window_ns:
+                break
+            if f.accepted:
+                accepted_between = True
+                continue
+            if (f.m.robot != e.m.robot or not accepted_between) and self._consistent(f, e):
+                out.append(f)
+        return out
+
+    def _explain_by_kick(self, track: _Track, e: _Entry) -> None:
+        """Try each corroborating rejected estimate f as the first after a kick; keep the
+        first try under which both f and e pass the gate."""
+        for f in self._partners(track, e, self.params.manoeuvre_ns):
+            i = track.entries.index(f)
+            f.kick = True
+            self._rerun(track, i)
+            if f.accepted and e.accepted:
+                return
+            f.kick = False
+            self._rerun(track, i)
+
+    def _restart_from_pair(self, track: _Track, e: _Entry) -> None:
+        """A tentative track that two consistent rejected estimates contradict starts
+        afresh from the earlier of them; the entries after it are re-run."""
+        others = {f.m.robot for f in track.entries if f.m.robot != e.m.robot}
+        for f in self._partners(track, e, self.params.memory_ns):
+            if f.m.robot == e.m.robot and others:
+                continue  # one robot alone may not overrule the others
+            later = [x for x in track.entries if x.key > f.key]
+            for x in later:
+                x.kick = False
+            fresh = _Track(f.m.stamp_ns, self._initial(f), later, robots={f.m.robot},
+                           anchor_accepted_ns=f.m.stamp_ns, anchor_robot=f.m.robot)
+            self._rerun(fresh, 0)
+            self._track = fresh
+            return
+
+    def _confirm(self, track: _Track, e: _Entry) -> None:
+        """A tentative track is confirmed by an accepted estimate from a robot it has not
+        heard yet, or from its only robot when no other robot reports."""
+        if not e.accepted:
+            return
+        if not track.confirmed and (e.m.robot not in track.robots or all(
+                x.m.robot == e.m.robot for x in track.entries)):
+            track.confirmed = True
+        track.robots.add(e.m.robot)
+
+    def _prune(self, track: _Track, now_ns: int) -> None:
+        """Fold entries older than memory_ns into the anchor."""
+        limit = now_ns - self.params.memory_ns
+        while track.entries and track.entries[0].m.stamp_ns < limit:
+            first = track.entries.pop(0)
+            assert first.state is not None
+            track.anchor_ns, track.anchor = first.m.stamp_ns, first.state
+            track.anchor_robot = None
+            if first.accepted:
+                track.anchor_accepted_ns = first.m.stamp_ns
+
+    @staticmethod
+    def _last_accepted_ns(track: _Track) -> int:
+        for e in reversed(track.entries):
+            if e.accepted:
+                return e.m.stamp_ns
+        return track.anchor_accepted_ns
+
+    # --- reading --------------------------------------------------------------------------
+    @property
+    def confirmed(self) -> bool:
+        return self._track is not None and self._track.confirmed
+
+    def state_at(self, stamp_ns: int) -> TrackState | None:
+        """The track predicted to ``stamp_ns`` from the last state at or before it; None
+        when there is no track or it is lost by then."""
+        track = self._track
+        if track is None or stamp_ns - self._last_accepted_ns(track) > self.params.lost_after_ns:
+            return None
+        t_prev, state = track.anchor_ns, track.anchor
+        for e in reversed(track.entries):
+            if e.m.stamp_ns <= stamp_ns:
+                assert e.state is not None
+                t_prev, state = e.m.stamp_ns, e.state
+                break
+        prm = self.params
+        g = predict(state, (stamp_ns - t_prev) / NS, q=prm.accel_noise_m2_s3,
+                    friction_per_s=prm.friction_per_s)
+        return _state(stamp_ns, g, track.confirmed)
+
+    def accepted_at(self, stamp_ns: int) -> tuple[str, ...]:
+        """Robots whose estimates stamped ``stamp_ns`` the track accepted, in arrival order."""
+        track = self._track
+        if track is None:
+            return ()
+        first = (track.anchor_robot,) if (
+            track.anchor_robot is not None and track.anchor_ns == stamp_ns) else ()
+        return first + tuple(e.m.robot for e in track.entries
+                             if e.m.stamp_ns == stamp_ns and e.accepted)
+
+
+@dataclass(frozen=True)
+class TrackFusion:
+    """The tracker as a one-shot :class:`~estimator.fusion.Fusion`: simultaneous estimates
+    fed to a fresh tracker in input order; the result is the track at that instant (the
+    estimates that pass the gate, inverse-covariance weighted), its robots those accepted."""
+
+    noise: Noise = field(default_factory=CalibratedNoise)
+    params: TrackerParams = field(default_factory=TrackerParams)
+
+    @property
+    def name(self) -> str:
+        return "track"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        if not estimates:
+            return None
+        tracker = BallTracker(self.params)
+        for e in estimates:
+            tracker.update(Measurement(0, e.robot, e.x_m, e.y_m,
+                                       _cov(self.noise.covariance(e))))
+        state = tracker.state_at(0)
+        if state is None:  # pragma: no cover - a track at stamp 0 always exists
+            return None
+        return FusedEstimate(state.x_m, state.y_m, state.position_covariance,
+                             tracker.accepted_at(0))

@@ -1,0 +1,138 @@
+"""Replaying with the tracker (``--fusion track``): unsynchronised cameras and a moving ball,
+velocity in the results and as nav_msgs/Odometry, the same bytes run to run."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from synthetic import NS, write_log
+
+from replay import ReplayOptions, replay
+
+MS = 1_000_000
+VELOCITY = (3.0, -1.0)  # m/s
+PHASES = {"robot1": 0, "robot2": 17 * MS, "robot3": 34 * MS}  # no two images share a stamp
+
+
+def _results(path: Path) -> dict[str, Any]:
+    doc: dict[str, Any] = json.loads(path.read_text(encoding="ascii"))
+    return doc
+
+
+@pytest.fixture(scope="module")
+def moving_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("track") / "moving.mcap"
+    write_log(path, ball=(0.5, 0.3), ball_velocity=VELOCITY, duration_s=1.0, image_hz=20.0,
+              camera_phases_ns=PHASES, with_odometry=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def replays(moving_log: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    out = tmp_path_factory.mktemp("track-out")
+    paths = {}
+    for fusion in ("track", "weighted"):
+        paths[fusion] = out / f"{fusion}.json"
+        replay(moving_log, ReplayOptions(fusion=fusion, out=paths[fusion],
+                                         out_mcap=out / f"{fusion}.mcap", progress=False))
+    return paths
+
+
+def test_the_tracker_gives_a_step_at_every_image_stamp(replays: dict[str, Path]) -> None:
+    doc = _results(replays["track"])
+    stamps = sorted(f["stamp_ns"] for f in doc["frames"])
+    assert [s["stamp_ns"] for s in doc["fused"]] == stamps
+    assert len(set(stamps)) == len(stamps) == 21 + 20 + 20  # 20 Hz for 1 s, three phases
+    assert doc["options"]["fusion"] == "track"
+    # the first image starts a track: every step has a fused estimate and a velocity
+    assert all(s["x_m"] is not None and s["velocity_m_s"] is not None for s in doc["fused"])
+
+
+def test_the_tracker_beats_window_fusion_on_a_moving_ball(replays: dict[str, Path]) -> None:
+    track, window = _results(replays["track"]), _results(replays["weighted"])
+    # the window averages estimates 0-34 ms apart: a 3.2 m/s ball is smeared by ~5 cm
+    assert window["summary"]["fused"]["rmse_m"] > 0.02
+    assert track["summary"]["fused"]["rmse_m"] < 0.005
+    assert track["summary"]["fused"]["rmse_m"] < window["summary"]["fused"]["rmse_m"] / 5
+
+
+def test_velocity_and_its_error_against_the_true_velocity(replays: dict[str, Path]) -> None:
+    doc = _results(replays["track"])
+    later = [s for s in doc["fused"] if s["t_s"] >= 0.2]
+    for s in later:
+        assert s["truth_velocity_m_s"] == pytest.approx(list(VELOCITY), abs=1e-9)
+        vx, vy = s["velocity_m_s"]
+        err = math.hypot(vx - VELOCITY[0], vy - VELOCITY[1])
+        assert s["velocity_error_m_s"] == pytest.approx(err, abs=2e-6)
+        cov = np.array(s["velocity_covariance"])
+        assert np.all(np.linalg.eigvalsh(cov) > 0)
+    assert float(np.median([s["velocity_error_m_s"] for s in later])) < 0.1
+    velocity = doc["summary"]["fused"]["velocity"]
+    assert velocity["errors"] == len(doc["fused"])
+    assert velocity["rmse_m_s"] >= velocity["mean_error_m_s"] > 0
+    # a window fusion estimates no velocity: its steps and summary have no velocity keys
+    window = _results(replays["weighted"])
+    assert not any("velocity_m_s" in s or "velocity_error_m_s" in s for s in window["fused"])
+    assert all("truth_velocity_m_s" in s for s in window["fused"])
+    assert "velocity" not in window["summary"]["fused"]
+
+
+def test_odometry_in_the_estimates_mcap_decodes_with_the_velocity(
+        replays: dict[str, Path]) -> None:
+    doc = _results(replays["track"])
+    by_stamp = {s["stamp_ns"]: s for s in doc["fused"]}
+    odometry = []
+    with replays["track"].with_suffix(".mcap").open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, _channel, message, msg in reader.iter_decoded_messages(
+                topics=["/estimate/ball/odometry"]):
+            assert schema is not None and schema.name == "nav_msgs/msg/Odometry"
+            assert (msg.header.frame_id, msg.child_frame_id) == ("field", "ball")
+            stamp = msg.header.stamp.sec * NS + msg.header.stamp.nanosec
+            assert message.log_time == stamp
+            step = by_stamp[stamp]
+            assert msg.pose.pose.position.x == pytest.approx(step["x_m"], abs=1e-6)
+            assert (msg.twist.twist.linear.x, msg.twist.twist.linear.y) == pytest.approx(
+                step["velocity_m_s"], abs=1e-6)
+            cov = msg.twist.covariance
+            assert [cov[0], cov[1], cov[6], cov[7]] == pytest.approx(
+                [v for row in step["velocity_covariance"] for v in row], abs=1e-6)
+            assert msg.pose.covariance[0] == pytest.approx(step["covariance"][0][0], abs=1e-6)
+            odometry.append((stamp, msg.twist.twist.linear.x, msg.twist.twist.linear.y))
+    assert len(odometry) == len(doc["fused"])
+    late = [(vx, vy) for t, vx, vy in odometry if t >= 0.2 * NS]
+    assert np.median(np.hypot(*(np.array(late) - VELOCITY).T)) < 0.1
+    # a window fusion writes no odometry (and no Odometry schema)
+    with replays["weighted"].with_suffix(".mcap").open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    assert "nav_msgs/msg/Odometry" not in {s.name for s in summary.schemas.values()}
+
+
+def test_the_tracker_replays_to_the_same_bytes(moving_log: Path, replays: dict[str, Path],
+                                               tmp_path: Path) -> None:
+    again = tmp_path / "again.json"
+    replay(moving_log, ReplayOptions(fusion="track", out=again, out_mcap=tmp_path / "a.mcap",
+                                     progress=False))
+    assert again.read_bytes() == replays["track"].read_bytes()
+    assert (tmp_path / "a.mcap").read_bytes() == replays["track"].with_suffix(
+        ".mcap").read_bytes()
+
+
+def test_without_true_velocity_there_is_no_velocity_error(tmp_path: Path) -> None:
+    log = write_log(tmp_path / "no-odometry.mcap", ball_velocity=(1.0, 0.0), duration_s=0.3,
+                    image_hz=20.0, camera_phases_ns=PHASES)
+    out = tmp_path / "r.json"
+    summary = replay(log.path, ReplayOptions(out=out, progress=False))  # track by default
+    doc = _results(out)
+    assert all(s["velocity_m_s"] is not None for s in doc["fused"])
+    assert not any("velocity_error_m_s" in s or "truth_velocity_m_s" in s
+                   for s in doc["fused"])
+    assert "velocity" not in doc["summary"]["fused"] and summary.fused_velocity is None

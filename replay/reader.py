@@ -310,12 +310,21 @@ class LogReader:
                          if start_ns is None or b.end_ns >= start_ns),
                         key=lambda b: (b.start_ns, b.offset))
         heap: list[tuple[int, int, int, list[Message]]] = []
+        held: dict[int, int] = {}  # open block offset -> bytes of its messages
+        budget = 2 * self.limits.max_chunk_bytes
         i = 0
         while i < len(blocks) or heap:
-            while i < len(blocks) and (not heap or blocks[i].start_ns <= heap[0][0]):
+            # open every block that could hold the next message: (start, offset) before it
+            while i < len(blocks) and (
+                    not heap or (blocks[i].start_ns, blocks[i].offset) < heap[0][:2]):
                 msgs = self._load(blocks[i], start_ns)
                 if msgs:
                     heapq.heappush(heap, (msgs[0].log_time, blocks[i].offset, 0, msgs))
+                    held[blocks[i].offset] = sum(len(m.data) for m in msgs)
+                    if sum(held.values()) > budget:
+                        raise CorruptLogError(self.path, f"{len(held)} chunks overlap in "
+                                              "time by more than the memory limit allows "
+                                              "(raise --max-chunk-mib)")
                 i += 1
             if not heap:
                 continue
@@ -323,6 +332,8 @@ class LogReader:
             yield msgs[j]
             if j + 1 < len(msgs):
                 heapq.heappush(heap, (msgs[j + 1].log_time, offset, j + 1, msgs))
+            else:
+                held.pop(offset, None)
 
     def _load(self, block: Block, start_ns: int | None) -> list[Message]:
         """The wanted messages of one block, sorted stably by log time."""

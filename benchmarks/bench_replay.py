@@ -1,21 +1,28 @@
-"""Benchmark replay: peak RSS and wall time on a short log and one 10x longer.
+"""Benchmark replay: frames per second beside the floor, and peak RSS as the log grows.
 
+    python benchmarks/bench_replay.py --recorded [--seconds 6] [--threads 1,0]
     python benchmarks/bench_replay.py [--seconds 2] [--factor 10]
-    python benchmarks/bench_replay.py --recorded [--seconds 1.2]
 
-By default the logs are synthetic (tests/synthetic.py: tiny PNGs, fast to make); with
-``--recorded`` they are simulator recordings of the ``rolling`` scenario (full 1080 x 1080
-omni images at 10 Hz, three robots), so the figures include real image decoding.
+``--recorded``: records the ``rolling`` scenario (full 1080 x 1080 omni images at 10 Hz,
+three robots: 180 frames in 6 s) once as PNG and once as JPEG, and for each log prints, in
+the same run, the floor (reading the log and decoding every image in one thread, nothing
+else) and ``dsp-replay --out`` frames per second with each ``--threads`` value (0: the
+default, the cores; 1: serial), with their ratio to the floor. Each figure is the median of
+``--runs`` runs, each in a fresh child process.
 
-Each replay runs in a fresh child process, so peak RSS is that replay's alone (the child's
-VmHWM from /proc, else resource.getrusage); results JSON and estimates MCAP are written as
-well. Memory should stay flat: the long log's peak RSS about the short one's.
+Without ``--recorded``: synthetic logs (tests/synthetic.py: tiny PNGs, fast to make), a
+short one and one ``--factor`` times longer; peak RSS should stay flat (the streaming
+replay's memory does not grow with the log).
+
+Peak RSS is the child's own (VmHWM from /proc, else resource.getrusage); results JSON and
+estimates MCAP are written as well.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -27,10 +34,10 @@ CHILD = r"""
 import json, resource, sys, time
 from pathlib import Path
 from replay import ReplayOptions, replay
-log, out = Path(sys.argv[1]), Path(sys.argv[2])
+log, out, threads = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
 t0 = time.perf_counter()
 s = replay(log, ReplayOptions(out=out / "r.json", out_mcap=out / "e.mcap", force=True,
-                              progress=False))
+                              progress=False, threads=threads or None))
 wall = time.perf_counter() - t0
 # Peak RSS of this program alone: VmHWM belongs to the address space exec made, while
 # ru_maxrss also counts the parent's pages the child had before exec (the parent may hold
@@ -45,19 +52,80 @@ print(json.dumps({"frames": s.frames, "wall_s": wall, "peak_rss_mib": rss_kib / 
 """
 
 
-def measure(log: Path, out: Path) -> dict[str, float]:
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(log), str(out)], cwd=ROOT,
+FLOOR = r"""
+import json, sys, time
+from pathlib import Path
+from replay.decode import decode_image
+from replay.reader import ImageMessage, LogReader
+t0 = time.perf_counter()
+n = 0
+with LogReader(Path(sys.argv[1])) as reader:
+    for msg in reader.messages():
+        if isinstance(msg, ImageMessage):
+            decode_image(msg)
+            n += 1
+wall = time.perf_counter() - t0
+print(json.dumps({"frames": n, "wall_s": wall, "frames_per_s": n / wall}))
+"""
+
+
+def _child(code: str, *args: str) -> dict[str, float]:
+    proc = subprocess.run([sys.executable, "-c", code, *args], cwd=ROOT,
                           capture_output=True, text=True, check=True)
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+def measure(log: Path, out: Path, threads: int = 0) -> dict[str, float]:
+    return _child(CHILD, str(log), str(out), str(threads))
+
+
+def speed(args: argparse.Namespace) -> int:
+    """Replay frames/s beside the single-thread read + decode floor, PNG and JPEG."""
+    from recorder.record import RecordOptions, record
+
+    threads = [int(t) for t in args.threads.split(",")]
+    print(f"rolling, {args.seconds:g} s, 3 robots, 10 Hz; median of {args.runs} runs, one "
+          "run of the script (figures side by side; the machine is shared and noisy)")
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        for fmt in ("png", "jpeg"):
+            log = d / f"rolling-{fmt}.mcap"
+            record(log, RecordOptions(scenario="rolling", duration_s=args.seconds,
+                                      image_format=fmt))
+            floor: list[dict[str, float]] = []
+            runs: dict[int, list[dict[str, float]]] = {n: [] for n in threads}
+            for _ in range(args.runs):  # interleaved, so the load falls on all alike
+                floor.append(_child(FLOOR, str(log)))
+                for n in threads:
+                    runs[n].append(measure(log, d, n))
+            fps0 = statistics.median(r["frames_per_s"] for r in floor)
+            mib = log.stat().st_size / 2**20
+            print(f"{fmt:4s} {int(floor[0]['frames']):4d} frames {mib:6.1f} MiB  floor "
+                  f"(read + decode, 1 thread) {fps0:6.1f} frames/s")
+            for n in threads:
+                fps = statistics.median(r["frames_per_s"] for r in runs[n])
+                rss = statistics.median(r["peak_rss_mib"] for r in runs[n])
+                name = f"--threads {n}" if n else "default threads"
+                print(f"{fmt:4s} dsp-replay --out, {name:16s} {fps:6.1f} frames/s = "
+                      f"{fps / fps0:4.2f}x the floor; peak RSS {rss:6.1f} MiB")
+    return 0
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--seconds", type=float, default=2.0, help="short log length [s]")
+    p.add_argument("--seconds", type=float, default=None,
+                   help="log length [s] (default 2; --recorded: 6)")
     p.add_argument("--factor", type=int, default=10, help="how much longer the long log is")
     p.add_argument("--recorded", action="store_true",
-                   help="record the rolling scenario instead of writing synthetic logs")
+                   help="record the rolling scenario (PNG and JPEG): frames/s beside the floor")
+    p.add_argument("--threads", default="0,1",
+                   help="--recorded: comma-separated --threads values (0: the default)")
+    p.add_argument("--runs", type=int, default=3, help="--recorded: runs per figure")
     args = p.parse_args()
+    if args.recorded:
+        args.seconds = args.seconds or 6.0
+        return speed(args)
+    args.seconds = args.seconds or 2.0
     sys.path.insert(0, str(ROOT / "tests"))
     from synthetic import write_log
 
@@ -67,12 +135,7 @@ def main() -> int:
         long_s = args.seconds * args.factor
         for name, secs in (("short", args.seconds), (f"{args.factor}x", long_s)):
             log = d / f"{name}.mcap"
-            if args.recorded:
-                from recorder.record import RecordOptions, record
-
-                record(log, RecordOptions(scenario="rolling", duration_s=secs))
-            else:
-                write_log(log, duration_s=secs)
+            write_log(log, duration_s=secs)
             r = measure(log, d)
             r.update(name=name, seconds=secs, log_mib=log.stat().st_size / 2**20)
             rows.append(r)

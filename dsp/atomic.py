@@ -1,60 +1,262 @@
 """The one atomic-output helper: an output file appears whole or not at all.
 
 :class:`AtomicFile` for writers that live across calls (a sink commits when a replay ends);
-:func:`atomic_output` for a block that writes a file in one go.
+:func:`atomic_output` for a block that writes a file in one go. Both
+
+- refuse an output that is a folder or whose folder is missing, and an existing output unless
+  ``force`` (:func:`check_output_path`);
+- create the temporary file beside the output exclusively (``O_CREAT | O_EXCL``, and
+  ``O_NOFOLLOW`` where the system has it): a file or symlink planted at the temporary name is
+  never opened, written through or replaced; another name is taken instead;
+- fsync the file, rename it onto the output (without ``force`` by a hard link, which fails
+  when the output appeared meanwhile, so nothing is clobbered) and fsync the folder;
+- turn a failing write (full disk, read-only or missing folder) into one
+  :class:`~dsp.errors.OutputError` naming the output, and leave no temporary file behind.
+
+Temporary names are hidden (``.NAME.<random>.tmp``) unless a ``partial`` suffix is given:
+then they are visible and numbered, ``NAME.partial.mcap``, ``NAME.partial-2.mcap``, ..., so
+a log cut short by a crash is easy to find, and one never replaces an earlier one
+(:func:`partial_paths` lists them).
+
+:func:`same_file` and :func:`check_distinct` keep outputs off the inputs and off each other.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
-import tempfile
-from collections.abc import Iterator
+import re
+import secrets
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import IO
 
-from dsp.errors import OutputExistsError
+from dsp.errors import OutputError, OutputExistsError, UsageError
 
-__all__ = ["AtomicFile", "atomic_output"]
+__all__ = [
+    "AtomicFile",
+    "atomic_output",
+    "check_distinct",
+    "check_output_path",
+    "partial_paths",
+    "same_file",
+]
+
+_CREATE = (os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+           | getattr(os, "O_CLOEXEC", 0))
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO})
+_MAX_PARTIALS = 1000
+
+
+def same_file(a: Path | str, b: Path | str) -> bool:
+    """True when ``a`` and ``b`` name one file: the same path once symlinks and ``..`` are
+    resolved, or (when both exist) the same device and inode (hard links, bind mounts)."""
+    with contextlib.suppress(OSError, RuntimeError):
+        if Path(a).resolve() == Path(b).resolve():
+            return True
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def check_distinct(outputs: Sequence[tuple[str, Path | str | None]],
+                   inputs: Sequence[tuple[str, Path | str | None]] = ()) -> None:
+    """Raise :class:`~dsp.errors.UsageError` when an output names an input or another output.
+
+    Each entry is ``(label, path)`` with a label as the user knows it ("--out", "the input
+    log"); ``None`` paths are skipped."""
+    outs = [(label, Path(p)) for label, p in outputs if p is not None]
+    ins = [(label, Path(p)) for label, p in inputs if p is not None]
+    for i, (label, out) in enumerate(outs):
+        for in_label, src in ins:
+            if same_file(out, src):
+                raise UsageError(f"{label} {out} is {in_label}; an output never overwrites an "
+                                 "input, choose another file")
+        for other_label, other in outs[:i]:
+            if same_file(out, other):
+                raise UsageError(f"{other_label} and {label} both name {out}; give each output "
+                                 "its own file")
+
+
+def check_output_path(path: Path | str, *, force: bool, label: str | None = None) -> None:
+    """Refuse an output that is a folder, whose folder is missing or not a folder, or that
+    exists already (unless ``force``); ``label`` (e.g. "--out") prefixes the message."""
+    path = Path(path)
+    name = f"{label} {path}" if label else str(path)
+    if path.is_dir():
+        raise UsageError(f"{name}: is a folder; give a file name")
+    parent = path.parent
+    if not parent.is_dir():
+        what = "is not a folder" if parent.exists() else "does not exist"
+        raise UsageError(f"{name}: folder {parent} {what}; create it first")
+    if os.path.lexists(path) and not force:
+        raise OutputExistsError(path)
+
+
+def partial_paths(path: Path | str, suffix: str = ".partial") -> list[Path]:
+    """The numbered temporary files beside ``path`` that :class:`AtomicFile` with
+    ``partial=suffix`` creates (left by a crash or an interruption), oldest number first."""
+    path = Path(path)
+    stem, ext = _split(path.name)
+    pattern = re.compile(re.escape(stem + suffix) + r"(?:-(\d+))?" + re.escape(ext) + "$")
+    found = []
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(path.parent):
+            m = pattern.fullmatch(entry.name)
+            if m and entry.is_file(follow_symlinks=False):
+                found.append((int(m.group(1) or 1), path.with_name(entry.name)))
+    return [p for _, p in sorted(found)]
+
+
+def _split(name: str) -> tuple[str, str]:
+    stem, dot, ext = name.rpartition(".")
+    return (stem, dot + ext) if stem else (name, "")
+
+
+def _fsync_dir(folder: Path) -> None:
+    flags = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0)
+    try:
+        fd = os.open(folder, flags)
+    except OSError:  # pragma: no cover - systems that cannot open a folder
+        return
+    try:
+        os.fsync(fd)
+    except OSError as err:  # pragma: no cover - file systems without directory fsync
+        if err.errno not in (errno.EINVAL, errno.ENOTSUP, errno.EBADF):
+            raise
+    finally:
+        os.close(fd)
 
 
 class AtomicFile:
     """A new file written under a temporary name beside ``path``: :meth:`commit` renames it
-    onto ``path``, :meth:`discard` removes it (a no-op after a commit).
+    onto ``path``, :meth:`discard` removes it (a no-op after a commit), :meth:`keep` leaves it
+    (fsynced) where it is.
 
-    Raises :class:`~dsp.errors.OutputExistsError` before anything is written when ``path``
-    exists and ``force`` is false. The temporary file is created empty; the caller writes it
-    (by name, so writers that open the path themselves work too).
+    Raises before anything is written: :class:`~dsp.errors.OutputExistsError` when ``path``
+    exists and ``force`` is false, :class:`~dsp.errors.UsageError` when ``path`` is a folder
+    or its folder is missing, :class:`~dsp.errors.OutputError` when the folder is not
+    writable. The temporary file is created empty with the mode any new file gets; write it
+    through :meth:`stream` (the exclusively created descriptor) or by its name :attr:`tmp`.
     """
 
-    def __init__(self, path: Path | str, *, force: bool) -> None:
+    def __init__(self, path: Path | str, *, force: bool, partial: str | None = None,
+                 label: str | None = None) -> None:
         self.path = Path(path)
-        if self.path.exists() and not force:
-            raise OutputExistsError(self.path)
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
-                                        dir=self.path.parent)
-        os.close(fd)
-        self.tmp = Path(tmp_name)
+        self.force = force
+        check_output_path(self.path, force=force, label=label)
+        self.tmp, fd = self._create(partial)
+        self._fd: int | None = fd
+        st = os.fstat(fd)
+        self._identity = (st.st_dev, st.st_ino)
+        self.done = False
+
+    def _create(self, partial: str | None) -> tuple[Path, int]:
+        stem, ext = _split(self.path.name)
+        for n in range(1, _MAX_PARTIALS + 1):
+            if partial is None:
+                name = f".{self.path.name}.{secrets.token_hex(4)}.tmp"
+            else:
+                name = f"{stem}{partial}{'' if n == 1 else f'-{n}'}{ext}"
+            tmp = self.path.with_name(name)
+            try:
+                return tmp, os.open(tmp, _CREATE, 0o666)
+            except FileExistsError:
+                continue
+            except OSError as err:
+                raise OutputError(self.path, err) from err
+        raise OutputError(self.path, f"no free temporary name beside it ({tmp.name} and "
+                          f"{_MAX_PARTIALS - 1} more exist)")
+
+    def stream(self) -> IO[bytes]:
+        """The temporary file opened for binary writing (only once; the caller closes it)."""
+        if self._fd is None:
+            raise ValueError(f"the stream of {self.tmp} was taken already")
+        fd, self._fd = self._fd, None
+        return os.fdopen(fd, "wb")
+
+    @contextlib.contextmanager
+    def guard(self) -> Iterator[None]:
+        """Turn a failing write of the temporary file (full disk, read-only file system, an
+        error naming the temporary file) into an :class:`~dsp.errors.OutputError` naming the
+        output."""
+        try:
+            yield
+        except OSError as err:
+            if err.errno in _WRITE_ERRNOS or (err.filename is not None
+                                              and Path(err.filename) == self.tmp):
+                raise OutputError(self.path, err) from err
+            raise
+
+    def _close_fd(self) -> None:
+        if self._fd is not None:
+            fd, self._fd = self._fd, None
+            os.close(fd)
+
+    def _sync(self) -> None:
+        """fsync the temporary file, after checking it is still the file made for it."""
+        self._close_fd()
+        fd = os.open(self.tmp, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        try:
+            st = os.fstat(fd)
+            if (st.st_dev, st.st_ino) != self._identity:
+                raise OutputError(self.path, f"its temporary file {self.tmp.name} was replaced "
+                                  "while writing")
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
     def commit(self) -> None:
-        # mkstemp makes the file private (0600); give it the mode any new file would get
-        umask = os.umask(0)
-        os.umask(umask)
-        self.tmp.chmod(0o666 & ~umask)
-        os.replace(self.tmp, self.path)
+        """fsync, rename onto :attr:`path` (never replacing one that appeared meanwhile
+        without ``force``), fsync the folder."""
+        with self.guard():
+            self._sync()
+            if self.force:
+                os.replace(self.tmp, self.path)
+            else:
+                self._link_no_clobber()
+            _fsync_dir(self.path.parent)
+        self.done = True
+
+    def _link_no_clobber(self) -> None:
+        try:
+            os.link(self.tmp, self.path, follow_symlinks=False)
+        except FileExistsError:
+            raise OutputExistsError(self.path) from None
+        except OSError:  # a file system without hard links: check, then rename
+            if os.path.lexists(self.path):
+                raise OutputExistsError(self.path) from None
+            os.replace(self.tmp, self.path)
+        else:
+            os.unlink(self.tmp)
+
+    def keep(self) -> Path:
+        """Leave the temporary file where it is (fsynced) and return its path."""
+        with self.guard():
+            self._sync()
+            _fsync_dir(self.path.parent)
+        self.done = True
+        return self.tmp
 
     def discard(self) -> None:
-        self.tmp.unlink(missing_ok=True)
+        """Remove the temporary file (a no-op after :meth:`commit` or :meth:`keep`)."""
+        self._close_fd()
+        if not self.done:
+            self.tmp.unlink(missing_ok=True)
+            self.done = True
 
 
 @contextlib.contextmanager
-def atomic_output(path: Path | str, *, force: bool) -> Iterator[Path]:
+def atomic_output(path: Path | str, *, force: bool, label: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` when the block
-    succeeds, remove it otherwise (also on Ctrl-C). Refuses an existing ``path`` unless
-    ``force`` (see :class:`AtomicFile`)."""
-    out = AtomicFile(path, force=force)
+    succeeds, remove it otherwise (also on Ctrl-C). Refuses as :class:`AtomicFile` does; a
+    failing write in the block becomes an :class:`~dsp.errors.OutputError`."""
+    out = AtomicFile(path, force=force, label=label)
     try:
-        yield out.tmp
-    except BaseException:
+        with out.guard():
+            yield out.tmp
+        out.commit()
+    finally:
         out.discard()
-        raise
-    out.commit()

@@ -13,7 +13,8 @@ One place for what the four commands share:
   (:class:`~dsp.errors.InputError`, an ``OSError``); 2 usage (argparse's own and
   :class:`~dsp.errors.UsageError`); 3 refused overwrite (:class:`~dsp.errors.OutputExistsError`);
   130 interrupted (Ctrl-C). Any :class:`~dsp.errors.DspError` ends in one line
-  ``prog: error: message`` on stderr, without a traceback.
+  ``prog: error: message`` on stderr, without a traceback; control characters in it (from
+  names in a log) are escaped, as in everything :func:`echo` prints.
 
 Importing this module imports neither pybullet nor mcap.
 """
@@ -30,6 +31,7 @@ from typing import IO, Any
 
 from dsp.contract import RENDERERS
 from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError, UsageError
+from dsp.text import printable
 
 __all__ = [
     "DISTRIBUTION",
@@ -125,9 +127,10 @@ def progress_enabled(args: argparse.Namespace, stream: IO[str] | None = None) ->
 
 
 def echo(args: argparse.Namespace, text: str) -> None:
-    """Print ``text`` (a summary, a "wrote ..." line) on stdout unless ``--quiet``."""
+    """Print ``text`` (a summary, a "wrote ..." line) on stdout unless ``--quiet``; control
+    characters (from names in a log) are escaped (:func:`dsp.text.printable`)."""
     if not getattr(args, "quiet", False):
-        print(text)
+        print(printable(text, lines=True))
 
 
 LINE_INTERVAL_S = 10.0
@@ -180,7 +183,9 @@ def progress_bar(total: int | None, desc: str, enabled: bool | None, *,
     """Progress on stderr as :func:`progress_enabled` decided: a tqdm bar (True), plain
     lines (None, :class:`LineProgress`) or nothing (False); use it as a context manager.
 
-    The bar is removed when it closes, so the summary that follows stands alone."""
+    The bar is removed when it closes, so the summary that follows stands alone. ``desc``
+    (often a file name) is escaped as everything printed is (:func:`dsp.text.printable`)."""
+    desc = printable(desc)
     if enabled is None:
         return LineProgress(total, desc, unit=unit)
     from tqdm import tqdm
@@ -190,7 +195,8 @@ def progress_bar(total: int | None, desc: str, enabled: bool | None, *,
 
 
 def _fail(prog: str, message: str) -> None:
-    print(f"{prog}: {message}", file=sys.stderr)
+    # one line, whatever a name from a log holds (newlines, escape sequences)
+    print(printable(f"{prog}: {message}"), file=sys.stderr)
 
 
 def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],

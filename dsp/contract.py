@@ -144,6 +144,12 @@ def stamp_to_ns(stamp: object) -> int:
 
 
 # --- ROS 2 message definitions (the text mcap's ros2msg schema encoding wants) --------------
+# The text is rosbag2's form: each type's .msg as ROS 2 ships it (comments dropped), then
+# its dependencies. tests/dsp/test_message_definitions.py proves every definition, and every
+# schema in the golden logs, equal to rosbags' ROS 2 type store type by type and field by
+# field. The text is kept rather than generated from the type store at run time because the
+# store's own rendering spells names out (geometry_msgs/Pose for Pose) and has no defaults
+# (Quaternion's w = 1): every log's bytes would change for no difference in meaning.
 _SEP = "=" * 80 + "\n"
 
 

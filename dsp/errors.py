@@ -21,6 +21,7 @@ __all__ = [
     "CalibrationError",
     "DspError",
     "InputError",
+    "OutputError",
     "OutputExistsError",
     "UsageError",
 ]
@@ -54,6 +55,19 @@ class CalibrationError(InputError):
 
     def __init__(self, source: Path | str, detail: str) -> None:
         super().__init__(f"{source}: unusable calibration: {detail}")
+
+
+class OutputError(DspError):
+    """An output cannot be written (full disk, read-only or missing folder, ...); the message
+    names the output, never a temporary file."""
+
+    exit_code = EXIT_INPUT
+
+    def __init__(self, path: Path | str, detail: BaseException | str) -> None:
+        if isinstance(detail, OSError):
+            detail = detail.strerror or str(detail)
+        super().__init__(f"{path}: cannot write: {detail}")
+        self.path = Path(path)
 
 
 class OutputExistsError(DspError):

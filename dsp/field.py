@@ -55,7 +55,7 @@ class FieldSpec:
 FIELDS: dict[str, FieldSpec] = {
     # The paper's (older MSL) field: goals at x = +-9. Area sizes as the older MSL rules.
     "18x12": FieldSpec("18x12", 18.0, 12.0, 0.75, 1.75, 2.25, 3.25),
-    # simatch's current field (NOTES.md): goal area x = +-10.25 / y = +-1.95,
+    # simatch's current field (docs/method.md): goal area x = +-10.25 / y = +-1.95,
     # penalty area x = +-8.75 / y = +-3.45.
     "22x14": FieldSpec("22x14", 22.0, 14.0, 0.75, 1.95, 2.25, 3.45),
 }

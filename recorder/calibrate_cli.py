@@ -17,7 +17,8 @@ from collections.abc import Sequence
 from contextlib import ExitStack
 from pathlib import Path
 
-from dsp.atomic import atomic_output
+from dsp.atomic import atomic_output, check_distinct
+from dsp.checks import check_int, check_number
 from dsp.cli import (
     add_common_arguments,
     check_suffix,
@@ -27,6 +28,7 @@ from dsp.cli import (
     run_main,
 )
 from dsp.errors import UsageError
+from dsp.jsonio import dumps as strict_json
 from dsp.plotting import FIGURE_SUFFIXES, save
 from estimator.calibration import calibration_to_json
 from estimator.camera import make_camera
@@ -34,10 +36,15 @@ from recorder.calibrate import PAPER_FIT, CalibrationRun, calibrate, distances_m
 from recorder.calibrate import sample_ranges as _sample_ranges
 from recorder.calibrate_figure import calibration_figure
 from recorder.omni import DEFAULT_FACE_PX
+from recorder.record import MAX_FACE_PX
 
 __all__ = ["build_parser", "format_report", "main"]
 
 PROG = "dsp-calibrate"
+MAX_RANGE_M = 30.0
+"""The farthest placement [m]: beyond the longest field's diagonal."""
+MAX_PLACEMENTS = 10_000
+"""Ranges per direction at most (each is a render)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -74,6 +81,8 @@ def _directions(text: str) -> list[float]:
         raise UsageError(f"--directions {text!r}: give degrees separated by commas") from None
     if not values:
         raise UsageError("--directions is empty; give at least one direction, e.g. 0")
+    for v in values:
+        check_number("--directions", v, low=-360, high=360, unit="deg")
     # forward first: the paper's own fit uses it
     return sorted(set(values), key=lambda v: (v != 0.0, values.index(v)))
 
@@ -107,23 +116,34 @@ def format_report(run: CalibrationRun, renderer: str) -> str:
     return "\n".join(lines)
 
 
+def _check(args: argparse.Namespace) -> None:
+    """Refuse bad numbers before rendering anything."""
+    for flag, value in (("--start-m", args.start_m), ("--stop-m", args.stop_m),
+                        ("--step-m", args.step_m)):
+        check_number(flag, value, low=0, high=MAX_RANGE_M, low_open=True, unit="m")
+    if args.stop_m < args.start_m:
+        raise UsageError(f"--stop-m {args.stop_m} is below --start-m {args.start_m}")
+    if (args.stop_m - args.start_m) / args.step_m >= MAX_PLACEMENTS:
+        raise UsageError(f"--step-m {args.step_m}: more than {MAX_PLACEMENTS} ranges from "
+                         f"{args.start_m} to {args.stop_m} m; give a larger step")
+    check_int("--face-px", args.face_px, low=16, high=MAX_FACE_PX)
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     out: Path = args.out
     check_suffix("-o/--out", out, (".json",))
     plot: Path | None = None if args.no_plot else (args.plot or out.with_suffix(".png"))
     check_suffix("--plot", plot, FIGURE_SUFFIXES)
+    check_distinct([("--out", out), ("--plot", plot)])
+    _check(args)
+    directions = _directions(args.directions)
     outputs = [out] if plot is None else [out, plot]
-    for path in outputs:
-        if not path.parent.is_dir():
-            raise UsageError(f"{path}: folder {path.parent} does not exist")
-    if args.face_px < 16:
-        raise UsageError(f"--face-px {args.face_px}: give at least 16 px")
     with ExitStack() as stack:
         # claim the outputs before the long rendering: a refusal comes first, not last
-        tmp = [stack.enter_context(atomic_output(path, force=args.force)) for path in outputs]
+        tmp = [stack.enter_context(atomic_output(path, force=args.force, label=flag))
+               for flag, path in zip(("--out", "--plot"), outputs, strict=False)]
         camera = make_camera(args.camera)
-        directions = _directions(args.directions)
         distances = distances_m(args.start_m, args.stop_m, args.step_m)
         t0 = time.perf_counter()
         with progress_bar(len(directions) * len(distances), "calibrating",
@@ -139,7 +159,7 @@ def _main(argv: Sequence[str] | None) -> int:
                           "directions_deg": directions, "start_m": args.start_m,
                           "stop_m": args.stop_m, "step_m": args.step_m}
         doc["holdout_rms_m"] = round(run.holdout_rms_m[run.best.model.name], 6)
-        tmp[0].write_bytes((json.dumps(doc, sort_keys=True, indent=2) + "\n").encode())
+        tmp[0].write_bytes((strict_json(doc, sort_keys=True, indent=2) + "\n").encode())
         if plot is not None:
             save(calibration_figure(run), tmp[1], fmt=plot.suffix.lower().lstrip("."))
     echo(args, format_report(run, renderer))

@@ -2,7 +2,8 @@
 
 Thin: parse arguments, call ``recorder.record.record``; :func:`dsp.cli.run_main` maps known
 errors to one line on stderr and an exit code (1 bad input, 2 usage, 3 output exists,
-4 renderer, 130 interrupted).
+4 renderer, 130 interrupted). Partial logs left beside the output by earlier interrupted or
+killed recordings to it are named in a note on stderr before recording starts.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.text import printable
 from recorder.field import FIELDS
 from recorder.scenarios import SCENARIOS
 
@@ -61,9 +63,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     from recorder.omni import DEFAULT_FACE_PX
-    from recorder.record import RecordOptions, record
+    from recorder.record import RecordOptions, partial_logs, record
 
-    s = record(args.output, RecordOptions(
+    options = RecordOptions(
         scenario=args.scenario,
         seed=args.seed,
         duration_s=args.duration,
@@ -80,7 +82,12 @@ def _main(argv: Sequence[str] | None) -> int:
         renderer=args.renderer,
         force=args.force,
         progress=progress_enabled(args),
-    ))
+    )
+    for partial in partial_logs(args.output):
+        print(printable(f"{PROG}: note: {partial} is left from an earlier recording to "
+                        f"{args.output.name} that was interrupted or killed (kept; "
+                        f"'dsp-replay --recover {partial}' replays it)"), file=sys.stderr)
+    s = record(args.output, options)
     echo(args,
          f"{s.path}: {s.scenario} seed {s.seed}, {s.frames} frames x {s.robots} robots "
          f"({s.camera}, {s.image_format}) at {s.rate_hz:g} Hz, "

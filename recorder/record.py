@@ -9,15 +9,16 @@ truth plus optional Gaussian noise); ``/ground_truth/...`` carry the truth.
 :func:`record` resolves a :class:`RecordOptions` against the scenario, writes the metadata
 records (:func:`log_metadata`) and runs the frame loop (:class:`_Simulation`).
 
-The log is written to a hidden temporary name in the output's folder and renamed when done.
-On Ctrl-C the MCAP is finished (so it is readable), kept as ``<name>.partial.mcap`` and
-``RecordingInterrupted`` says where.
+The log is written as ``<name>.partial.mcap`` in the output's folder (numbered,
+``<name>.partial-2.mcap``, when one exists: an earlier partial log is never replaced) and
+renamed when done. On Ctrl-C the MCAP is finished (so it is readable), kept there and
+``RecordingInterrupted`` says where; a killed recording leaves it too, readable with
+``dsp-replay --recover`` up to its last whole sim second (``recorder.writer``).
+:func:`partial_logs` lists such files, so the next recording to the same path names them.
 """
 
 from __future__ import annotations
 
-import contextlib
-import os
 import platform
 import time
 from collections.abc import Callable
@@ -31,8 +32,10 @@ import numpy as np
 
 from dsp import contract as c
 from dsp import metadata as meta
-from dsp.cli import progress_bar
-from dsp.errors import OutputExistsError, UsageError
+from dsp.atomic import AtomicFile, check_output_path, partial_paths
+from dsp.checks import check_int, check_number
+from dsp.cli import check_suffix, progress_bar
+from dsp.errors import UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.field import field_spec
@@ -47,11 +50,19 @@ __all__ = [
     "RecordSummary",
     "RecordingInterrupted",
     "log_metadata",
+    "partial_logs",
     "record",
 ]
 
 IMAGE_FORMATS = ("png", "jpeg")
 _NS = 1_000_000_000
+MAX_SEED = 2**63 - 1
+MAX_DURATION_S = 86_400.0
+"""The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
+MAX_FRAMES = 10_000_000
+MAX_FACE_PX = 4096
+"""Six faces of 4096^2 RGB are ~300 MB; larger would exhaust memory, not sharpen the image."""
+MAX_POSE_NOISE_M = 100.0
 
 
 class RecordingInterrupted(RecorderError):
@@ -102,25 +113,22 @@ class RecordOptions:
                 f"unknown camera {self.camera!r}; choose one of {', '.join(CAMERA_MODELS)}")
         if self.image_format not in IMAGE_FORMATS:
             raise UsageError(f"unknown image format {self.image_format!r}; choose png or jpeg")
-        if not 1 <= self.jpeg_quality <= 100:
-            raise UsageError(f"JPEG quality must be 1..100, got {self.jpeg_quality}")
-        if self.pose_noise_m < 0 or self.yaw_noise_deg < 0:
-            raise UsageError("pose noise must be >= 0")
-        if self.face_px < 256:
-            raise UsageError(
-                f"--face-px must be >= 256 (smaller loses far balls), got {self.face_px}")
+        check_int("--seed", self.seed, low=0, high=MAX_SEED)
+        check_int("--jpeg-quality", self.jpeg_quality, low=1, high=100)
+        check_number("--pose-noise", self.pose_noise_m, low=0, high=MAX_POSE_NOISE_M, unit="m")
+        check_number("--yaw-noise", self.yaw_noise_deg, low=0, high=180, unit="deg")
+        check_int("--face-px", self.face_px, low=256, high=MAX_FACE_PX)
         field_spec(self.field)
         if self.renderer not in c.RENDERERS:
             raise UsageError(
                 f"unknown renderer {self.renderer!r}; choose one of {', '.join(c.RENDERERS)}")
         if self.frames is not None and self.duration_s is not None:
             raise UsageError("give --frames or --duration, not both")
-        if self.frames is not None and self.frames < 1:
-            raise UsageError(f"--frames must be >= 1, got {self.frames}")
-        if self.duration_s is not None and not self.duration_s > 0:
-            raise UsageError(f"--duration must be > 0 s, got {self.duration_s}")
-        if self.rate_hz is not None and not 0 < self.rate_hz <= 1000:
-            raise UsageError(f"--rate must be in (0, 1000] Hz, got {self.rate_hz}")
+        check_int("--frames", self.frames, low=1, high=MAX_FRAMES)
+        check_number("--duration", self.duration_s, low=0, high=MAX_DURATION_S, low_open=True,
+                     unit="s")
+        check_number("--rate", self.rate_hz, low=0, high=1000, low_open=True, unit="Hz")
+        check_int("--robot-count", self.robots, low=1, high=8)
 
 
 @dataclass(frozen=True)
@@ -187,10 +195,8 @@ def _plan(path: Path, options: RecordOptions) -> _Plan:
     else:
         duration = sc.default_duration_s if options.duration_s is None else options.duration_s
         frames = max(1, round(duration * rate))
-    if not path.parent.is_dir():
-        raise UsageError(f"folder {str(path.parent)!r} does not exist; create it first")
-    if path.exists() and not options.force:
-        raise OutputExistsError(path)
+    check_suffix("output", path, (".mcap",))
+    check_output_path(path, force=options.force)
     return _Plan(sc, rate, frames)
 
 
@@ -301,34 +307,40 @@ class _Simulation:
         writer.write_pose(c.GT_BALL_TOPIC, t_ns, bx, by, bz, 0.0)
 
 
+PARTIAL = ".partial"
+"""A log is written as ``NAME.partial.mcap`` (``NAME.partial-2.mcap``, ... when one exists)
+beside ``NAME.mcap`` and renamed when done."""
+
+
 def _write_log(path: Path, fill: Callable[[LogWriter], None],
-               interrupted: Callable[[Path], Exception]) -> int:
-    """Write the log through ``fill`` to a hidden temporary file beside ``path`` and rename it
-    into place; return the message count. On Ctrl-C the log is finished (readable), kept as
-    ``<name>.partial.mcap`` and ``interrupted(partial)`` raised. On any other failure the
-    temporary file is removed."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    stream = open(tmp, "wb")
+               interrupted: Callable[[Path], Exception], *, force: bool) -> int:
+    """Write the log through ``fill`` to a new visible ``NAME.partial.mcap`` beside ``path``
+    (created exclusively, numbered so an earlier one is never replaced) and rename it into
+    place, fsynced; return the message count. On Ctrl-C the log is finished (readable), kept
+    under its partial name and ``interrupted(partial)`` raised. A killed recording leaves the
+    partial file, readable up to its last whole sim second with ``dsp-replay --recover``. On
+    any other failure the partial file is removed."""
+    out = AtomicFile(path, force=force, partial=PARTIAL)
     try:
-        writer = LogWriter(stream)
-        try:
-            fill(writer)
-        except KeyboardInterrupt:
+        with out.stream() as stream, out.guard():
+            writer = LogWriter(stream)
+            try:
+                fill(writer)
+            except KeyboardInterrupt:
+                writer.finish()
+                stream.close()
+                raise interrupted(out.keep()) from None
             writer.finish()
-            stream.close()
-            stem = path.name[:-5] if path.name.endswith(".mcap") else path.name
-            partial = path.with_name(stem + ".partial.mcap")
-            os.replace(tmp, partial)
-            raise interrupted(partial) from None
-        writer.finish()
-        stream.close()
-        os.replace(tmp, path)
+        out.commit()
         return writer.messages
     finally:
-        if not stream.closed:
-            stream.close()
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        out.discard()
+
+
+def partial_logs(path: Path | str) -> list[Path]:
+    """Partial logs beside ``path`` left by recordings to it that were interrupted or killed
+    (or that are still running)."""
+    return partial_paths(path, PARTIAL)
 
 
 def record(path: str | Path, options: RecordOptions) -> RecordSummary:
@@ -350,11 +362,13 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
             writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())
             writer.metadata(c.CAMERAS_METADATA, cameras.to_metadata())
             writer.metadata(c.RECORDER_METADATA, recorder.to_metadata())
+            writer.flush()  # the metadata reach the disk before the first frame
             with progress_bar(plan.frames, path.name, options.progress, unit="frame") as bar:
                 sim.run(writer, bar)
 
         messages = _write_log(path, fill,
-                              lambda partial: RecordingInterrupted(partial, sim.frames_done))
+                              lambda partial: RecordingInterrupted(partial, sim.frames_done),
+                              force=options.force)
         used_renderer = world.renderer
     return RecordSummary(
         path=path,

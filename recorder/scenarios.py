@@ -1,6 +1,6 @@
 """Scenarios: who stands where, where the ball is and how everything moves.
 
-``scenario1`` .. ``scenario4`` are the paper's (Section II.J, ../shared/paper/NOTES.md),
+``scenario1`` .. ``scenario4`` are the paper's (Section II.J, docs/method.md),
 ball at rest. ``random`` draws robot poses and a ball from the seed, sometimes with the ball
 hidden behind an opponent or out of robot 1's range. ``rolling`` rolls the ball across the
 field while the robots drive. Pure data and arithmetic: no pybullet here.
@@ -36,7 +36,7 @@ SCENARIOS = (*PAPER_SCENARIOS, "random", "rolling")
 """Every scenario name ``make_scenario`` knows."""
 
 _DEG = math.pi / 180.0
-# (robot 1, robot 2, robot 3) as (x, y, yaw_rad), ball (x, y): NOTES.md's table
+# (robot 1, robot 2, robot 3) as (x, y, yaw_rad), ball (x, y): docs/method.md's table
 _PAPER: dict[str, tuple[tuple[tuple[float, float, float], ...], tuple[float, float]]] = {
     "scenario1": (((-8.5, 0.0, 0.0), (-2.0, 1.0, 0.0), (-2.0, -1.0, 0.0)), (0.0, 0.0)),
     "scenario2": (((-8.5, 0.0, 0.0), (-2.0, 1.0, 0.0), (-2.0, -1.0, 0.0)), (0.0, 3.0)),

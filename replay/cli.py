@@ -1,6 +1,7 @@
 """``dsp-replay``: replay a log through the estimator (thin: parse, call, report).
 
-    dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL | --serve]
+    dsp-replay run.mcap [--rerun | --save out.rrd | --connect URL
+                         | --serve [--bind 127.0.0.1] [--port 9090] [--grpc-port 9876]]
                [--method paper|corrected] [--fusion mean|nearest|weighted|robust|track]
                [--out results.json] [--out-mcap estimates.mcap] [--out-csv estimates.csv]
                [--plot replay.png] [--force] ...
@@ -13,17 +14,20 @@ Known problems end in one line on stderr and an exit code, without a traceback
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from dsp import contract
 from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, run_main
+from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, ReplayOptions, RerunTarget
 from replay.recovery import describe as describe_recovery
+from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
 from replay.stats import ReplaySummary
 
@@ -46,7 +50,17 @@ def build_parser() -> argparse.ArgumentParser:
     viewer.add_argument("--connect", metavar="URL",
                         help="connect to a running viewer over gRPC "
                         "(e.g. rerun+http://127.0.0.1:9876/proxy)")
-    viewer.add_argument("--serve", action="store_true", help="serve the Rerun web viewer")
+    viewer.add_argument("--serve", action="store_true",
+                        help="serve the Rerun web viewer until Ctrl-C and print its URL")
+    p.add_argument("--bind", metavar="ADDR",
+                   help=f"with --serve: the address to serve on (default {DEFAULT_BIND}, this "
+                   "machine only; 0.0.0.0 for every interface)")
+    p.add_argument("--port", type=int, metavar="PORT",
+                   help=f"with --serve: the web viewer's port (default {DEFAULT_WEB_PORT}; "
+                   "0 picks a free one)")
+    p.add_argument("--grpc-port", type=int, metavar="PORT",
+                   help=f"with --serve: the data (gRPC) port (default {DEFAULT_GRPC_PORT}; "
+                   "0 picks a free one)")
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
                    "(default)")
@@ -73,6 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="refuse chunks larger than this, compressed or not (default 128)")
     p.add_argument("--max-image-mpx", type=float, default=40.0, metavar="MPX",
                    help="skip images whose header declares more megapixels (default 40)")
+    p.add_argument("--threads", type=int, metavar="N",
+                   help="threads decoding and detecting images ahead (default: the cores; "
+                   "1: serial); the outputs are the same whatever N")
     p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
     p.add_argument("--out-mcap", type=Path, metavar="MCAP", nargs="?", const=OUT_MCAP_IN_DIR,
                    help="write estimates as MCAP (with --out-dir: no file name)")
@@ -85,7 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def options_from_args(args: argparse.Namespace) -> ReplayOptions:
+def options_from_args(args: argparse.Namespace, serve_url: str | None = None) -> ReplayOptions:
+    """The replay's options; ``serve_url`` is the gRPC URL of the server ``--serve`` runs."""
     check_suffix("--save", args.save, (".rrd",))
     check_suffix("--out", args.out, (".json",))
     check_suffix("--out-mcap", args.out_mcap, (".mcap",))
@@ -99,7 +117,7 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
     elif args.connect is not None:
         rerun = RerunTarget("connect", args.connect)
     elif args.serve:
-        rerun = RerunTarget("serve")
+        rerun = RerunTarget("serve", serve_url)
     robots = None
     if args.robots:
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
@@ -108,21 +126,26 @@ def options_from_args(args: argparse.Namespace) -> ReplayOptions:
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
-        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun,
+        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun, threads=args.threads,
         progress=progress_enabled(args),
         max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx, quiet=args.quiet,
     )
 
 
 def _m(v: float | None) -> str:
-    return "-" if v is None else f"{v:.3f}"
+    """A metre figure for the table: "-" when there is none (or it is not finite)."""
+    return "-" if v is None or not math.isfinite(v) else f"{v:.3f}"
+
+
+def _rate(v: float) -> str:
+    return f"{v:.1f}" if math.isfinite(v) else "-"
 
 
 def format_summary(s: ReplaySummary) -> str:
     """A plain-text table of the replay."""
     lines = [f"replayed {s.path.name}: {s.frames} frames, {s.steps} steps "
-             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({s.frames_per_s:.1f} frames/s)"]
-    if s.estimator_ms is not None:
+             f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({_rate(s.frames_per_s)} frames/s)"]
+    if s.estimator_ms is not None and math.isfinite(s.estimator_ms):
         lines.append(f"estimator time: {s.estimator_ms:.2f} ms/frame (decode + detect + locate)")
     lines.append(f"{'':10} {'frames':>7} {'detect':>7} {'estim':>7} {'rmse_m':>8} "
                  f"{'mean_m':>8} {'max_m':>8}")
@@ -140,12 +163,39 @@ def format_summary(s: ReplaySummary) -> str:
     return "\n".join(lines)
 
 
+def _serve(args: argparse.Namespace) -> int:
+    """``--serve``: start the server, say where to look, replay into it, serve until Ctrl-C."""
+    from replay.rerun_live import ViewerServer
+
+    options_from_args(args)  # bad options are refused before a server starts
+    server = ViewerServer(
+        bind=args.bind or DEFAULT_BIND,
+        web_port=DEFAULT_WEB_PORT if args.port is None else args.port,
+        grpc_port=DEFAULT_GRPC_PORT if args.grpc_port is None else args.grpc_port)
+    with server:
+        print(f"{PROG}: serving the Rerun web viewer at {server.web_url} (open it in a "
+              "browser; Ctrl-C stops)", file=sys.stderr, flush=True)
+        summary = replay(args.log, options_from_args(args, server.grpc_url))
+        echo(args, format_summary(summary))
+        print(f"{PROG}: replay done; still serving at {server.web_url} until Ctrl-C",
+              file=sys.stderr, flush=True)
+        server.serve_forever()
+    print(f"{PROG}: stopped serving", file=sys.stderr)
+    return 0
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
+    live = [f for f, v in (("--bind", args.bind), ("--port", args.port),
+                           ("--grpc-port", args.grpc_port)) if v is not None]
+    if live and not args.serve:
+        raise UsageError(f"{', '.join(live)} only go with --serve")
     if is_batch(args):
         return run_batch(args, options_from_args)
     check_single(args)
     args.log = args.log[0]
+    if args.serve:
+        return _serve(args)
     echo(args, format_summary(replay(args.log, options_from_args(args))))
     return 0
 

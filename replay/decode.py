@@ -36,24 +36,31 @@ cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
 
 
 _STDERR_LOCK = threading.Lock()
+_stderr_users = 0
+_stderr_saved = -1
 
 
 @contextlib.contextmanager
 def _quiet_stderr() -> Iterator[None]:
-    """File descriptor 2 to /dev/null for the duration (libjpeg's warnings bypass Python)."""
+    """File descriptor 2 to /dev/null while any thread decodes a JPEG (libjpeg's warnings
+    bypass Python); decoding threads share the redirection, none waits for another."""
+    global _stderr_users, _stderr_saved
     with _STDERR_LOCK:
-        sys.stderr.flush()
-        saved = os.dup(2)
-        try:
+        if _stderr_users == 0:
+            sys.stderr.flush()
+            _stderr_saved = os.dup(2)
             devnull = os.open(os.devnull, os.O_WRONLY)
-            try:
-                os.dup2(devnull, 2)
-                yield
-            finally:
-                os.dup2(saved, 2)
-                os.close(devnull)
-        finally:
-            os.close(saved)
+            os.dup2(devnull, 2)
+            os.close(devnull)
+        _stderr_users += 1
+    try:
+        yield
+    finally:
+        with _STDERR_LOCK:
+            _stderr_users -= 1
+            if _stderr_users == 0:
+                os.dup2(_stderr_saved, 2)
+                os.close(_stderr_saved)
 
 
 def _png_size(data: bytes) -> tuple[int, int] | None:

@@ -41,7 +41,8 @@ from estimator.tracker import BallTracker, Measurement
 from replay.results import FrameResult, FrameStatus, RobotEstimate, StepResult
 from replay.sync import PoseMatch
 
-__all__ = ["DEFAULT_CENTRE_PX", "FrameEstimator", "FrameOutcome", "FrameStatus"]
+__all__ = ["DEFAULT_CENTRE_PX", "Detected", "FrameEstimator", "FrameOutcome", "FrameStatus",
+           "detect"]
 
 DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
 """The image centre of a robot whose log names no camera: the paper's."""
@@ -57,6 +58,25 @@ class FrameOutcome:
     """Pixel radius of the blob from the image centre (eq. 3)."""
     pose: PoseMatch | None = None
     estimate: RobotEstimate | None = None
+
+
+@dataclass(frozen=True)
+class Detected:
+    """An image's detection, which needs no pose, so it may run ahead of the estimation."""
+
+    status: FrameStatus | None
+    """BAD_IMAGE or DETECT_ERROR when detection could not run; None when it ran."""
+    detection: detection.Detection | None = None
+
+
+def detect(image: np.ndarray | None) -> Detected:
+    """The ball in a decoded image (None: the image did not decode). Pure and thread-safe."""
+    if image is None:
+        return Detected(FrameStatus.BAD_IMAGE)
+    try:
+        return Detected(None, detection.detect_ball(image))
+    except EstimatorError:
+        return Detected(FrameStatus.DETECT_ERROR)
 
 
 class Locator(Protocol):
@@ -185,15 +205,16 @@ class FrameEstimator:
         return self.cameras.centres.get(robot, DEFAULT_CENTRE_PX)
 
     def estimate(self, robot: str, image: np.ndarray | None,
-                 pose_at: Callable[[], PoseMatch | None]) -> FrameOutcome:
+                 pose_at: Callable[[], PoseMatch | None], *,
+                 detected: Detected | None = None) -> FrameOutcome:
         """One image through detection, pose pairing and location. ``pose_at`` looks up the
-        robot's pose at the image's stamp (None: none within the tolerance)."""
-        if image is None:
-            return FrameOutcome(FrameStatus.BAD_IMAGE)
-        try:
-            det = detection.detect_ball(image)
-        except EstimatorError:
-            return FrameOutcome(FrameStatus.DETECT_ERROR)
+        robot's pose at the image's stamp (None: none within the tolerance); ``detected``
+        is :func:`detect` of the image when it ran already (e.g. ahead, in a thread)."""
+        if detected is None:
+            detected = detect(image)
+        if detected.status is not None:
+            return FrameOutcome(detected.status)
+        det = detected.detection
         r_px = None
         if det is not None:
             cx, cy = self.centre(robot)

@@ -2,7 +2,7 @@
 
 Two suites:
 
-- ``paper``: the paper's four scenarios (NOTES.md). Each is recorded, then replayed with
+- ``paper``: the paper's four scenarios (docs/method.md). Each is recorded, then replayed with
   paper mode (eq. 3-14, mean fusion) and with the corrected estimator under each fusion
   method. As in the paper's Table 1, a scenario's estimate is the mean of its fused
   estimates, its square error the squared distance of that mean to the ball, and the RMSE
@@ -64,7 +64,7 @@ PAPER_TABLE1 = {
     "scenario3": {"x_m": 0.01252, "y_m": -2.652, "se_m2": 0.121},
     "scenario4": {"x_m": 0.149655, "y_m": 0.2995, "se_m2": 0.112},
 }
-"""The paper's Table 1 as printed (row 1's SE is its y error, see NOTES.md)."""
+"""The paper's Table 1 as printed (row 1's SE is its y error, see docs/method.md)."""
 PAPER_RMSE_M = 0.383
 DISTANCE_BANDS_M = ((0.0, 3.0), (3.0, 6.0), (6.0, 9.0), (9.0, math.inf))
 DUAL_SIGHT_RANGE_M = 9.0
@@ -204,7 +204,7 @@ def paper_markdown(suite: PaperSuite) -> str:
                  + " | ".join(f"| {_fmt(suite.rmse_m(lbl))}" for lbl in shown) + " |")
     lines += ["", "| estimator/fusion | RMSE over the 4 scenarios [m] |", "|---|---|",
               "| paper's Table 1 (as printed) | 0.383 |",
-              "| paper's Table 1 (row 1's SE corrected, NOTES.md) | 0.311 |"]
+              "| paper's Table 1 (row 1's SE corrected, docs/method.md) | 0.311 |"]
     lines += [f"| {lbl} | {_fmt(suite.rmse_m(lbl))} |" for lbl in suite.scores]
     return "\n".join(lines) + "\n"
 

@@ -13,7 +13,6 @@ Ray tasks (``--ray``); the tables are the same bytes whatever the worker count.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -22,8 +21,10 @@ from pathlib import Path
 from typing import Any
 
 from dsp.atomic import atomic_output
+from dsp.checks import check_int
 from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
+from dsp.jsonio import dumps as strict_json
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate import (
@@ -39,6 +40,9 @@ from replay.scenes import SceneMapper, SceneTask
 __all__ = ["SimRecorder", "build_parser", "main"]
 
 PROG = "dsp-eval"
+MAX_COUNT = 100_000
+MAX_SEED = 2**63 - 1 - MAX_COUNT
+"""Scene seeds run from --seed to --seed + --count - 1: all within 64 bits."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -77,8 +81,10 @@ class SimRecorder:
 
 def _check(args: argparse.Namespace) -> None:
     """Refuse bad options and a bad calibration before recording anything."""
-    if args.count < 1:
-        raise UsageError(f"--count {args.count}: give at least 1 scene")
+    check_int("--count", args.count, low=1, high=MAX_COUNT)
+    check_int("--seed", args.seed, low=0, high=MAX_SEED)
+    if args.out_dir.exists() and not args.out_dir.is_dir():
+        raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise InputError(f"{args.calibration}: calibration file not found")
@@ -133,7 +139,7 @@ def _main(argv: Sequence[str] | None) -> int:
     with atomic_output(md, force=True) as tmp:  # tables are rewritten on every run
         tmp.write_text(text, encoding="utf-8")
     with atomic_output(js, force=True) as tmp:
-        tmp.write_text(json.dumps(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8")
+        tmp.write_text(strict_json(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8")
     echo(args, text)
     echo(args, f"wrote {md} and .json in {time.perf_counter() - t0:.0f} s")
     return 0

@@ -68,7 +68,7 @@ def _field(ax: Any, trace: ReplayTrace) -> None:
                 label=f"{robot}'s estimates")
     if trace.truth:
         t = np.array(trace.truth)
-        ax.plot(t[:, 0], t[:, 1], "-", color=_TRUTH_DARK, lw=2.0, zorder=4, label="true ball")
+        ax.plot(t[:, 0], t[:, 1], "--", color=_TRUTH_DARK, lw=1.3, zorder=6, label="true ball")
     fused = np.array(trace.fused or np.empty((0, 4)), dtype=float).reshape(-1, 4)
     ax.plot(fused[:, 2], fused[:, 3], "-o", ms=2.5, lw=1.0, color=hex_colour(FUSED_COLOUR),
             zorder=5, label="fused")

@@ -40,7 +40,7 @@ class McapSink(SinkBase):
 
     def __init__(self, path: Path, *, force: bool = False) -> None:
         self._out = AtomicFile(path, force=force)
-        self._file = self._out.tmp.open("wb")
+        self._file = self._out.stream()
         self._writer = Writer(self._file)
         self._schemas: dict[str, Any] = {}
         for name in (contract.POINT_STAMPED, contract.POSE_WITH_COVARIANCE_STAMPED):
@@ -92,8 +92,9 @@ class McapSink(SinkBase):
     def close(self, ok: bool) -> None:
         try:
             if ok:
-                self._writer.finish()  # type: ignore[no-untyped-call]
-                self._file.close()
+                with self._out.guard():
+                    self._writer.finish()  # type: ignore[no-untyped-call]
+                    self._file.close()
                 self._out.commit()
         finally:
             self._file.close()

@@ -1,23 +1,29 @@
 """What a replay depends on: :class:`ReplayOptions`, validated when it is made.
 
 Seconds at this edge (the CLI's units); the runner turns them into integer nanoseconds once
-(:meth:`ReplayOptions.timing`). Output paths are checked against the file system only when a
-replay starts (:meth:`ReplayOptions.check_outputs`), since files come and go.
+(:meth:`ReplayOptions.timing`). Every value is checked when the options are made: times
+finite and in range (:data:`MAX_WINDOW_S`, :data:`~dsp.checks.MAX_TIME_S`), topic patterns
+holding ``{robot}``, no two outputs on one file (the CLI checks their extensions). Output
+paths are checked against the file system (and the input log) only when a replay starts
+(:meth:`ReplayOptions.check_outputs`), since files come and go.
 """
 
 from __future__ import annotations
 
-import math
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from dsp import contract
-from dsp.errors import OutputExistsError, UsageError
+from dsp.atomic import check_distinct, check_output_path
+from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
+from dsp.errors import UsageError
 from estimator.fusion import FUSION_METHODS
 from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
-__all__ = ["DEFAULT_FUSION", "METHODS", "NS", "ReplayOptions", "RerunTarget", "Timing"]
+__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "NS", "ReplayOptions", "RerunTarget",
+           "Timing"]
 
 METHODS = ("paper", "corrected")
 DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
@@ -25,6 +31,9 @@ DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
 (:mod:`estimator.tracker`): a fused position and velocity at every image stamp, robust to
 unsynchronised cameras and a moving ball (window fusions stay available)."""
 NS = 1_000_000_000
+MAX_WINDOW_S = 60.0
+"""The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their
+poses, so the look-ahead stays bounded."""
 RERUN_MODES = ("spawn", "save", "connect", "serve")
 
 
@@ -87,6 +96,9 @@ class ReplayOptions:
     """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
     force: bool = False
     rerun: RerunTarget | None = None
+    threads: int | None = None
+    """Threads decoding and detecting images ahead (:mod:`replay.ahead`); None: the
+    machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
@@ -104,24 +116,25 @@ class ReplayOptions:
             raise UsageError(
                 f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
             )
-        if not (math.isfinite(self.pose_tolerance_s) and self.pose_tolerance_s >= 0):
-            raise UsageError(f"--pose-tolerance {self.pose_tolerance_s}; must be >= 0")
-        if not (math.isfinite(self.window_s) and self.window_s > 0):
-            raise UsageError(f"--window {self.window_s}; must be > 0")
+        if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
+            raise UsageError(f"--threads {self.threads}; must be >= 1")
+        check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
+                     unit="s")
+        check_number("--window", self.window_s, low=0, high=MAX_WINDOW_S, low_open=True,
+                     unit="s")
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
-            if value is not None and not math.isfinite(value):
-                raise UsageError(f"{flag} {value}; must be a finite number of seconds")
-        for flag, limit in (("--max-chunk-mib", self.max_chunk_mib),
-                            ("--max-image-mpx", self.max_image_mpx)):
-            if not (math.isfinite(limit) and 0 < limit <= 1 << 20):
-                raise UsageError(f"{flag} {limit}; must be a positive number")
+            check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
+        check_number("--max-chunk-mib", self.max_chunk_mib, low=0, high=1 << 20, low_open=True,
+                     unit="MiB")
+        check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,
+                     unit="Mpx")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
-        named = [(flag, Path(p).resolve()) for flag, p in self.output_flags() if p is not None]
-        for i, (flag, path) in enumerate(named):
-            for other, other_path in named[i + 1:]:
-                if path == other_path:
-                    raise UsageError(f"{flag} and {other} name the same file")
+        check_topic_pattern("--image-topic", self.image_topic)
+        check_topic_pattern("--pose-topic", self.pose_topic)
+        if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
+            raise UsageError(f"--robots {','.join(self.robots)!r}: give robot names")
+        check_distinct(self.output_flags())
 
     @property
     def fusion_method(self) -> str:
@@ -158,11 +171,15 @@ class ReplayOptions:
     def max_image_pixels(self) -> int:
         return int(self.max_image_mpx * 1_000_000)
 
-    def check_outputs(self) -> None:
-        """Refuse to overwrite an existing output unless ``force``."""
-        for _flag, out in self.output_flags():
-            if out is not None and Path(out).exists() and not self.force:
-                raise OutputExistsError(out)
+    def check_outputs(self, log: Path | str | None = None) -> None:
+        """Refuse, before any work: an output that exists already (unless ``force``), is a
+        folder or has no folder; an output that is the input ``log`` or the calibration
+        file, or that another output names too (symlinks and hard links included)."""
+        check_distinct(self.output_flags(), [("the input log", log),
+                                             ("the --calibration file", self.calibration)])
+        for flag, out in self.output_flags():
+            if out is not None:
+                check_output_path(out, force=self.force, label=flag)
 
     def results_view(self) -> dict[str, Any]:
         """The options that shape the results (no output paths, no display switches)."""
@@ -180,8 +197,20 @@ class ReplayOptions:
             "recover": self.recover,
         }
 
+    @property
+    def thread_count(self) -> int:
+        """The threads in use: the ones asked for, else the cores this process may use."""
+        if self.threads is not None:
+            return self.threads
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # not on Linux
+            return max(1, os.cpu_count() or 1)
+
     def as_dict(self) -> dict[str, Any]:
-        """All options as plain values (for hashing into a Rerun recording id)."""
+        """All options as plain values (for hashing into a Rerun recording id); not the
+        thread count, which changes nothing in the outputs."""
         d = asdict(self)
+        d.pop("threads")
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

@@ -40,12 +40,13 @@ and so the summary's ``fused.velocity``.
 from __future__ import annotations
 
 import enum
+import io
 import json
 import math
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import IO, Any, Protocol
 
 import numpy as np
 
@@ -300,16 +301,17 @@ class ResultsWriter(SinkBase):
         """Assemble the file when the replay succeeded, else discard it."""
         try:
             if ok:
-                self._write(self._out.tmp)
+                with self._out.guard():  # a full disk: one line naming the results file
+                    self._write(self._out.stream())
                 self._out.commit()
         finally:
             for spool in self._spools.values():
                 spool.close()
             self._out.discard()
 
-    def _write(self, path: Path) -> None:
+    def _write(self, stream: IO[bytes]) -> None:
         doc: dict[str, Any] = {**_head(self.header, self.stats), "frames": None, "fused": None}
-        with path.open("w", encoding="ascii", newline="\n") as out:
+        with io.TextIOWrapper(stream, encoding="ascii", newline="\n") as out:
             out.write("{\n")
             keys = sorted(doc)
             for i, key in enumerate(keys):

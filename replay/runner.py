@@ -30,7 +30,7 @@ import numpy as np
 
 from dsp.errors import UsageError
 from estimator.errors import EstimatorError
-from replay.decode import DEFAULT_MAX_PIXELS, decode_image
+from replay.ahead import Ahead, decode_and_detect
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
 from replay.estimation import FrameEstimator
 from replay.options import ReplayOptions, Timing
@@ -73,7 +73,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     :class:`~replay.errors.ReplayError` subclasses for known problems."""
     options = options or ReplayOptions()
     path = Path(path)
-    options.check_outputs()
+    options.check_outputs(path)
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
                    robots=options.robots, recover=options.recover,
@@ -91,8 +91,10 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         stats = ReplayStats(info.robots)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
-            stream = _Stream(reader, estimator, options.timing(), [stats, *outputs, *sinks])
-            stream.max_pixels = options.max_image_pixels
+            ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
+                decode_and_detect, max_pixels=options.max_image_pixels)))
+            stream = _Stream(reader, estimator, options.timing(), [stats, *outputs, *sinks],
+                             ahead)
             with _progress(options, reader) as bar:
                 stream.run(bar)
             check_selected(path, info, options, stats.frames)
@@ -184,13 +186,14 @@ class _Stream:
     poses and step are complete, frames grouped into fusion steps, results to the sinks."""
 
     def __init__(self, reader: LogReader, estimator: FrameEstimator, timing: Timing,
-                 sinks: Sequence[Sink]) -> None:
+                 sinks: Sequence[Sink], ahead: Ahead) -> None:
         self.reader = reader
         self.robots = reader.info.robots
         self.has_truth = reader.info.has_truth
         self.estimator = estimator
         self.timing = timing
         self.sinks = sinks
+        self.ahead = ahead
         horizon = 2 * timing.lookahead_ns + timing.window_ns
         self.poses: dict[str, History[PoseMessage]] = {r: History(horizon) for r in self.robots}
         self.truth: History[TruthMessage] = History(horizon)
@@ -198,7 +201,6 @@ class _Stream:
         self.grouper: FusionGrouper[FrameResult] = FusionGrouper(
             estimator.step_window_ns(timing.window_ns))
         self.frames = 0
-        self.max_pixels = DEFAULT_MAX_PIXELS
         self.steps = 0
 
     def run(self, bar: Any) -> None:
@@ -216,6 +218,8 @@ class _Stream:
                 if t.end_ns is not None and msg.stamp_ns > t.end_ns + t.lookahead_ns:
                     break
                 self.delay.push(msg)
+                if self._wanted(msg):
+                    self.ahead.push(msg)  # decoded and detected in the pool meanwhile
                 now = msg.log_time_ns
             for ready in self.delay.ready(now):
                 self._image(ready)
@@ -236,17 +240,22 @@ class _Stream:
         except EstimatorError:  # estimator.errors.GeometryError: a zero or NaN quaternion
             return None
 
-    def _image(self, img: ImageMessage) -> None:
+    def _wanted(self, img: ImageMessage) -> bool:
+        """Whether the image is within --start / --end."""
         t = self.timing
-        if t.start_ns is not None and img.stamp_ns < t.start_ns:
+        return not ((t.start_ns is not None and img.stamp_ns < t.start_ns)
+                    or (t.end_ns is not None and img.stamp_ns > t.end_ns))
+
+    def _image(self, img: ImageMessage) -> None:
+        if not self._wanted(img):
             return
-        if t.end_ns is not None and img.stamp_ns > t.end_ns:
-            return
+        decoded = self.ahead.take(img)
+        image = decoded.image
         t_start = time.perf_counter()
-        image = decode_image(img, max_pixels=self.max_pixels)
         outcome = self.estimator.estimate(
-            img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns))
-        elapsed = time.perf_counter() - t_start
+            img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns),
+            detected=decoded.detected)
+        elapsed = decoded.seconds + time.perf_counter() - t_start
         # the truth goes with every frame, so a missed ball can be told from an absent one
         truth = self._truth_at(img.stamp_ns)
         est = outcome.estimate

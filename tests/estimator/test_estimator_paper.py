@@ -12,7 +12,7 @@ from estimator.paper import locate_ball, rpy_from_quaternion
 
 def test_worked_example_robot_1() -> None:
     # Section IV prints (-0.095, 0.278): it rounds dtr = 0.0174, pi = 3.14 and cos(0.001).
-    # With exact radians the same equations give (-0.0877, 0.2786) (NOTES.md, errata).
+    # With exact radians the same equations give (-0.0877, 0.2786) (docs/method.md, errata).
     x, y = locate_ball(539, 40, -8.5, 0.0, 0.0)
     assert x == pytest.approx(-0.0877, abs=1e-4)
     assert y == pytest.approx(0.2786, abs=1e-4)

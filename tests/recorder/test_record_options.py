@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 import pytest
@@ -22,15 +23,23 @@ def test_options_are_frozen() -> None:
 @pytest.mark.parametrize(("kwargs", "match"), [
     ({"camera": "pinhole"}, "unknown camera"),
     ({"image_format": "gif"}, "png or jpeg"),
-    ({"jpeg_quality": 0}, "1..100"),
-    ({"pose_noise_m": -0.1}, "noise must be >= 0"),
-    ({"face_px": 128}, ">= 256"),
+    ({"jpeg_quality": 0}, r"--jpeg-quality 0: give a whole number in \[1, 100\]"),
+    ({"pose_noise_m": -0.1}, r"--pose-noise -0.1: give a finite number in \[0, 100\] m"),
+    ({"pose_noise_m": math.nan}, "--pose-noise nan"),
+    ({"yaw_noise_deg": math.inf}, "--yaw-noise inf"),
+    ({"face_px": 128}, r"--face-px 128: give a whole number in \[256, 4096\]"),
+    ({"face_px": 10**6}, "--face-px 1000000"),
     ({"field": "30x20"}, "unknown field"),
     ({"renderer": "vulkan"}, "unknown renderer"),
     ({"frames": 2, "duration_s": 1.0}, "not both"),
-    ({"frames": 0}, ">= 1"),
-    ({"duration_s": 0.0}, "> 0 s"),
+    ({"frames": 0}, r"--frames 0: give a whole number in \[1, "),
+    ({"duration_s": 0.0}, r"--duration 0.0: give a finite number in \(0, 86400\] s"),
+    ({"duration_s": math.inf}, "--duration inf"),
+    ({"duration_s": math.nan}, "--duration nan"),
     ({"rate_hz": 2000.0}, r"\(0, 1000\]"),
+    ({"rate_hz": math.nan}, "--rate nan"),
+    ({"seed": -1}, "--seed -1"),
+    ({"robots": 0}, "--robot-count 0"),
 ])
 def test_bad_options_are_refused_when_made(kwargs: dict[str, Any], match: str) -> None:
     with pytest.raises(UsageError, match=match):

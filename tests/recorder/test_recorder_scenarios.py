@@ -18,7 +18,7 @@ from recorder.scenarios import (
     scenario_from_path,
 )
 
-# NOTES.md, "The four scenarios": robot 1, 2, 3 as (x, y, yaw deg), ball (x, y)
+# docs/method.md, "The four scenes": robot 1, 2, 3 as (x, y, yaw deg), ball (x, y)
 PAPER_TABLE = {
     "scenario1": ([(-8.5, 0, 0), (-2, 1, 0), (-2, -1, 0)], (0, 0)),
     "scenario2": ([(-8.5, 0, 0), (-2, 1, 0), (-2, -1, 0)], (0, 3)),

@@ -21,7 +21,7 @@ from replay.evaluate import (
     run_random_suite,
 )
 
-# NOTES.md: the paper's four scenarios (robot x, y, yaw; ball)
+# docs/method.md: the paper's four scenarios (robot x, y, yaw; ball)
 PAPER_ROBOTS = {
     "scenario1": {"robot1": (-8.5, 0.0, 0.0), "robot2": (-2.0, 1.0, 0.0),
                   "robot3": (-2.0, -1.0, 0.0)},
@@ -104,7 +104,7 @@ def test_random_suite_bands_and_dual_sight(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("args", "code", "message"), [
-    (["--count", "0", "--suite", "random"], 2, "--count 0: give at least 1 scene"),
+    (["--count", "0", "--suite", "random"], 2, "--count 0: give a whole number in [1, 100000]"),
     (["--calibration", "nowhere.json"], 1, "nowhere.json: calibration file not found"),
     (["--calibration", "bad.json"], 1, "bad.json: unusable calibration: calibration is not "
      "valid JSON (Expecting value: line 1 column 1 (char 0)); pass the text "

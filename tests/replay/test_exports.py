@@ -97,7 +97,7 @@ def test_an_output_with_the_wrong_extension_is_refused_before_the_replay(
 
 
 def test_two_outputs_naming_one_file_are_refused(tmp_path: Path) -> None:
-    with pytest.raises(UsageError, match="--out-csv and --plot name the same file"):
+    with pytest.raises(UsageError, match=r"--out-csv and --plot both name .*x; give each"):
         ReplayOptions(out_csv=tmp_path / "x", plot=tmp_path / "x")
 
 

@@ -1,0 +1,77 @@
+"""Option checks every command shares: numbers finite and in range, topic patterns that name
+the robot (output extensions: :func:`dsp.cli.check_suffix`).
+
+Each raises :class:`~dsp.errors.UsageError` (exit 2) with one line naming the option, the
+value given and what is accepted, before any work starts::
+
+    check_number("--window", 0.0, low=0, high=60, low_open=True, unit="s")
+    # UsageError: --window 0.0: give a finite number in (0, 60] s
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+
+from dsp.errors import UsageError
+
+__all__ = [
+    "MAX_TIME_S",
+    "check_int",
+    "check_number",
+    "check_topic_pattern",
+]
+
+MAX_TIME_S = 9e9
+"""The largest time [s] an option takes, either sign: stamps of real robots' logs are Unix
+times (1.7e9 s today), and 9e9 s in nanoseconds still fits a signed 64-bit integer."""
+
+
+def _num(x: float) -> str:
+    if isinstance(x, int):
+        return str(x)
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e16 else f"{x:g}"
+
+
+def _range(low: float | None, high: float | None, low_open: bool, high_open: bool,
+           unit: str) -> str:
+    if low is not None and high is not None:
+        text = f"in {'(' if low_open else '['}{_num(low)}, {_num(high)}{')' if high_open else ']'}"
+    elif low is not None:
+        text = f"{'>' if low_open else '>='} {_num(low)}"
+    elif high is not None:
+        text = f"{'<' if high_open else '<='} {_num(high)}"
+    else:
+        text = "any finite value"
+    return f"{text} {unit}".rstrip()
+
+
+def check_number(flag: str, value: float | None, *, low: float | None = None,
+                 high: float | None = None, low_open: bool = False, high_open: bool = False,
+                 unit: str = "") -> None:
+    """Refuse a ``value`` (None passes: the option was not given) that is not a finite number
+    within ``[low, high]`` (``low_open`` / ``high_open``: the bound itself is excluded)."""
+    if value is None:
+        return
+    too_low = low is not None and (operator.le if low_open else operator.lt)(value, low)
+    too_high = high is not None and (operator.ge if high_open else operator.gt)(value, high)
+    if not math.isfinite(value) or too_low or too_high:
+        raise UsageError(f"{flag} {value}: give a finite number "
+                         f"{_range(low, high, low_open, high_open, unit)}")
+
+
+def check_int(flag: str, value: int | None, *, low: int | None = None,
+              high: int | None = None) -> None:
+    """Refuse an integer ``value`` outside ``[low, high]`` (None passes)."""
+    if value is None:
+        return
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise UsageError(f"{flag} {value}: give a whole number "
+                         f"{_range(low, high, False, False, '')}")
+
+
+def check_topic_pattern(flag: str, pattern: str) -> None:
+    """A topic pattern must hold ``{robot}`` (where each robot's name goes) exactly once."""
+    if pattern.count("{robot}") != 1:
+        raise UsageError(f"{flag} {pattern!r}: the pattern must hold {{robot}} once, where the "
+                         "robot's name goes (e.g. /{robot}/pose)")

@@ -1,0 +1,234 @@
+"""Live viewing: a Rerun viewer that is there, or one line saying why not.
+
+- :class:`ViewerServer` (``dsp-replay --serve``): the Rerun web viewer and its gRPC server,
+  run as the ``rerun`` program that rerun-sdk ships, bound to ``--bind`` (127.0.0.1 unless
+  asked: the data is not published to the network by default) on ``--port`` (the page to
+  open) and ``--grpc-port``; it serves until Ctrl-C. (The SDK's own ``serve_grpc`` binds
+  every interface and offers no address.)
+- :func:`check_reachable` (``--connect``): a viewer must be listening at the URL, checked
+  in about a second, before anything is logged.
+- :func:`check_display` (``--rerun``): a viewer window needs a display; without one the
+  message suggests ``--serve`` or ``--save``.
+- :class:`Liveness`: while replaying, the viewer is checked about once a second; one that
+  went away ends the viewing with one line, and the replay goes on to write its results.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from types import TracebackType
+from urllib.parse import quote, urlsplit
+
+from dsp.errors import DspError, UsageError
+
+__all__ = [
+    "DEFAULT_BIND",
+    "DEFAULT_GRPC_PORT",
+    "DEFAULT_WEB_PORT",
+    "Liveness",
+    "ViewerServer",
+    "ViewerUnavailableError",
+    "check_display",
+    "check_reachable",
+    "grpc_address",
+    "reachable",
+    "rerun_executable",
+]
+
+DEFAULT_BIND = "127.0.0.1"
+DEFAULT_WEB_PORT = 9090
+DEFAULT_GRPC_PORT = 9876
+_SCHEMES = {"rerun": 9876, "rerun+http": 80, "rerun+https": 443}
+
+
+class ViewerUnavailableError(DspError):
+    """No Rerun viewer is reachable, or the one in use went away."""
+
+
+def grpc_address(url: str) -> tuple[str, int]:
+    """``rerun+http://127.0.0.1:9876/proxy`` -> ("127.0.0.1", 9876); a bad URL is a
+    :class:`~dsp.errors.UsageError`."""
+    parts = urlsplit(url)
+    if parts.scheme not in _SCHEMES or parts.path != "/proxy" or not parts.hostname:
+        raise UsageError(f"--connect {url!r}: give a Rerun gRPC URL such as "
+                         "rerun+http://127.0.0.1:9876/proxy")
+    try:
+        port = parts.port or _SCHEMES[parts.scheme]
+    except ValueError:
+        raise UsageError(f"--connect {url!r}: the port is not a number") from None
+    return parts.hostname, port
+
+
+def reachable(host: str, port: int, timeout_s: float = 1.0) -> bool:
+    """True when something accepts a TCP connection at ``host:port`` within ``timeout_s``."""
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            return True
+    except OSError:
+        return False
+
+
+def check_reachable(url: str, timeout_s: float = 2.0) -> None:
+    """Raise :class:`ViewerUnavailableError` unless a viewer listens at ``url``."""
+    host, port = grpc_address(url)
+    if not reachable(host, port, timeout_s):
+        raise ViewerUnavailableError(
+            f"--connect {url}: no Rerun viewer is listening at {host}:{port} (start one with "
+            "`rerun`, or use --serve to watch in a browser, or --save FILE.rrd)")
+
+
+def check_display() -> None:
+    """Raise :class:`ViewerUnavailableError` when a viewer window could not be shown."""
+    if sys.platform.startswith("linux") and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise ViewerUnavailableError(
+            "--rerun: no display to open a viewer window on (DISPLAY and WAYLAND_DISPLAY are "
+            "unset); use --serve to watch in a browser, or --save FILE.rrd to open later")
+
+
+def rerun_executable() -> Path:
+    """The ``rerun`` program that rerun-sdk ships (``RERUN_CLI_PATH`` overrides)."""
+    override = os.environ.get("RERUN_CLI_PATH")
+    if override:
+        return Path(override)
+    import rerun_cli
+
+    name = "rerun.exe" if sys.platform.startswith("win") else "rerun"
+    return Path(rerun_cli.__file__).parent / name
+
+
+def _port_free(bind: str, port: int) -> bool:
+    with socket.socket(socket.AF_INET6 if ":" in bind else socket.AF_INET) as s:
+        try:
+            s.bind((bind, port))
+        except OSError:
+            return False
+    return True
+
+
+def _free_port(bind: str) -> int:
+    with socket.socket(socket.AF_INET6 if ":" in bind else socket.AF_INET) as s:
+        s.bind((bind, 0))
+        return int(s.getsockname()[1])
+
+
+class ViewerServer:
+    """The Rerun web viewer and gRPC server as a child process (see the module docstring).
+
+    Port 0 picks a free port. Raises :class:`~dsp.errors.UsageError` for a port in use and
+    :class:`ViewerUnavailableError` when the server does not start within ``start_s``."""
+
+    def __init__(self, *, bind: str = DEFAULT_BIND, web_port: int = DEFAULT_WEB_PORT,
+                 grpc_port: int = DEFAULT_GRPC_PORT, start_s: float = 15.0) -> None:
+        self.bind = bind
+        self.web_port = web_port or _free_port(bind)
+        self.grpc_port = grpc_port or _free_port(bind)
+        self.start_s = start_s
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._log = tempfile.TemporaryFile()
+        self.extra_args: list[str] = []
+        """More arguments for ``rerun``, e.g. an .rrd file to serve."""
+
+    @property
+    def host(self) -> str:
+        """Where a browser on this machine reaches the server."""
+        if self.bind in ("0.0.0.0", "::", ""):
+            return "127.0.0.1"
+        return f"[{self.bind}]" if ":" in self.bind else self.bind
+
+    @property
+    def grpc_url(self) -> str:
+        return f"rerun+http://{self.host}:{self.grpc_port}/proxy"
+
+    @property
+    def web_url(self) -> str:
+        """The page to open: the web viewer, connected to the gRPC server."""
+        return f"http://{self.host}:{self.web_port}/?url={quote(self.grpc_url, safe='')}"
+
+    def start(self) -> ViewerServer:
+        for flag, port in (("--port", self.web_port), ("--grpc-port", self.grpc_port)):
+            if not _port_free(self.bind, port):
+                raise UsageError(f"{flag} {port}: already in use on {self.bind}; choose "
+                                 f"another ({flag} 0 picks a free one)")
+        cmd = [str(rerun_executable()), "--serve-web", "--bind", self.bind,
+               "--port", str(self.grpc_port), "--web-viewer-port", str(self.web_port),
+               *self.extra_args]
+        try:
+            self._proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self._log,
+                                          stderr=subprocess.STDOUT)
+        except OSError as err:
+            raise ViewerUnavailableError(f"--serve: cannot run {cmd[0]}: {err}") from err
+        deadline = time.monotonic() + self.start_s
+        while not reachable(self.host.strip("[]"), self.grpc_port, 0.5):
+            if self._proc.poll() is not None or time.monotonic() > deadline:
+                detail = self._last_log_line()
+                self.stop()
+                raise ViewerUnavailableError(
+                    f"--serve: the Rerun server did not start on {self.bind}"
+                    + (f": {detail}" if detail else ""))
+            time.sleep(0.1)
+        return self
+
+    def _last_log_line(self) -> str:
+        self._log.seek(0)
+        lines = [ln for ln in self._log.read().decode(errors="replace").splitlines()
+                 if ln.strip()]
+        return lines[-1].strip()[:200] if lines else ""
+
+    def alive(self) -> bool:
+        return self._proc is not None and self._proc.poll() is None
+
+    def serve_forever(self, poll_s: float = 0.5) -> None:
+        """Block until Ctrl-C (or the server ends); then stop it. Ctrl-C here is the normal
+        way to end serving, so it returns instead of raising."""
+        try:
+            while self.alive():
+                time.sleep(poll_s)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self.stop()
+
+    def stop(self) -> None:
+        proc, self._proc = self._proc, None
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        self._log.close()
+
+    def __enter__(self) -> ViewerServer:
+        return self.start()
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.stop()
+
+
+class Liveness:
+    """Checks, at most every ``interval_s``, that the viewer is still there."""
+
+    def __init__(self, check: Callable[[], bool], *, interval_s: float = 1.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.check = check
+        self.interval_s = interval_s
+        self.clock = clock
+        self.last = clock()
+
+    def gone(self) -> bool:
+        """True when the check is due and fails."""
+        now = self.clock()
+        if now - self.last < self.interval_s:
+            return False
+        self.last = now
+        return not self.check()

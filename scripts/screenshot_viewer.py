@@ -1,0 +1,145 @@
+"""Screenshots of a replay in the Rerun web viewer, in its light and dark themes.
+
+    python scripts/screenshot_viewer.py run.rrd --out-dir shots/ [--themes light,dark]
+        [--size 1920x1080] [--wait 45] [--chromium chromium]
+
+What a person would see when opening the replay: the ``rerun`` program that rerun-sdk ships
+serves the .rrd and the web viewer on 127.0.0.1 (free ports), headless Chromium (Debian:
+``apt-get install chromium``) opens the page with the colour scheme the theme asks for
+(the viewer follows the browser's), waits for the viewer to load and draw, and saves
+``<stem>-<theme>.png``. The browser is driven over its DevTools pipe, so nothing but the
+standard library and Chromium is needed. WebGL comes from SwiftShader (no GPU needed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import fcntl
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from replay.rerun_live import ViewerServer
+
+THEMES = ("light", "dark")
+
+
+class DevTools:
+    """The Chrome DevTools protocol over ``--remote-debugging-pipe`` (fds 3 and 4)."""
+
+    def __init__(self, chromium: str, size: tuple[int, int], profile: Path) -> None:
+        to_child_r, self._to_child = os.pipe()
+        self._from_child, from_child_w = os.pipe()
+        # high numbers first, so that moving them onto 3 and 4 in the child cannot collide
+        r_hi, w_hi = fcntl.fcntl(to_child_r, fcntl.F_DUPFD, 10), fcntl.fcntl(
+            from_child_w, fcntl.F_DUPFD, 10)
+        os.close(to_child_r)
+        os.close(from_child_w)
+
+        def fds() -> None:  # in the child: its fd 3 reads our commands, fd 4 writes replies
+            os.dup2(r_hi, 3)
+            os.dup2(w_hi, 4)
+
+        cmd = [chromium, "--headless=new", "--no-sandbox", "--remote-debugging-pipe",
+               "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist",
+               "--hide-scrollbars", "--no-first-run", f"--user-data-dir={profile}",
+               f"--window-size={size[0]},{size[1]}", "about:blank"]
+        self.proc = subprocess.Popen(cmd, preexec_fn=fds, pass_fds=(3, 4),
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        os.close(r_hi)
+        os.close(w_hi)
+        self._next = 0
+        self._buf = b""
+
+    def call(self, method: str, session: str | None = None, **params: Any) -> dict[str, Any]:
+        self._next += 1
+        msg: dict[str, Any] = {"id": self._next, "method": method, "params": params}
+        if session:
+            msg["sessionId"] = session
+        os.write(self._to_child, json.dumps(msg).encode() + b"\0")
+        while True:
+            reply = self._read()
+            if reply.get("id") == self._next:
+                if "error" in reply:
+                    raise RuntimeError(f"{method}: {reply['error']}")
+                return dict(reply.get("result", {}))
+
+    def _read(self) -> dict[str, Any]:
+        while b"\0" not in self._buf:
+            chunk = os.read(self._from_child, 1 << 20)
+            if not chunk:
+                raise RuntimeError("Chromium closed its DevTools pipe")
+            self._buf += chunk
+        raw, self._buf = self._buf.split(b"\0", 1)
+        return dict(json.loads(raw))
+
+    def close(self) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+
+
+def screenshot(chromium: str, url: str, theme: str, size: tuple[int, int], wait_s: float,
+               out: Path) -> None:
+    with tempfile.TemporaryDirectory(prefix="dsp-chromium-") as profile:
+        tools = DevTools(chromium, size, Path(profile))
+        try:
+            target = tools.call("Target.createTarget", url="about:blank")["targetId"]
+            session = tools.call("Target.attachToTarget", targetId=target,
+                                 flatten=True)["sessionId"]
+            tools.call("Emulation.setDeviceMetricsOverride", session, width=size[0],
+                       height=size[1], deviceScaleFactor=1, mobile=False)
+            tools.call("Emulation.setEmulatedMedia", session, features=[
+                {"name": "prefers-color-scheme", "value": theme}])
+            tools.call("Page.enable", session)
+            tools.call("Page.navigate", session, url=url)
+            time.sleep(wait_s)
+            shot = tools.call("Page.captureScreenshot", session, format="png")
+            out.write_bytes(base64.b64decode(shot["data"]))
+        finally:
+            tools.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("rrd", type=Path, help="a replay saved with dsp-replay --save")
+    p.add_argument("--out-dir", type=Path, default=Path("."))
+    p.add_argument("--themes", default="light,dark", help="light, dark or both")
+    p.add_argument("--size", default="1920x1080", help="browser window, WIDTHxHEIGHT")
+    p.add_argument("--wait", type=float, default=45.0,
+                   help="seconds for the viewer to load and draw (default %(default)s)")
+    p.add_argument("--chromium", default=shutil.which("chromium") or "chromium")
+    args = p.parse_args(argv)
+    if not args.rrd.is_file():
+        p.error(f"{args.rrd}: no such file")
+    themes = [t.strip() for t in args.themes.split(",") if t.strip()]
+    if not themes or set(themes) - set(THEMES):
+        p.error(f"--themes {args.themes!r}: choose from {', '.join(THEMES)}")
+    width, height = (int(v) for v in args.size.lower().split("x"))
+    args.out_dir.mkdir(parents=True, exist_ok=True)
+    # a plain kill ends the browser and the server too (the finally blocks run)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    server = ViewerServer(web_port=0, grpc_port=0)
+    server.extra_args = [str(args.rrd.resolve())]
+    with server:
+        for theme in themes:
+            out = args.out_dir / f"{args.rrd.stem}-{theme}.png"
+            screenshot(args.chromium, server.web_url, theme, (width, height), args.wait, out)
+            print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

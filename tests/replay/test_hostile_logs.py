@@ -303,3 +303,10 @@ def test_recover_reads_the_complete_messages_of_an_unchunked_tail(tmp_path: Path
     assert 0.35 * full <= summary.frames < full
     rec = summary.recovered
     assert rec is not None and rec["truncated"] and rec["bad_chunks"] == 0
+
+
+def test_golden_rolling_log_cut_in_half_recovers(tmp_path: Path) -> None:
+    data = (GOLDEN / "rolling.mcap").read_bytes()
+    cut = _write(tmp_path, data[: len(data) // 2], "half.mcap")
+    full = replay(GOLDEN / "rolling.mcap").frames
+    assert replay(cut, ReplayOptions(recover=True)).frames >= 0.35 * full

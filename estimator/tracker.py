@@ -27,6 +27,8 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
 - **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
   after each, so an estimate stamped before the newest is inserted in stamp order and the
   track re-run from there. Causal: a state at t uses only estimates received so far.
+- **Offline**: with ``record=True`` the filter's states are kept and :meth:`BallTracker.smoothed`
+  runs the RTS smoother over them (:mod:`estimator.tracker_smoother`).
 
 Deterministic: no randomness; estimates with equal stamps are processed in arrival order.
 """
@@ -44,6 +46,7 @@ from estimator.corrected import BallEstimate
 from estimator.errors import FusionError
 from estimator.fusion import CalibratedNoise, Covariance, FusedEstimate, Noise
 from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
+from estimator.tracker_smoother import FilterNode, SmoothedTrack
 
 __all__ = [
     "GATE_CHI2_999",
@@ -146,6 +149,8 @@ class _Entry:
     accepted: bool = False
     state: Gaussian | None = None
     """Posterior when accepted, else the prediction to its stamp."""
+    prior: Gaussian | None = None
+    """The prediction to its stamp (kick included), for the smoother."""
 
     @property
     def key(self) -> tuple[int, int]:
@@ -171,8 +176,12 @@ class BallTracker:
     """The causal ball tracker (module docstring). Feed :meth:`update` with estimates in
     (about) stamp order; read :meth:`state_at` at any stamp."""
 
-    def __init__(self, params: TrackerParams | None = None) -> None:
+    def __init__(self, params: TrackerParams | None = None, *, record: bool = False) -> None:
         self.params = params or TrackerParams()
+        self.record = record
+        """Keep the filter's state at every estimate, for :meth:`smoothed` (offline)."""
+        self._nodes: list[FilterNode] = []
+        self._segment = -1
         self._track: _Track | None = None
         self._seq = 0
         self.late = 0
@@ -188,10 +197,10 @@ class BallTracker:
         track = self._track
         if track is not None and m.stamp_ns - self._last_accepted_ns(track) > (
                 self.params.lost_after_ns):
+            self._fold(track, len(track.entries))
             track = self._track = None  # lost: start afresh
         if track is None:
-            self._track = _Track(m.stamp_ns, self._initial(e), robots={m.robot},
-                                 anchor_accepted_ns=m.stamp_ns, anchor_robot=m.robot)
+            self._track = self._new_track(e, [])
             return True
         if m.stamp_ns < track.anchor_ns:
             self.late += 1
@@ -237,6 +246,7 @@ class BallTracker:
             _, _, d2 = innovation(prior, e.z, e.r)
             e.accepted = d2 <= prm.gate
             e.state = update(prior, e.z, e.r) if e.accepted else prior
+            e.prior = prior
             t_prev, state = e.m.stamp_ns, e.state
 
     def _consistent(self, a: _Entry, b: _Entry) -> bool:
@@ -283,11 +293,12 @@ class BallTracker:
         for f in self._partners(track, e, self.params.memory_ns):
             if f.m.robot == e.m.robot and others:
                 continue  # one robot alone may not overrule the others
-            later = [x for x in track.entries if x.key > f.key]
+            i = track.entries.index(f)
+            later = track.entries[i + 1:]
             for x in later:
                 x.kick = False
-            fresh = _Track(f.m.stamp_ns, self._initial(f), later, robots={f.m.robot},
-                           anchor_accepted_ns=f.m.stamp_ns, anchor_robot=f.m.robot)
+            self._fold(track, i)  # the false start's record ends before f
+            fresh = self._new_track(f, later)
             self._rerun(fresh, 0)
             self._track = fresh
             return
@@ -302,16 +313,32 @@ class BallTracker:
             track.confirmed = True
         track.robots.add(e.m.robot)
 
+    def _new_track(self, e: _Entry, entries: list[_Entry]) -> _Track:
+        """A tentative track anchored at ``e`` (a new segment of the record)."""
+        initial = self._initial(e)
+        self._segment += 1
+        if self.record:
+            self._nodes.append(FilterNode(e.m.stamp_ns, initial, initial, self._segment))
+        return _Track(e.m.stamp_ns, initial, entries, robots={e.m.robot},
+                      anchor_accepted_ns=e.m.stamp_ns, anchor_robot=e.m.robot)
+
     def _prune(self, track: _Track, now_ns: int) -> None:
         """Fold entries older than memory_ns into the anchor."""
         limit = now_ns - self.params.memory_ns
-        while track.entries and track.entries[0].m.stamp_ns < limit:
-            first = track.entries.pop(0)
-            assert first.state is not None
+        self._fold(track, sum(1 for e in track.entries if e.m.stamp_ns < limit))
+
+    def _fold(self, track: _Track, count: int) -> None:
+        """Fold the first ``count`` entries into the anchor (they are final: recorded)."""
+        for first in track.entries[:count]:
+            assert first.state is not None and first.prior is not None
             track.anchor_ns, track.anchor = first.m.stamp_ns, first.state
             track.anchor_robot = None
             if first.accepted:
                 track.anchor_accepted_ns = first.m.stamp_ns
+            if self.record:
+                self._nodes.append(FilterNode(first.m.stamp_ns, first.prior, first.state,
+                                              self._segment))
+        del track.entries[:count]
 
     @staticmethod
     def _last_accepted_ns(track: _Track) -> int:
@@ -319,6 +346,18 @@ class BallTracker:
             if e.accepted:
                 return e.m.stamp_ns
         return track.anchor_accepted_ns
+
+    def finish(self) -> None:
+        """Make every estimate so far final (no late estimate can reach them any more)."""
+        if self._track is not None:
+            self._fold(self._track, len(self._track.entries))
+
+    def smoothed(self) -> SmoothedTrack:
+        """The fixed-interval smoother over the record (after :meth:`finish`); requires
+        ``record=True``."""
+        if not self.record:
+            raise FusionError("smoothed() needs BallTracker(record=True)")
+        return SmoothedTrack(self._nodes, friction_per_s=self.params.friction_per_s)
 
     # --- reading --------------------------------------------------------------------------
     @property

@@ -68,6 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; for the corrected estimator track: a Kalman filter "
                    "giving position and velocity at every image stamp)")
+    p.add_argument("--smooth", action="store_true",
+                   help="offline: smooth the track over the whole log (RTS smoother) instead "
+                   "of the causal estimate a robot would have live (--fusion track)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
@@ -122,7 +125,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     if args.robots:
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
     return ReplayOptions(
-        method=args.method, fusion=args.fusion, calibration=args.calibration,
+        method=args.method, fusion=args.fusion, calibration=args.calibration, smooth=args.smooth,
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,

@@ -15,7 +15,9 @@ A frame without a ball is not a skipped frame: NO_DETECTION still carries the po
 (``track``) the ball tracker fed with each estimate at its own stamp, with its calibrated
 covariance (:class:`~estimator.fusion.CalibratedNoise`), and read at the step's stamp, with
 the ball's velocity. The tracker makes a step at every image stamp
-(:meth:`FrameEstimator.step_window_ns`).
+(:meth:`FrameEstimator.step_window_ns`). Offline (``smooth``), the steps are held back and
+leave with the RTS smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
+:meth:`FrameEstimator.flush`).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -38,7 +40,9 @@ from estimator.constants import PAPER_CENTRE_PX
 from estimator.errors import EstimatorError
 from estimator.geometry import RobotPose
 from estimator.tracker import BallTracker, Measurement
+from estimator.tracker_smoother import SmoothedTrack
 from replay.results import FrameResult, FrameStatus, RobotEstimate, StepResult
+from replay.sink import Sink, SinkBase
 from replay.sync import PoseMatch
 
 __all__ = ["DEFAULT_CENTRE_PX", "Detected", "FrameEstimator", "FrameOutcome", "FrameStatus",
@@ -184,7 +188,7 @@ class FrameEstimator:
 
     def __init__(self, *, method: str, fusion_method: str, robots: Sequence[str],
                  camera_metadata: Mapping[str, Mapping[str, Any]], source: str,
-                 calibration_file: Path | None = None) -> None:
+                 calibration_file: Path | None = None, smooth: bool = False) -> None:
         self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
@@ -193,9 +197,10 @@ class FrameEstimator:
         self.tracker: BallTracker | None = None
         if fusion_method == "track":
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
-            self.tracker = BallTracker()
+            self.tracker = BallTracker(record=smooth)
         else:  # the window fusions keep their own noise model (NoiseModel)
             self.fusion = fusion.get_fusion(fusion_method)
+        self._deferred: _Deferred | None = None
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
@@ -237,6 +242,32 @@ class FrameEstimator:
             return None
         return self.fusion.fuse([_ball(e) for e in estimates])
 
+    def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
+        """The sinks the runner feeds: these, or (smoothing) one that passes frames on and
+        holds the steps back until :meth:`flush`."""
+        if self.tracker is None or not self.tracker.record:
+            return list(sinks)
+        self._deferred = _Deferred(self, list(sinks))
+        return [self._deferred]
+
+    def flush(self) -> None:
+        """Once the log is read: the held-back steps, smoothed, to the sinks."""
+        if self._deferred is not None:
+            self._deferred.flush()
+
+    def smoothed_step(self, step: StepResult, smooth: SmoothedTrack) -> StepResult:
+        """``step`` with the smoothed track in place of the causal one (where there was one)."""
+        g = None if step.fused is None else smooth.state_at(step.stamp_ns)
+        if g is None:
+            return step
+        x, p = g
+        fused = fusion.FusedEstimate(float(x[0]), float(x[1]), _covariance(p[:2, :2]),
+                                     step.fused.robots)
+        err = None if step.truth is None else math.hypot(fused.x_m - step.truth[0],
+                                                         fused.y_m - step.truth[1])
+        return replace(step, fused=fused, error_m=err, velocity_m_s=(float(x[2]), float(x[3])),
+                       velocity_covariance=_covariance(p[2:, 2:]))
+
     def step_window_ns(self, window_ns: int) -> int:
         """The window that groups frames into steps: the fusion window, or 1 ns for the
         tracker, which gives a fused estimate at every image stamp."""
@@ -267,8 +298,7 @@ class FrameEstimator:
                 continue
             sigma = self.noise.covariance(_ball(f.estimate, f.r_px))
             tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m, f.estimate.y_m,
-                                       ((float(sigma[0, 0]), float(sigma[0, 1])),
-                                        (float(sigma[1, 0]), float(sigma[1, 1])))))
+                                       _covariance(sigma)))
         state = tracker.state_at(stamp_ns)
         if state is None:
             return None, None, None
@@ -281,3 +311,35 @@ def _ball(e: RobotEstimate, r_px: float | None = None) -> corrected.BallEstimate
     return corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
                                   range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m,
                                   y_m=e.y_m, visibility=e.visibility, r_px=r_px)
+
+
+def _covariance(m: np.ndarray) -> fusion.Covariance:
+    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
+
+
+class _Deferred(SinkBase):
+    """Sinks behind the offline smoother: frames pass at once, steps wait for the whole
+    log (:meth:`flush`), then go on with the smoothed track (the ``--smooth`` option)."""
+
+    def __init__(self, estimator: FrameEstimator, sinks: list[Sink]) -> None:
+        self.estimator = estimator
+        self.sinks = sinks
+        self._steps: list[StepResult] = []
+
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
+        for sink in self.sinks:
+            sink.frame(result, image_bgr)
+
+    def step(self, result: StepResult) -> None:
+        self._steps.append(result)
+
+    def flush(self) -> None:
+        tracker = self.estimator.tracker
+        assert tracker is not None
+        tracker.finish()
+        smooth = tracker.smoothed()
+        for step in self._steps:
+            smoothed = self.estimator.smoothed_step(step, smooth)
+            for sink in self.sinks:
+                sink.step(smoothed)
+        self._steps.clear()

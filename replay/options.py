@@ -88,6 +88,9 @@ class ReplayOptions:
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
+    smooth: bool = False
+    """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
+    (``track`` fusion only); steps reach the sinks once the log is read."""
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
@@ -130,6 +133,9 @@ class ReplayOptions:
                      unit="Mpx")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
+        if self.smooth and self.fusion_method != "track":
+            raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
+                             f"{self.fusion_method!r}")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
@@ -195,6 +201,7 @@ class ReplayOptions:
             "pose_tolerance_s": self.pose_tolerance_s,
             "window_s": self.window_s,
             "recover": self.recover,
+            **({"smooth": True} if self.smooth else {}),  # files without it are unchanged
         }
 
     @property

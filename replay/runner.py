@@ -87,16 +87,17 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, robots=info.robots,
             camera_metadata=info.cameras.by_robot(), source=str(reader.path),
-            calibration_file=options.calibration)
+            calibration_file=options.calibration, smooth=options.smooth)
         stats = ReplayStats(info.robots)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels)))
-            stream = _Stream(reader, estimator, options.timing(), [stats, *outputs, *sinks],
-                             ahead)
+            stream = _Stream(reader, estimator, options.timing(),
+                             estimator.sinks([stats, *outputs, *sinks]), ahead)
             with _progress(options, reader) as bar:
                 stream.run(bar)
+            estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader)
             _warn(reader, options)

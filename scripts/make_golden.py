@@ -60,6 +60,7 @@ CONFIGS: tuple[tuple[str, str], ...] = (
     ("corrected", "nearest"),
     ("corrected", "weighted"),
     ("corrected", "robust"),
+    ("corrected", "track"),  # the tracker: a step at every image stamp, with the velocity
 )
 """(method, fusion) pairs replayed for every scene (each expected file is ~5 kB)."""
 

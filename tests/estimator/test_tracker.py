@@ -268,3 +268,41 @@ def test_robust_differs_from_weighted_with_calibrated_noise() -> None:
     track = get_fusion("track").fuse(outlier)
     assert track is not None and "robot4" not in track.robots
     assert abs(track.x_m - 0.5) < 0.005
+
+
+# --- the offline smoother -----------------------------------------------------------------------
+
+
+def test_the_smoother_beats_the_causal_track_offline() -> None:
+    tracker = BallTracker(record=True)
+    steps = feed(tracker, bounce, frames=30, seed=3)
+    tracker.finish()
+    smooth = tracker.smoothed()
+    assert len(smooth) == len(steps)  # one node per estimate, the first is the start
+    causal, smoothed = [], []
+    for t, _, _, state in steps[6:]:
+        causal.append(error(state, bounce, t)[0])
+        g = smooth.state_at(round(t * 1e9))
+        assert g is not None
+        (x, y), _ = bounce(t)
+        smoothed.append(math.hypot(g[0][0] - x, g[0][1] - y))
+        assert np.all(np.linalg.eigvalsh(g[1]) > 0)
+    rms = [float(np.sqrt(np.mean(np.square(e)))) for e in (causal, smoothed)]
+    assert rms[1] < 0.6 * rms[0]  # the bounce's late estimate and the noise both shrink
+    assert smooth.state_at(-1) is None
+    with pytest.raises(FusionError, match="record=True"):
+        BallTracker().smoothed()
+
+
+def test_the_smoother_keeps_segments_apart_across_a_loss() -> None:
+    tracker = BallTracker(TrackerParams(lost_after_ns=200 * MS), record=True)
+    feed(tracker, straight, frames=6)  # 0 .. 0.3 s at (1, 0.5) + (3, -1) t
+    far = (-4.0, 2.0)
+    for k in range(6):  # 1 s later, a still ball elsewhere: a new segment
+        tracker.update(Measurement(1_300 * MS + k * 17 * MS, ROBOTS[k % 3], *far, R))
+    tracker.finish()
+    smooth = tracker.smoothed()
+    early, late = smooth.state_at(200 * MS), smooth.state_at(1_380 * MS)
+    assert early is not None and late is not None
+    assert abs(early[0][0] - straight(0.2)[0][0]) < 0.01  # not pulled towards the new ball
+    assert abs(late[0][0] - far[0]) < 0.01

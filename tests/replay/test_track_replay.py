@@ -14,6 +14,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from synthetic import NS, write_log
 
+from dsp.errors import UsageError
 from replay import ReplayOptions, replay
 
 MS = 1_000_000
@@ -136,3 +137,19 @@ def test_without_true_velocity_there_is_no_velocity_error(tmp_path: Path) -> Non
     assert not any("velocity_error_m_s" in s or "truth_velocity_m_s" in s
                    for s in doc["fused"])
     assert "velocity" not in doc["summary"]["fused"] and summary.fused_velocity is None
+
+
+def test_smooth_replays_the_whole_track_offline(moving_log: Path, replays: dict[str, Path],
+                                                tmp_path: Path) -> None:
+    out = tmp_path / "smooth.json"
+    replay(moving_log, ReplayOptions(fusion="track", smooth=True, out=out,
+                                     out_mcap=tmp_path / "s.mcap", progress=False))
+    smooth, causal = _results(out), _results(replays["track"])
+    assert smooth["options"]["smooth"] is True and "smooth" not in causal["options"]
+    assert [s["stamp_ns"] for s in smooth["fused"]] == [s["stamp_ns"] for s in causal["fused"]]
+    assert smooth["frames"] == causal["frames"]
+    assert smooth["summary"]["fused"]["rmse_m"] < causal["summary"]["fused"]["rmse_m"]
+    v_smooth = smooth["summary"]["fused"]["velocity"]["rmse_m_s"]
+    assert v_smooth < causal["summary"]["fused"]["velocity"]["rmse_m_s"]
+    with pytest.raises(UsageError, match="--smooth smooths the tracker; it needs --fusion track"):
+        ReplayOptions(fusion="weighted", smooth=True)

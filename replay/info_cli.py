@@ -15,6 +15,7 @@ from pathlib import Path
 
 from dsp.cli import add_common_arguments, run_main
 from dsp.errors import EXIT_INPUT
+from replay.errors import CorruptLogError, ReplayError, TruncatedLogError
 from replay.info import format_info, log_info
 
 __all__ = ["build_parser", "main"]
@@ -39,7 +40,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
-    summary = log_info(args.log, check=args.check)
+    try:
+        summary = log_info(args.log, check=args.check)
+    except (CorruptLogError, TruncatedLogError) as err:
+        text = str(err).split("; use --recover")[0]
+        raise ReplayError(f"{text}; dsp-info --check lists every problem") from err
     print(summary.to_json() if args.json else format_info(summary), end="\n" if not args.json
           else "")
     if summary.problems:

@@ -272,7 +272,7 @@ class LogReader:
         """A log written by dsp-record names every robot's camera (missing: an error); for
         another writer's log, say loudly that the paper's calibration stands in."""
         have = cameras.by_robot()
-        missing = [r for r in robots if r not in have]
+        missing = [shown(r) for r in robots if r not in have]
         if not missing:
             return ()
         if recorder is not None:

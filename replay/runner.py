@@ -100,8 +100,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader)
-            _warn(reader, options)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
+        _warn(reader, options)  # once the outputs are written
     return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
         if p is not None))
@@ -142,10 +142,10 @@ def _recovered(reader: LogReader) -> dict[str, Any] | None:
 
 
 def _warn(reader: LogReader, options: ReplayOptions) -> None:
-    """What the user must know about a replay that worked: fallbacks and skipped messages."""
+    """What the user must know about a replay that worked: the messages skipped."""
     if options.quiet:
         return
-    lines = [] if options.calibration is not None else list(reader.info.warnings)
+    lines = []
     if reader.bad_messages:
         lines.append(f"{reader.path}: skipped {reader.undecodable} bad message(s): "
                      + ", ".join(f"{k} {v}" for k, v in sorted(reader.bad_messages.items())))

@@ -5,9 +5,9 @@
 One command prints everything (a Markdown table, the load average before and after each run):
 
 1. ``dsp-eval --suite random --count N`` (pybullet recording + 6 replays per scene), each
-   run in a fresh folder, with ``--workers 1``, ``--workers W`` and ``--ray`` (joining a
-   running local Ray head with W CPUs, as on a cluster; a Ray started per command costs its
-   start-up on top, measured apart); the JSON tables must be byte-identical.
+   run in a fresh folder, with ``--workers 1``, ``--workers W``, ``--ray`` joining a
+   running local Ray head with W CPUs (as on a cluster: RAY_ADDRESS) and ``--ray`` starting
+   its own local Ray (no RAY_ADDRESS); the logs and tables must be byte-identical.
 2. ``dsp-replay LOGS --out-dir`` over the N logs the serial run recorded, the same three
    ways; every output must be byte-identical.
 3. The per-task overhead: ``map_tasks`` over no-op tasks, for the pool (its start included)
@@ -51,6 +51,10 @@ def _run(cmd: list[str], env: dict[str, str]) -> float:
     return wall
 
 
+def _slug(mode: str) -> str:
+    return "".join(c for c in mode if c.isalnum())
+
+
 def _files(d: Path, pattern: str) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(d.glob(pattern))}
 
@@ -67,6 +71,8 @@ def _modes(workers: int, ray_address: str | None) -> dict[str, tuple[list[str], 
              f"--workers {workers}": (["--workers", str(workers)], env)}
     if ray_address is not None:
         modes["--ray"] = (["--ray"], {**env, "RAY_ADDRESS": ray_address})
+        # no RAY_ADDRESS: the command starts (and stops) its own local Ray
+        modes["--ray, own Ray"] = (["--ray", "--workers", str(workers)], env)
     return modes
 
 
@@ -77,14 +83,14 @@ def bench_eval(tmp: Path, count: int, workers: int, repeat: int,
     outputs: dict[str, dict[str, bytes]] = {}
     for r in range(repeat):
         for mode, (flags, env) in modes.items():
-            out = tmp / f"eval-{r}-{mode.replace(' ', '')}"
+            out = tmp / f"eval-{r}-{_slug(mode)}"
             load = _load()
             wall = _run([sys.executable, "-m", "replay.evaluate_cli", "--suite", "random",
                          "--count", str(count), "--out-dir", str(out), "-q", *flags], env)
             times[mode].append(wall)
             outputs[f"{mode} #{r}"] = _files(out, "*")  # the logs, the tables
             print(f"  dsp-eval {mode}: {wall:.1f} s (load {load} -> {_load()})", flush=True)
-    logs = tmp / "eval-0---workers1"
+    logs = tmp / f"eval-0-{_slug('--workers 1')}"
     return times, _compare(outputs), logs
 
 
@@ -95,7 +101,7 @@ def bench_replay(tmp: Path, logs: Path, workers: int, repeat: int,
     outputs: dict[str, dict[str, bytes]] = {}
     for r in range(repeat):
         for mode, (flags, env) in modes.items():
-            out = tmp / f"replay-{r}-{mode.replace(' ', '')}"
+            out = tmp / f"replay-{r}-{_slug(mode)}"
             load = _load()
             wall = _run([sys.executable, "-m", "replay.cli", str(logs), "--out-dir", str(out),
                          "--out-mcap", "-q", *flags], env)
@@ -106,18 +112,20 @@ def bench_replay(tmp: Path, logs: Path, workers: int, repeat: int,
     return times, _compare(outputs)
 
 
-def _per_task(run: Callable[[int], None], tasks: int) -> tuple[float, float]:
-    """(seconds for 2 tasks, seconds per extra task)."""
-    t0 = time.perf_counter()
-    run(2)
-    t2 = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    run(tasks)
-    tm = time.perf_counter() - t0
-    return t2, max(0.0, tm - t2) / (tasks - 2)
+def _per_task(run: Callable[[int], None], tasks: int) -> tuple[float, float, float]:
+    """(seconds for the first 2 tasks, for 2 more, per further task): the first use starts
+    the fork server / Ray's workers and imports the project in them."""
+    times = []
+    for n in (2, 2, tasks):
+        t0 = time.perf_counter()
+        run(n)
+        times.append(time.perf_counter() - t0)
+    first, t2, tm = times
+    return first, t2, (tm - t2) / (tasks - 2)
 
 
-def bench_overhead(workers: int, tasks: int, use_ray: bool) -> dict[str, tuple[float, float]]:
+def bench_overhead(workers: int, tasks: int,
+                   use_ray: bool) -> dict[str, tuple[float, float, float]]:
     sys.path.insert(0, str(ROOT))
     from replay.parallel import Workers, map_tasks
 
@@ -150,9 +158,8 @@ def _row(what: str, times: dict[str, list[float]], check: str) -> str:
     serial, *rest = med
     cells = [f"{med[m]:.1f} s" for m in med]
     ratios = [f"{med[serial] / med[m]:.2f}x" for m in rest]
-    ray_vs_pool = ""
-    if "--ray" in med:
-        ray_vs_pool = f"{100 * (med['--ray'] / med[rest[0]] - 1):+.0f}%"
+    ray_vs_pool = " / ".join(f"{100 * (med[m] / med[rest[0]] - 1):+.0f}%"
+                             for m in med if m.startswith("--ray"))
     return f"| {what} | " + " | ".join(cells + ratios) + f" | {ray_vs_pool} | {check} |"
 
 
@@ -161,7 +168,7 @@ def main() -> int:
     p.add_argument("--count", type=int, default=6, help="random scenes (default 6)")
     p.add_argument("--workers", type=int, default=2, help="pool size and Ray CPUs (default 2)")
     p.add_argument("--repeat", type=int, default=1, help="runs of each mode (medians)")
-    p.add_argument("--tasks", type=int, default=40, help="no-op tasks for the overhead")
+    p.add_argument("--tasks", type=int, default=402, help="no-op tasks for the overhead")
     p.add_argument("--no-ray", action="store_true", help="leave out the Ray runs")
     args = p.parse_args()
     print(f"{os.cpu_count()} CPUs; load average {_load()} (1/5/15 min) at the start")
@@ -175,23 +182,24 @@ def main() -> int:
         overhead = bench_overhead(args.workers, args.tasks, ray_address is not None)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+        if ray_address is not None:
+            import ray
+
+            ray.shutdown()
     modes = list(eval_times)
     print(f"\nload average at the end: {_load()}\n")
     print("| work | " + " | ".join(modes) + " | " + " | ".join(
-        f"speed-up {m}" for m in modes[1:]) + " | ray vs pool | outputs |")
+        f"speed-up {m}" for m in modes[1:]) + " | ray vs pool (joined / own) | outputs |")
     print("|---" * (2 * len(modes) + 2) + "|")
     print(_row(f"`dsp-eval --suite random --count {args.count}`", eval_times, eval_check))
     print(_row(f"`dsp-replay` batch of those {args.count} logs", replay_times, replay_check))
     print()
-    for name, (t2, per) in overhead.items():
-        print(f"{name}: 2 no-op tasks {t2:.2f} s (start-up included), then "
-              f"{1e3 * per:.1f} ms per task ({args.tasks} tasks)")
+    for name, (first, t2, per) in overhead.items():
+        print(f"{name}: 2 no-op tasks {first:.2f} s the first time, {t2:.2f} s the next "
+              f"(start-up), then {1e3 * per:.2f} ms per further task ({args.tasks} tasks)")
     if ray_address is not None:
         print(f"ray: starting a local instance took {ray_start_s:.1f} s (paid by each "
               "--ray command when no RAY_ADDRESS is set)")
-        import ray
-
-        ray.shutdown()
     return 0
 
 

@@ -1,14 +1,22 @@
 """Omnidirectional images from pybullet: render cube-map faces, remap them through a camera model.
 
 For each robot camera we render up to five 90 deg faces (forward, left, back, right, down) in the
-*robot* frame from the optical centre, tile them into one atlas and ``cv2.remap`` the atlas
+*robot* frame from the optical centre, pack them into one atlas and ``cv2.remap`` the atlas
 into the 1080 x 1080 omni image. Because the faces turn with the robot, the remap tables
 depend only on the camera model and the face size: they are computed once per model and
 reused every frame. Each face carries a one-pixel margin (a slightly wider field of view)
 so bilinear interpolation never reads across a seam into the neighbouring face.
 
-Only the faces a model needs are rendered; a model that sees everything through the down
-face (the ideal camera's virtual view from high above) gets one narrowed face.
+Only what the lens sees is rendered, at the resolution the omni image needs:
+
+- only the faces a model needs; a model that sees everything through the down face (the
+  ideal camera's virtual view from high above) gets one face narrowed to the widest ray;
+- of each face only the rectangle its rays land in (a camera looking down sees the lower
+  half of the side faces), drawn with an off-centre frustum;
+- each face at its own size: the faces are sized so that, at the coarsest pixel of the
+  omni image each one serves, one omni pixel spans at least as many face pixels as on the
+  coarsest full-size (``face_px``) face. A fisheye's or a mirror's down face serves the
+  image centre, where the lens magnifies least, so it shrinks to 500-700 px.
 
 The robot's own body is taken out of the scene while its camera renders (it would sit a few
 centimetres below the lens and fill the view); the image shows instead a dark square where
@@ -43,9 +51,15 @@ FACES: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] 
 }
 _MARGIN_PX = 1
 RENDER_OFFSET_PX: dict[str, tuple[float, float]] = {"egl": (0.0, 0.0), "tiny": (0.5, -0.5)}
-MAX_RENDER_PX: dict[str, int] = {"egl": 768}
-"""Largest image side a renderer draws exactly (pybullet's EGL window is 1024 x 768; larger
-requests are resampled from it). Bigger faces are rendered in tiles."""
+MAX_RENDER_PX: dict[str, tuple[int, int]] = {"egl": (1024, 768)}
+"""Largest image (width, height) a renderer draws exactly (pybullet's EGL window is
+1024 x 768; larger requests are resampled from it). Bigger faces are rendered in tiles."""
+_FIT_PX = 1024
+"""A cropped face whose tile is at most 1 % wider than this is shrunk to it: one EGL render
+instead of two, for a resolution 0.2 % lower."""
+_BAND_B = -0.5
+"""A side face is sized in two bands, split where its rays are 26.6 deg below its centre
+(tangent -1/2): a lens looking down magnifies the horizon most, the band below it less."""
 """Where each renderer draws a point that projects to a face's exact centre, relative to the
 OpenGL convention (pixel i covers [i - 0.5, i + 0.5] about coordinate i): TinyRenderer's
 image is shifted half a pixel right and up (measured; see tests/test_recorder_geometry.py)."""
@@ -96,12 +110,58 @@ def _look_at(eye: np.ndarray, forward: np.ndarray, up: np.ndarray) -> list[float
     return [float(x) for x in m.T.reshape(-1)]
 
 
+@dataclass(frozen=True)
+class _Piece:
+    """The part of one face that is rendered: the face, its tile (``face_px`` + margins,
+    square, at ``half_tan`` = tan of half the face's field of view) and the tile's rows
+    [r0, r1) and columns [c0, c1) that the omni image reads, at column ``x0`` of the atlas."""
+
+    face: _Face
+    face_px: int
+    half_tan: float
+    rows: tuple[int, int]
+    cols: tuple[int, int]
+    x0: int
+
+    @property
+    def tile_px(self) -> int:
+        return self.face_px + 2 * _MARGIN_PX
+
+    @property
+    def scale(self) -> float:
+        """Tile pixels per unit of the face's tangent plane."""
+        return self.face_px / 2.0 / self.half_tan
+
+    @property
+    def whole(self) -> bool:
+        """The whole tile is rendered."""
+        n = self.tile_px
+        return self.rows == (0, n) and self.cols == (0, n)
+
+
+def _smin(a: np.ndarray, b: np.ndarray, sel: np.ndarray) -> float:
+    """The smallest singular value over the selected pixels of d(a, b) / d(u, v) (pixels on
+    the selection's edge left out, so seams and the image circle's rim do not count)."""
+    au, av = np.gradient(a, axis=1), np.gradient(a, axis=0)
+    bu, bv = np.gradient(b, axis=1), np.gradient(b, axis=0)
+    s1 = np.hypot(au + bv, av - bu) / 2
+    s2 = np.hypot(au - bv, av + bu) / 2
+    inner = cv2.erode(sel.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    return float(np.min(np.abs(s1 - s2)[inner])) if inner.any() else 0.0
+
+
+def _span(lo: float, hi: float, n: int) -> tuple[int, int]:
+    """Tile pixels [first, last + 1) that bilinear reads between coordinates lo and hi,
+    with a pixel more each side for a renderer's half-pixel offset; whole if nearly all."""
+    first, last = max(math.floor(lo) - 2, 0), min(math.ceil(hi) + 3, n)
+    return (0, n) if last - first > 0.9 * n else (first, last)
+
+
 class OmniRenderer:
     """Renders a camera model's omni image from a world, with remap tables built once.
 
-    Only the faces the model's image circle needs are rendered. When that is the down face
-    alone (a view from high above, like the ideal camera), its field of view is narrowed to
-    the widest ray used, so all ``face_px`` pixels cover the image circle.
+    Only what the lens sees is rendered, each face at the size the omni image needs (see
+    the module docstring); ``face_px`` is the largest face.
     """
 
     def __init__(self, camera: CameraModel, *, face_px: int = DEFAULT_FACE_PX,
@@ -114,13 +174,7 @@ class OmniRenderer:
             raise ValueError(f"unknown renderer {renderer!r}")
         self.camera = camera
         self.face_px = int(face_px)
-        self.tile_px = self.face_px + 2 * _MARGIN_PX
         self._build_maps()
-        # tan(half fov) of a tile: the face's extent plus the margin at the same pixel pitch
-        self.tile_fov_deg = math.degrees(
-            2.0 * math.atan(self._half_tan * self.tile_px / self.face_px)
-        )
-        self._proj = _perspective(self.tile_fov_deg, _NEAR_M, _FAR_M)
         self._maps: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         if renderer is not None:
             self._maps_for(renderer)
@@ -134,14 +188,21 @@ class OmniRenderer:
                                                    cv2.CV_16SC2)
         return self._maps[renderer]
 
-    def _splits(self, renderer: str) -> int:
-        limit = MAX_RENDER_PX.get(renderer)
-        return 1 if limit is None else -(-self.tile_px // limit)
-
     @property
     def face_names(self) -> tuple[str, ...]:
         """The faces rendered per image, in atlas order."""
-        return tuple(f.name for f in self._faces)
+        return tuple(dict.fromkeys(piece.face.name for piece in self._pieces))
+
+    @property
+    def pieces(self) -> tuple[tuple[str, int], ...]:
+        """(face, size [px]) of each rendered part, in atlas order (a side face's band near
+        the horizon, then the band below it)."""
+        return tuple((piece.face.name, piece.face_px) for piece in self._pieces)
+
+    @property
+    def rendered_px(self) -> int:
+        """Pixels rendered per omni image."""
+        return sum((p.rows[1] - p.rows[0]) * (p.cols[1] - p.cols[0]) for p in self._pieces)
 
     def _build_maps(self) -> None:
         cam = self.camera
@@ -155,26 +216,51 @@ class OmniRenderer:
         faces = _faces()
         best = np.argmax(np.stack([rays @ f.forward for f in faces], axis=-1), axis=-1)
         used = sorted({int(k) for k in np.unique(best[valid])})
-        self._faces = [faces[k] for k in used]
-        self._half_tan = 1.0
-        if [f.name for f in self._faces] == ["down"]:
+        half_tan = 1.0
+        if [faces[k].name for k in used] == ["down"]:
             d = rays[valid]
-            self._half_tan = float(np.max(np.abs(d[:, :2]) / -d[:, 2:3]))
+            half_tan = float(np.max(np.abs(d[:, :2]) / -d[:, 2:3]))
+        # each face's tangent-plane coordinates (a right, b up) of the pixels it serves; a
+        # side face in two bands (near the horizon / below), which may differ in size
+        planes = []
+        for k in used:
+            face, sel = faces[k], valid & (best == k)
+            depth = np.where(sel, rays @ face.forward, 1.0)
+            a, b = (rays @ face.right) / depth, (rays @ face.up) / depth
+            bands = [sel] if face.name == "down" else [sel & (b >= _BAND_B), sel & (b < _BAND_B)]
+            planes += [(k, band, a, b) for band in bands if band.any()]
+        # sizes: one omni pixel spans at least as many face pixels as on the coarsest
+        # full-size face (smin: face-plane units per omni pixel, at the coarsest pixel)
+        full = self.face_px / 2.0 / half_tan
+        smin = [_smin(a, b, sel) for _, sel, a, b in planes]
+        bar = min(full * m for m in smin if m > 0) if any(smin) else 0.0
         map_x = np.zeros((h, w), np.float32)
         map_y = np.zeros((h, w), np.float32)
-        scale = self.face_px / 2.0 / self._half_tan
-        centre = self.tile_px / 2.0 - 0.5  # pixel i has coordinate i, its centre at i
-        for slot, k in enumerate(used):
-            face = faces[k]
-            sel = best == k
-            d = rays[sel]
-            depth = d @ face.forward
-            a = (d @ face.right) / depth
-            b = (d @ face.up) / depth
-            map_x[sel] = (slot * self.tile_px + centre + a * scale).astype(np.float32)
-            map_y[sel] = (centre - b * scale).astype(np.float32)
+        self._pieces: list[_Piece] = []
+        x0 = 0
+        for (k, sel, a, b), m in zip(planes, smin, strict=True):
+            size = self.face_px
+            if m > 0 and bar > 0:
+                size = min(self.face_px, max(16, math.ceil(2.0 * half_tan * bar / m)))
+            if len(used) > 1 and _FIT_PX < size + 2 * _MARGIN_PX <= 1.01 * _FIT_PX:
+                size = _FIT_PX - 2 * _MARGIN_PX
+            scale = size / 2.0 / half_tan
+            centre = (size + 2 * _MARGIN_PX) / 2.0 - 0.5  # pixel i has coordinate i
+            xs = (centre + a[sel] * scale).astype(np.float32)
+            ys = (centre - b[sel] * scale).astype(np.float32)
+            n = size + 2 * _MARGIN_PX
+            rows = _span(float(ys.min()), float(ys.max()), n)
+            cols = _span(float(xs.min()), float(xs.max()), n)
+            self._pieces.append(_Piece(faces[k], size, half_tan, rows, cols, x0))
+            map_x[sel] = xs + np.float32(x0 - cols[0])
+            map_y[sel] = ys - np.float32(rows[0])
+            x0 += cols[1] - cols[0]
         self._map_x, self._map_y = map_x, map_y
-        # masks: outside the image circle (black), own body footprint (dark), mirror self
+        self._masks(cam, rays, r, valid)
+
+    def _masks(self, cam: CameraModel, rays: np.ndarray, r: np.ndarray,
+               valid: np.ndarray) -> None:
+        """Outside the image circle (black), own body footprint (dark), mirror self."""
         black = ~valid
         if isinstance(cam, MirrorCamera):
             black |= r < cam.self_radius_px
@@ -202,35 +288,25 @@ class OmniRenderer:
         return self.remap(atlas, world.renderer)
 
     def render_atlas(self, world: World, x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
-        """The needed faces side by side (RGB), each ``tile_px`` square.
+        """The rendered parts of the faces side by side (RGB), top-aligned.
 
-        A face larger than the renderer's largest exact image (EGL draws into a 1024 x 768
+        A part larger than the renderer's largest exact image (EGL draws into a 1024 x 768
         window and resamples anything bigger) is rendered as a grid of sub-images with
         off-centre frustums and pasted together, so every pixel is rendered, not resampled.
         """
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         eye = np.array([x_m, y_m, self.camera.height_m])
-        n = self.tile_px
-        splits = self._splits(world.renderer)
-        edges = np.linspace(0, n, splits + 1).round().astype(int)
-        t = self._half_tan * n / self.face_px  # tangent half-extent of a whole tile
-        tiles = []
-        for face in self._faces:
-            view = _look_at(eye, rot @ face.forward, rot @ face.up)
-            if splits == 1:
-                tiles.append(world.render(n, n, view, self._proj))
-                continue
-            tile = np.empty((n, n, 3), np.uint8)
-            for r0, r1 in itertools.pairwise(edges):
-                for c0, c1 in itertools.pairwise(edges):
-                    proj = _frustum(
-                        _NEAR_M * t * (2 * c0 / n - 1), _NEAR_M * t * (2 * c1 / n - 1),
-                        _NEAR_M * t * (1 - 2 * r1 / n), _NEAR_M * t * (1 - 2 * r0 / n),
-                    )
-                    tile[r0:r1, c0:c1] = world.render(int(c1 - c0), int(r1 - r0), view, proj)
-            tiles.append(tile)
-        return np.hstack(tiles)
+        height = max(p.rows[1] - p.rows[0] for p in self._pieces)
+        width = sum(p.cols[1] - p.cols[0] for p in self._pieces)
+        atlas = np.zeros((height, width, 3), np.uint8)
+        limit = MAX_RENDER_PX.get(world.renderer)
+        for piece in self._pieces:
+            view = _look_at(eye, rot @ piece.face.forward, rot @ piece.face.up)
+            (r0, r1), (c0, c1) = piece.rows, piece.cols
+            atlas[:r1 - r0, piece.x0:piece.x0 + c1 - c0] = _render_piece(
+                world, piece, view, limit)
+        return atlas
 
     def remap(self, atlas_rgb: np.ndarray, renderer: str) -> np.ndarray:
         """The omni image (BGR) from an atlas that ``renderer`` drew."""
@@ -241,3 +317,31 @@ class OmniRenderer:
         out[self._body] = ROBOT_RGB[::-1]
         out[self._black] = 0
         return out
+
+
+def _edges(lo: int, hi: int, limit: int | None) -> list[int]:
+    """[lo, hi) cut into even parts of at most ``limit`` (one part: no limit)."""
+    parts = 1 if limit is None else -(-(hi - lo) // limit)
+    return [int(e) for e in np.linspace(lo, hi, parts + 1).round().astype(int)]
+
+
+def _render_piece(world: World, piece: _Piece, view: list[float],
+                  limit: tuple[int, int] | None) -> np.ndarray:
+    """The piece's rows and columns of its face's tile, in as few exact renders as fit."""
+    n = piece.tile_px
+    t = piece.half_tan * n / piece.face_px  # tangent half-extent of the whole tile
+    (r0, r1), (c0, c1) = piece.rows, piece.cols
+    max_w, max_h = limit if limit is not None else (None, None)
+    row_edges, col_edges = _edges(r0, r1, max_h), _edges(c0, c1, max_w)
+    if piece.whole and len(row_edges) == len(col_edges) == 2:  # one symmetric render
+        fov_deg = math.degrees(2.0 * math.atan(t))
+        return world.render(n, n, view, _perspective(fov_deg, _NEAR_M, _FAR_M))
+    out = np.empty((r1 - r0, c1 - c0, 3), np.uint8)
+    for ra, rb in itertools.pairwise(row_edges):
+        for ca, cb in itertools.pairwise(col_edges):
+            proj = _frustum(
+                _NEAR_M * t * (2 * ca / n - 1), _NEAR_M * t * (2 * cb / n - 1),
+                _NEAR_M * t * (1 - 2 * rb / n), _NEAR_M * t * (1 - 2 * ra / n),
+            )
+            out[ra - r0:rb - r0, ca - c0:cb - c0] = world.render(cb - ca, rb - ra, view, proj)
+    return out

@@ -61,23 +61,46 @@ def same_file(a: Path | str, b: Path | str) -> bool:
         return False
 
 
+def _keys(path: Path) -> list[object]:
+    """What identifies a file: its resolved path and, when it exists, its device and inode."""
+    keys: list[object] = []
+    try:
+        keys.append(path.resolve())
+    except (OSError, RuntimeError):
+        keys.append(Path(os.path.abspath(path)))
+    with contextlib.suppress(OSError, ValueError):
+        st = os.stat(path)
+        keys.append((st.st_dev, st.st_ino))
+    return keys
+
+
 def check_distinct(outputs: Sequence[tuple[str, Path | str | None]],
                    inputs: Sequence[tuple[str, Path | str | None]] = ()) -> None:
-    """Raise :class:`~dsp.errors.UsageError` when an output names an input or another output.
+    """Raise :class:`~dsp.errors.UsageError` when an output names an input or another output
+    (as :func:`same_file` sees it; linear in the number of paths).
 
     Each entry is ``(label, path)`` with a label as the user knows it ("--out", "the input
     log"); ``None`` paths are skipped."""
-    outs = [(label, Path(p)) for label, p in outputs if p is not None]
-    ins = [(label, Path(p)) for label, p in inputs if p is not None]
-    for i, (label, out) in enumerate(outs):
-        for in_label, src in ins:
-            if same_file(out, src):
-                raise UsageError(f"{label} {out} is {in_label}; an output never overwrites an "
-                                 "input, choose another file")
-        for other_label, other in outs[:i]:
-            if same_file(out, other):
-                raise UsageError(f"{other_label} and {label} both name {out}; give each output "
-                                 "its own file")
+    seen_in: dict[object, str] = {}
+    for label, p in inputs:
+        if p is not None:
+            for key in _keys(Path(p)):
+                seen_in.setdefault(key, label)
+    seen_out: dict[object, str] = {}
+    for label, p in outputs:
+        if p is None:
+            continue
+        out = Path(p)
+        keys = _keys(out)
+        for key in keys:
+            if key in seen_in:
+                raise UsageError(f"{label} {out} is {seen_in[key]}; an output never "
+                                 "overwrites an input, choose another file")
+            if key in seen_out:
+                raise UsageError(f"{seen_out[key]} and {label} both name {out}; give each "
+                                 "output its own file")
+        for key in keys:
+            seen_out[key] = label
 
 
 def check_output_path(path: Path | str, *, force: bool, label: str | None = None) -> None:

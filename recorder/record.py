@@ -322,7 +322,7 @@ def _write_log(path: Path, fill: Callable[[LogWriter], None],
     any other failure the partial file is removed."""
     out = AtomicFile(path, force=force, partial=PARTIAL)
     try:
-        with out.stream() as stream, out.guard():
+        with out.guard(), out.stream() as stream:  # guard: also a failing close
             writer = LogWriter(stream)
             try:
                 fill(writer)

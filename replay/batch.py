@@ -36,9 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dsp.atomic import atomic_output
+from dsp.atomic import atomic_output, check_distinct
 from dsp.cli import progress_bar
 from dsp.errors import DspError, InputError, OutputExistsError, UsageError
+from dsp.text import printable
 from replay.batch_summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError
 from replay.options import ReplayOptions
@@ -166,9 +167,13 @@ def _tasks(logs: Sequence[Path], out_dir: Path, options: ReplayOptions,
         out, out_mcap = output_paths(log, out_dir, estimates_mcap=estimates_mcap)
         tasks.append(LogTask(log, dataclasses.replace(
             options, out=out, out_mcap=out_mcap, rerun=None, progress=False)))
-    if not options.force:  # every refusal before any work
-        for task in tasks:
-            task.options.check_outputs()
+    # every refusal before any work: no output on an input log (with --force too)
+    check_distinct([(f"the output {p.name}", p) for task in tasks
+                    for p in (task.options.out, task.options.out_mcap) if p is not None],
+                   [(f"the input log {log}", log) for log in logs])
+    for task in tasks:
+        task.options.check_outputs(task.log)
+    if not options.force:
         for path in summary_paths(out_dir):
             if path.exists():
                 raise OutputExistsError(path)
@@ -197,7 +202,7 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
             row = outcome.value if outcome.failure is None else LogRow(
                 logs[i].name, outcome.failure.text)
             if outcome.failure is not None and outcome.failure.detail:
-                print(outcome.failure.detail, file=sys.stderr)
+                print(printable(outcome.failure.detail, lines=True), file=sys.stderr)
             rows[i] = row
             bar.update(1)
             bar.set_postfix_str(logs[i].name)

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from dsp.cli import echo, progress_enabled
 from dsp.errors import InputError, UsageError
+from dsp.text import printable
 from replay.batch import SUMMARY_STEM, replay_batch, summary_paths
 from replay.options import ReplayOptions
 from replay.parallel import add_worker_arguments, workers_from_args
@@ -77,7 +78,7 @@ def run_batch(args: argparse.Namespace,
     echo(args, "wrote " + ", ".join(str(p) for p in summary_paths(args.out_dir))
          + f" and {len(summary.rows) - len(summary.failed)} logs' results")
     for row in summary.failed:
-        print(f"dsp-replay: error: {row.error}", file=sys.stderr)
+        print(printable(f"dsp-replay: error: {row.error}"), file=sys.stderr)
     if summary.failed:
         raise InputError(f"{len(summary.failed)} of {len(summary.rows)} logs failed "
                          f"(see {summary_paths(args.out_dir)[2]})")

@@ -25,7 +25,7 @@ from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
-from replay.options import METHODS, ReplayOptions, RerunTarget
+from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
 from replay.recovery import describe as describe_recovery
 from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
@@ -68,6 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; for the corrected estimator track: a Kalman filter "
                    "giving position and velocity at every image stamp)")
+    p.add_argument("--noise", choices=NOISE_MODELS, default="cambada",
+                   help="the window fusions' covariance per estimate: cambada (a fixed range "
+                   "law, default) or calibrated (from the calibration, as track uses; makes "
+                   "robust reject outliers weighted averages in)")
     p.add_argument("--smooth", action="store_true",
                    help="offline: smooth the track over the whole log (RTS smoother) instead "
                    "of the causal estimate a robot would have live (--fusion track)")
@@ -126,6 +130,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
     return ReplayOptions(
         method=args.method, fusion=args.fusion, calibration=args.calibration, smooth=args.smooth,
+        noise=args.noise,
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,

@@ -188,7 +188,8 @@ class FrameEstimator:
 
     def __init__(self, *, method: str, fusion_method: str, robots: Sequence[str],
                  camera_metadata: Mapping[str, Mapping[str, Any]], source: str,
-                 calibration_file: Path | None = None, smooth: bool = False) -> None:
+                 calibration_file: Path | None = None, smooth: bool = False,
+                 noise: str = "cambada") -> None:
         self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
@@ -198,8 +199,9 @@ class FrameEstimator:
         if fusion_method == "track":
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
-        else:  # the window fusions keep their own noise model (NoiseModel)
-            self.fusion = fusion.get_fusion(fusion_method)
+        else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
+            self.fusion = fusion.get_fusion(
+                fusion_method, noise=self.noise if noise == "calibrated" else None)
         self._deferred: _Deferred | None = None
 
     @property
@@ -280,7 +282,8 @@ class FrameEstimator:
         the truth when given."""
         velocity = velocity_cov = None
         if self.tracker is None:
-            fused = self.fuse([f.estimate for f in frames if f.estimate is not None])
+            balls = [_ball(f.estimate, f.r_px) for f in frames if f.estimate is not None]
+            fused = self.fusion.fuse(balls) if balls else None
         else:
             fused, velocity, velocity_cov = self._track(self.tracker, stamp_ns, frames)
         err = None

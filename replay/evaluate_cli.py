@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dsp.atomic import atomic_output
+from dsp.atomic import atomic_output, check_distinct
 from dsp.checks import check_int
 from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
@@ -112,7 +112,7 @@ def _run_suite(args: argparse.Namespace,
                workers: Workers) -> tuple[str, str, dict[str, Any]]:
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
     record = SimRecorder(args.camera, args.renderer)
-    stem = f"{args.suite}-{args.camera}"
+    stem = _stem(args)
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
     with progress_bar(scenes, PROG, progress_enabled(args), unit="scene") as bar:
         map_scenes = _scene_mapper(workers, bar)
@@ -124,7 +124,13 @@ def _run_suite(args: argparse.Namespace,
         rsuite = run_random_suite(record, args.out_dir, camera=args.camera, count=args.count,
                                   seed=args.seed, calibration=args.calibration,
                                   map_scenes=map_scenes)
-    return f"{stem}-{args.count}-seed{args.seed}", random_markdown(rsuite), rsuite.to_dict()
+    return stem, random_markdown(rsuite), rsuite.to_dict()
+
+
+def _stem(args: argparse.Namespace) -> str:
+    """The tables' file stem in --out-dir."""
+    stem = f"{args.suite}-{args.camera}"
+    return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -132,10 +138,12 @@ def _main(argv: Sequence[str] | None) -> int:
     out_dir: Path = args.out_dir
     t0 = time.perf_counter()
     _check(args)
+    md, js = out_dir / f"{_stem(args)}.md", out_dir / f"{_stem(args)}.json"
+    check_distinct([("the table", md), ("the table", js)],
+                   [("the --calibration file", args.calibration)])
     workers = workers_from_args(args)
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem, text, doc = _run_suite(args, workers)
-    md, js = out_dir / f"{stem}.md", out_dir / f"{stem}.json"
+    _, text, doc = _run_suite(args, workers)
     with atomic_output(md, force=True) as tmp:  # tables are rewritten on every run
         tmp.write_text(text, encoding="utf-8")
     with atomic_output(js, force=True) as tmp:

@@ -30,6 +30,8 @@ DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
 """Paper mode fuses as the paper does (eq. 20-21); the corrected estimator tracks the ball
 (:mod:`estimator.tracker`): a fused position and velocity at every image stamp, robust to
 unsynchronised cameras and a moving ball (window fusions stay available)."""
+NOISE_MODELS = ("cambada", "calibrated")
+"""The window fusions' covariance models (``--noise``); the tracker's is "calibrated"."""
 NS = 1_000_000_000
 MAX_WINDOW_S = 60.0
 """The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their
@@ -88,6 +90,10 @@ class ReplayOptions:
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
+    noise: str = "cambada"
+    """The window fusions' per-estimate covariance: "cambada" (the fixed range law,
+    :class:`~estimator.fusion.NoiseModel`) or "calibrated" (from the calibration,
+    :class:`~estimator.fusion.CalibratedNoise`, as the tracker always uses)."""
     smooth: bool = False
     """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
     (``track`` fusion only); steps reach the sinks once the log is read."""
@@ -133,6 +139,8 @@ class ReplayOptions:
                      unit="Mpx")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
+        if self.noise not in NOISE_MODELS:
+            raise UsageError(f"--noise {self.noise!r}; choose one of {', '.join(NOISE_MODELS)}")
         if self.smooth and self.fusion_method != "track":
             raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
                              f"{self.fusion_method!r}")
@@ -201,7 +209,9 @@ class ReplayOptions:
             "pose_tolerance_s": self.pose_tolerance_s,
             "window_s": self.window_s,
             "recover": self.recover,
-            **({"smooth": True} if self.smooth else {}),  # files without it are unchanged
+            # new options appear only when set: files made without them stay as they were
+            **({"noise": self.noise} if self.noise != "cambada" else {}),
+            **({"smooth": True} if self.smooth else {}),
         }
 
     @property

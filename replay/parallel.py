@@ -56,6 +56,8 @@ __all__ = [
 T = TypeVar("T")
 R = TypeVar("R")
 
+MAX_WORKERS = 1024
+"""More processes than this would exhaust the machine before doing any work."""
 RAY_MAX_RETRIES = 3
 """How often Ray re-runs a task whose worker died (a lost node, the OOM killer)."""
 RAY_INSTALL_HINT = "--ray needs Ray: pip install 'dual-sight[ray]' (or pip install -e '.[ray]')"
@@ -108,6 +110,8 @@ class Workers:
     def __post_init__(self) -> None:
         if self.count is not None and self.count < 1:
             raise UsageError(f"--workers {self.count}: give at least 1")
+        if self.count is not None and self.count > MAX_WORKERS:
+            raise UsageError(f"--workers {self.count}: give at most {MAX_WORKERS}")
 
     @property
     def processes(self) -> int:

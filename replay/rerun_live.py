@@ -166,7 +166,8 @@ class ViewerServer:
         except OSError as err:
             raise ViewerUnavailableError(f"--serve: cannot run {cmd[0]}: {err}") from err
         deadline = time.monotonic() + self.start_s
-        while not reachable(self.host.strip("[]"), self.grpc_port, 0.5):
+        host = self.host.strip("[]")
+        while not (reachable(host, self.grpc_port, 0.5) and reachable(host, self.web_port, 0.5)):
             if self._proc.poll() is not None or time.monotonic() > deadline:
                 detail = self._last_log_line()
                 self.stop()

@@ -87,7 +87,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, robots=info.robots,
             camera_metadata=info.cameras.by_robot(), source=str(reader.path),
-            calibration_file=options.calibration, smooth=options.smooth)
+            calibration_file=options.calibration, smooth=options.smooth, noise=options.noise)
         stats = ReplayStats(info.robots)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)

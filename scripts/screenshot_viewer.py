@@ -4,7 +4,8 @@
         [--size 1920x1080] [--wait 45] [--chromium chromium]
 
 What a person would see when opening the replay: the ``rerun`` program that rerun-sdk ships
-serves the .rrd and the web viewer on 127.0.0.1 (free ports), headless Chromium (Debian:
+serves the web viewer on 127.0.0.1 (free ports), which loads the .rrd over HTTP from a small
+file server of this script's; headless Chromium (Debian:
 ``apt-get install chromium``) opens the page with the colour scheme the theme asks for
 (the viewer follows the browser's), waits for the viewer to load and draw, and saves
 ``<stem>-<theme>.png``. The browser is driven over its DevTools pipe, so nothing but the
@@ -16,6 +17,8 @@ from __future__ import annotations
 import argparse
 import base64
 import fcntl
+import functools
+import http.server
 import json
 import os
 import shutil
@@ -23,15 +26,26 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from replay.rerun_live import ViewerServer
 
 THEMES = ("light", "dark")
+
+
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, format: str, *args: Any) -> None:
+        return None
+
+    def end_headers(self) -> None:  # the web viewer is on another port
+        self.send_header("Access-Control-Allow-Origin", "*")
+        super().end_headers()
 
 
 class DevTools:
@@ -112,6 +126,16 @@ def screenshot(chromium: str, url: str, theme: str, size: tuple[int, int], wait_
             tools.close()
 
 
+def _shrink(path: Path, width: int) -> None:
+    """Scale a PNG down to ``width`` pixels (Pillow, which matplotlib brings)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        if im.width > width:
+            im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
+            im.save(path, optimize=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("rrd", type=Path, help="a replay saved with dsp-replay --save")
@@ -120,6 +144,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--size", default="1920x1080", help="browser window, WIDTHxHEIGHT")
     p.add_argument("--wait", type=float, default=45.0,
                    help="seconds for the viewer to load and draw (default %(default)s)")
+    p.add_argument("--out-width", type=int, metavar="PX",
+                   help="scale the saved screenshot to this width (e.g. 1440 for a README)")
     p.add_argument("--chromium", default=shutil.which("chromium") or "chromium")
     args = p.parse_args(argv)
     if not args.rrd.is_file():
@@ -131,13 +157,23 @@ def main(argv: list[str] | None = None) -> int:
     args.out_dir.mkdir(parents=True, exist_ok=True)
     # a plain kill ends the browser and the server too (the finally blocks run)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
-    server = ViewerServer(web_port=0, grpc_port=0)
-    server.extra_args = [str(args.rrd.resolve())]
-    with server:
-        for theme in themes:
-            out = args.out_dir / f"{args.rrd.stem}-{theme}.png"
-            screenshot(args.chromium, server.web_url, theme, (width, height), args.wait, out)
-            print(f"wrote {out}")
+    # the viewer fetches the whole file over HTTP (faster than having it streamed to it)
+    handler = functools.partial(_QuietHandler, directory=str(args.rrd.resolve().parent))
+    files = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=files.serve_forever, daemon=True).start()
+    rrd_url = f"http://127.0.0.1:{files.server_address[1]}/{quote(args.rrd.name)}"
+    try:
+        with ViewerServer(web_port=0, grpc_port=0) as server:
+            url = f"http://127.0.0.1:{server.web_port}/?url={quote(rrd_url, safe='')}"
+            for theme in themes:
+                out = args.out_dir / f"{args.rrd.stem}-{theme}.png"
+                screenshot(args.chromium, url, theme, (width, height), args.wait, out)
+                if args.out_width:
+                    _shrink(out, args.out_width)
+                print(f"wrote {out}")
+    finally:
+        files.shutdown()
+        files.server_close()
     return 0
 
 

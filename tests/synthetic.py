@@ -129,6 +129,7 @@ def write_log(
     camera_phases_ns: dict[str, int] | None = None,
     ball_path: Callable[[int], tuple[tuple[float, float], tuple[float, float]]] | None = None,
     with_odometry: bool = False,
+    pose_bias_m: dict[str, tuple[float, float]] | None = None,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -137,7 +138,9 @@ def write_log(
     on ``pose_topic``. ``camera_phases_ns={"robot2": 17_000_000}`` delays a robot's images
     (free-running, unsynchronised cameras); ``ball_path(t_ns) -> ((x, y), (vx, vy))`` moves
     the ball any way (instead of ``ball + ball_velocity t``); ``with_odometry`` writes the
-    true position and velocity on /ground_truth/ball/odometry too."""
+    true position and velocity on /ground_truth/ball/odometry too; ``pose_bias_m={"robot3":
+    (dx, dy)}`` shifts the pose a robot believes (its images stay true), so its estimate of
+    the ball is off by (dx, dy)."""
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -200,7 +203,8 @@ def write_log(
                 if span is not None and span[0] * NS <= t < span[1] * NS:
                     continue
                 x, y, yaw = robot_at(name, t)
-                msg = _pose_msg(t, x, y, yaw)
+                bias = (pose_bias_m or {}).get(name, (0.0, 0.0))
+                msg = _pose_msg(t, x + bias[0], y + bias[1], yaw)
                 if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
                     msg = {"header": msg["header"],
                            "pose": {"pose": msg["pose"], "covariance": [0.0] * 36}}

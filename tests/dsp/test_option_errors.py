@@ -40,6 +40,7 @@ REPLAY: list[tuple[list[str], str]] = [
     (["--out", "r.txt"], "--out r.txt: the file name must end in .json (e.g. r.json)"),
     (["--out-mcap", "e.json"], "--out-mcap e.json: the file name must end in .mcap"),
     (["--save", "r.json"], "--save r.json: the file name must end in .rrd (e.g. r.rrd)"),
+    (["--out-dir", "d", "--workers", "99999"], "--workers 99999: give at most 1024"),
 ]
 
 RECORD: list[tuple[list[str], str]] = [
@@ -79,6 +80,8 @@ CALIBRATE: list[tuple[list[str], str]] = [
 ]
 
 EVAL: list[tuple[list[str], str]] = [
+    (["--workers", "0"], "--workers 0: give at least 1"),
+    (["--workers", "100000"], "--workers 100000: give at most 1024"),
     (["--count", "0"], "--count 0: give a whole number in [1, 100000]"),
     (["--count", "1000000000"], "--count 1000000000"),
     (["--seed", "-5"], "--seed -5"),
@@ -126,3 +129,18 @@ def test_calibrate_refuses_a_plot_on_its_json(tmp_path: Path,
     link.symlink_to(out)
     assert calibrate_main(["-o", str(out), "--plot", str(link), "--force"]) == 2
     assert "--out and --plot both name" in capsys.readouterr().err
+
+
+def test_eval_never_writes_its_table_over_the_calibration(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from estimator.calibration import LinearCalibration, calibration_to_json
+
+    calib = tmp_path / "paper-ideal.json"  # where dsp-eval's paper table goes
+    calib.write_text(calibration_to_json(LinearCalibration(0.0166, -0.5)))
+    before = calib.read_text()
+    code = eval_main(["--out-dir", str(tmp_path), "--calibration", str(calib)])
+    err = capsys.readouterr().err
+    assert code == 2 and err == (f"dsp-eval: error: the table {calib} is the --calibration "
+                                 "file; an output never overwrites an input, choose another "
+                                 "file\n")
+    assert calib.read_text() == before and [p.name for p in tmp_path.iterdir()] == [calib.name]

@@ -106,9 +106,13 @@ def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path
         assert "stopped serving" in proc.stderr.read()
         assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+        if proc.poll() is None:  # a failed check: Ctrl-C first, so its server stops too
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
         for stream in (proc.stdout, proc.stderr):
             if stream is not None:
                 stream.close()

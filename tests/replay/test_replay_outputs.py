@@ -175,3 +175,26 @@ def test_names_from_the_log_are_escaped_in_summaries_and_errors(
     assert code == 1 and out == ""
     assert "\x1b" not in err and "\x07" not in err and "r\\x1b]0;x\\x07\\x1b[2J" in err
     one_line(err)
+
+
+def test_a_batch_never_writes_over_one_of_its_logs(log: Path, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    victim = out_dir / "in.estimates.mcap"  # where the batch puts in.mcap's estimates
+    victim.write_bytes(log.read_bytes())
+    before = victim.read_bytes()
+    code, _, err = run([log, victim, "--out-dir", out_dir, "--out-mcap", "--force"], capsys)
+    assert code == 2, err
+    assert err == (f"dsp-replay: error: the output in.estimates.mcap {victim} is the input log "
+                   f"{victim}; an output never overwrites an input, choose another file\n")
+    assert victim.read_bytes() == before and [p.name for p in out_dir.iterdir()] == [victim.name]
+
+
+def test_batch_errors_escape_names_from_the_log(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    bad = write_log(tmp_path / "esc.mcap", duration_s=0.3, with_poses=False,
+                    robots={f"r{ESCAPES}": (-3.0, 0.0, 0.0)})
+    code, _, err = run([bad.path, "--out-dir", tmp_path / "out", "--workers", "1"], capsys)
+    assert code == 1
+    assert "r\\x1b]0;x\\x07\\x1b[2J" in err and "\x1b" not in err and "\x07" not in err

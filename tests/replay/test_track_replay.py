@@ -153,3 +153,24 @@ def test_smooth_replays_the_whole_track_offline(moving_log: Path, replays: dict[
     assert v_smooth < causal["summary"]["fused"]["velocity"]["rmse_m_s"]
     with pytest.raises(UsageError, match="--smooth smooths the tracker; it needs --fusion track"):
         ReplayOptions(fusion="weighted", smooth=True)
+
+
+def test_calibrated_noise_lets_robust_reject_what_weighted_averages_in(tmp_path: Path) -> None:
+    # robot3 believes itself 0.2 m off along its line of sight to the ball: within CAMBADA's
+    # range sigma (0.10 m at 3 m), far outside the calibrated one (about 1 cm)
+    log = write_log(tmp_path / "biased.mcap", duration_s=0.2, pose_bias_m={"robot3": (
+        0.2 * 2.5 / math.hypot(2.5, 1.8), 0.2 * 1.8 / math.hypot(2.5, 1.8))})
+    docs = {}
+    for fusion, noise in (("weighted", "cambada"), ("robust", "cambada"),
+                          ("weighted", "calibrated"), ("robust", "calibrated")):
+        out = tmp_path / f"{fusion}-{noise}.json"
+        replay(log.path, ReplayOptions(fusion=fusion, noise=noise, out=out, progress=False))
+        docs[fusion, noise] = _results(out)
+    assert docs["robust", "cambada"]["fused"] == docs["weighted", "cambada"]["fused"]
+    assert "noise" not in docs["robust", "cambada"]["options"]
+    assert docs["robust", "calibrated"]["options"]["noise"] == "calibrated"
+    robust, weighted = docs["robust", "calibrated"], docs["weighted", "calibrated"]
+    assert all(s["fused_robots"] == ["robot1", "robot2"] for s in robust["fused"])
+    assert robust["summary"]["fused"]["rmse_m"] < 0.005 < weighted["summary"]["fused"]["rmse_m"]
+    with pytest.raises(UsageError, match="--noise 'cambda'; choose one of cambada, calibrated"):
+        ReplayOptions(noise="cambda")

@@ -59,6 +59,18 @@ def _str(record: str, key: str, value: Any) -> str:
     raise MetadataError(f"{record}: {key} = {value!r} is not a non-empty string")
 
 
+def _bool(record: str, key: str, value: Any) -> bool:
+    if isinstance(value, bool):
+        return value
+    raise MetadataError(f"{record}: {key} = {value!r} is not true or false")
+
+
+def _int_map(record: str, key: str, value: Any) -> dict[str, int]:
+    if isinstance(value, Mapping):
+        return {str(k): _int(record, f"{key}.{k}", v) for k, v in value.items()}
+    raise MetadataError(f"{record}: {key} = {value!r} is not a JSON object of integers")
+
+
 def _json_object(record: str, key: str, text: Any) -> dict[str, Any]:
     try:
         value = json.loads(text)
@@ -87,22 +99,51 @@ class RecordingMetadata:
     """Standard deviation of the believed yaw's noise."""
     face_px: int
     physics_hz: int
+    # --- written by recordings that use them (match play; older logs have none) ---------
+    camera_phase: str | None = None
+    """"sync" (every camera fires at the same stamps) or "random" (each its own phase)."""
+    camera_offsets_ns: Mapping[str, int] | None = None
+    """Robot -> the stamp of its first image [ns]."""
+    pose_bias_m: float | None = None
+    """Stationary std of the believed position's drifting bias (an OU process)."""
+    yaw_bias_deg: float | None = None
+    """Stationary std of the believed yaw's drifting bias."""
+    pose_bias_tau_s: float | None = None
+    """Time constant of the drifting bias."""
+    exposure_ms: float | None = None
+    """Exposure time (the blur's length); the stamp marks the exposure's end."""
+    image_noise: float | None = None
+    """Std of the Gaussian pixel noise [grey levels]."""
+    gain_jitter: float | None = None
+    """Stationary std of the log gain (an OU process, time constant 1 s)."""
+    ball_odometry: bool | None = None
+    """True when the log has the ball's true velocity on /ground_truth/ball/odometry."""
 
     _FIELDS: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
         "rate_hz": _float, "pose_rate_hz": _float, "pose_noise_m": _float,
         "yaw_noise_deg": _float, "frames": _int, "face_px": _int, "physics_hz": _int,
         "camera": _str, "image_format": _str,
     }
+    _OPTIONAL: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
+        "camera_phase": _str, "camera_offsets_ns": _int_map, "pose_bias_m": _float,
+        "yaw_bias_deg": _float, "pose_bias_tau_s": _float, "exposure_ms": _float,
+        "image_noise": _float, "gain_jitter": _float, "ball_odometry": _bool,
+    }
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON object written as ``params["recording"]``."""
-        return {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
+        """The JSON object written as ``params["recording"]`` (optional keys only when set)."""
+        out = {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
+        out.update({k: parse("", k, v) for k, parse in self._OPTIONAL.items()
+                    if (v := getattr(self, k)) is not None})
+        return out
 
     @classmethod
     def from_json(cls, obj: Mapping[str, Any], record: str = "recording") -> RecordingMetadata:
         """Parse ``params["recording"]``; raises :class:`MetadataError` naming what is wrong."""
-        return cls(**{k: parse(record, k, _get(record, obj, k))
-                      for k, parse in cls._FIELDS.items()})
+        values = {k: parse(record, k, _get(record, obj, k)) for k, parse in cls._FIELDS.items()}
+        values.update({k: parse(record, k, obj[k]) for k, parse in cls._OPTIONAL.items()
+                       if k in obj})
+        return cls(**values)
 
 
 @dataclass(frozen=True)

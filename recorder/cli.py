@@ -37,11 +37,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed (default %(default)s)")
     length = p.add_mutually_exclusive_group()
     length.add_argument("--duration", type=float, metavar="S",
-                        help="sim seconds (default: 1 s for static scenes, 12 s rolling)")
+                        help="sim seconds (default: 1 s for static scenes, 12 s rolling, "
+                        "10 s match)")
     length.add_argument("--frames", type=int, metavar="N", help="camera frames")
     p.add_argument("--rate", type=float, metavar="HZ",
                    help="camera frames per second; poses at twice this "
-                   "(default: 5 Hz static, 10 Hz rolling)")
+                   "(default: 5 Hz static, 10 Hz rolling, 20 Hz match)")
     p.add_argument("--image-format", choices=("png", "jpeg"), default="png",
                    help="CompressedImage encoding (default %(default)s)")
     p.add_argument("--jpeg-quality", type=int, default=90, metavar="Q",
@@ -56,8 +57,39 @@ def build_parser() -> argparse.ArgumentParser:
                    help="field size (default %(default)s, the paper's)")
     p.add_argument("--face-px", type=int, default=None, metavar="PX",
                    help="cube-face resolution for rendering (default 1024: sharp at 8 m)")
+    _add_match_arguments(p)
     add_common_arguments(p, camera="ideal", renderer=True, force=True)
     return p
+
+
+def _add_match_arguments(p: argparse.ArgumentParser) -> None:
+    """Match play, timing and the less-than-ideal camera (all off unless given)."""
+    g = p.add_argument_group("match play and camera effects (off unless given)")
+    g.add_argument("--camera-phase", choices=("sync", "random"),
+                   help="cameras fire together (sync) or each at its own seeded phase "
+                   "(random: no two images share a stamp); default random for match, "
+                   "sync elsewhere")
+    g.add_argument("--pose-rate", type=float, metavar="HZ",
+                   help="poses, /tf and truth per second, a whole multiple of --rate "
+                   "(default twice --rate; 240 for match)")
+    g.add_argument("--pose-bias", type=float, default=0.0, metavar="M",
+                   help="std dev of a slowly drifting localisation bias in metres (default 0)")
+    g.add_argument("--yaw-bias", type=float, default=0.0, metavar="DEG",
+                   help="std dev of a slowly drifting heading bias in degrees (default 0)")
+    g.add_argument("--pose-bias-tau", type=float, default=5.0, metavar="S",
+                   help="time constant of the drifting bias (default %(default)s s)")
+    g.add_argument("--exposure", type=float, default=0.0, metavar="MS",
+                   help="exposure time: motion blur over the physics steps before each "
+                   "stamp (default 0)")
+    g.add_argument("--image-noise", type=float, default=0.0, metavar="LEVELS",
+                   help="std dev of Gaussian pixel noise in grey levels (default 0)")
+    g.add_argument("--gain-jitter", type=float, default=0.0, metavar="STD",
+                   help="std dev of each camera's wandering log gain, e.g. 0.1 (default 0)")
+    g.add_argument("--distractors", type=int, default=0, metavar="N",
+                   help="orange boxes beside the field (match only; default 0)")
+    g.add_argument("--ball-odometry", action=argparse.BooleanOptionalAction, default=None,
+                   help="write the ball's true velocity on /ground_truth/ball/odometry "
+                   "(default: on for match)")
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -82,6 +114,16 @@ def _main(argv: Sequence[str] | None) -> int:
         renderer=args.renderer,
         force=args.force,
         progress=progress_enabled(args),
+        pose_rate_hz=args.pose_rate,
+        camera_phase=args.camera_phase,
+        pose_bias_m=args.pose_bias,
+        yaw_bias_deg=args.yaw_bias,
+        pose_bias_tau_s=args.pose_bias_tau,
+        exposure_ms=args.exposure,
+        image_noise=args.image_noise,
+        gain_jitter=args.gain_jitter,
+        distractors=args.distractors,
+        ball_odometry=args.ball_odometry,
     )
     for partial in partial_logs(args.output):
         print(printable(f"{PROG}: note: {partial} is left from an earlier recording to "

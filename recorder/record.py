@@ -2,12 +2,15 @@
 
 Timeline (integer sim nanoseconds from 0): camera frames every ``T = 1 / rate`` and poses,
 ``/tf`` and ground truth every ``T / 2`` (twice the camera rate, so replay can interpolate
-a pose at any image stamp). Physics steps at 240 Hz in between. Images are rendered from
-each robot's true pose; ``/robotN/pose`` and ``/tf`` carry what the robot believes (the
-truth plus optional Gaussian noise); ``/ground_truth/...`` carry the truth.
+a pose at any image stamp; a match writes them at the physics rate, 240 Hz). Physics steps
+at 240 Hz in between. Each camera fires at its own phase (``camera_phase`` "random": no two
+robots' images share a stamp) or all together ("sync"). Images are rendered from each
+robot's true pose; ``/robotN/pose`` and ``/tf`` carry what the robot believes (the truth plus
+an optional drifting bias and Gaussian noise); ``/ground_truth/...`` carry the truth.
 
 :func:`record` resolves a :class:`RecordOptions` against the scenario, writes the metadata
-records (:func:`log_metadata`) and runs the frame loop (:class:`_Simulation`).
+records (:func:`log_metadata`) and runs the frame loop
+(:class:`recorder.simulation.Simulation`).
 
 The log is written as ``<name>.partial.mcap`` in the output's folder (numbered,
 ``<name>.partial-2.mcap``, when one exists: an earlier partial log is never replaced) and
@@ -19,13 +22,14 @@ renamed when done. On Ctrl-C the MCAP is finished (so it is readable), kept ther
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import platform
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
@@ -39,8 +43,9 @@ from dsp.errors import UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.field import field_spec
-from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
+from recorder.omni import DEFAULT_FACE_PX
 from recorder.scenarios import SCENARIOS, Scenario, make_scenario, scenario_from_path
+from recorder.simulation import CAMERA_PHASES, Plan, Simulation
 from recorder.world import PHYSICS_HZ, World
 from recorder.writer import LogWriter
 
@@ -87,6 +92,15 @@ class RecordOptions:
     ``pose_noise_m`` / ``yaw_noise_deg``: standard deviations of the believed pose's noise.
     ``renderer``: "auto" (EGL if it loads, else TinyRenderer; env DSP_RENDERER overrides),
     "egl" or "tiny". ``scenario`` None: the one the output's file name names.
+
+    Match play and less-than-ideal cameras (every one off unless set; see
+    :mod:`recorder.effects`): ``pose_rate_hz`` (poses, /tf and truth per second, a whole
+    multiple of the camera rate; default twice it, a match's 240), ``camera_phase`` "sync" or
+    "random" (default random for match, sync elsewhere), ``pose_bias_m`` / ``yaw_bias_deg``
+    (a drifting localisation bias with time constant ``pose_bias_tau_s``), ``exposure_ms``,
+    ``image_noise`` [grey levels], ``gain_jitter``, ``distractors`` (orange boxes beside the
+    field, match only) and ``ball_odometry`` (the ball's true velocity on
+    /ground_truth/ball/odometry; default on for match).
     """
 
     scenario: str | None = None
@@ -106,8 +120,39 @@ class RecordOptions:
     force: bool = False
     progress: bool | None = False
     """True a bar, False none, None plain lines (:func:`dsp.cli.progress_bar`)."""
+    pose_rate_hz: float | None = None
+    camera_phase: str | None = None
+    pose_bias_m: float = 0.0
+    yaw_bias_deg: float = 0.0
+    pose_bias_tau_s: float = 5.0
+    exposure_ms: float = 0.0
+    image_noise: float = 0.0
+    gain_jitter: float = 0.0
+    distractors: int = 0
+    ball_odometry: bool | None = None
 
     def __post_init__(self) -> None:
+        self._check_recording()
+        self._check_effects()
+
+    def _check_effects(self) -> None:
+        if self.camera_phase not in (None, *CAMERA_PHASES):
+            raise UsageError(f"unknown camera phase {self.camera_phase!r}; choose "
+                             f"{' or '.join(CAMERA_PHASES)}")
+        if self.pose_rate_hz is not None and not 0 < self.pose_rate_hz <= PHYSICS_HZ:
+            raise UsageError(f"--pose-rate must be in (0, {PHYSICS_HZ}] Hz, got "
+                             f"{self.pose_rate_hz}")
+        for flag, value in (("--pose-bias", self.pose_bias_m), ("--yaw-bias", self.yaw_bias_deg),
+                            ("--exposure", self.exposure_ms), ("--image-noise", self.image_noise),
+                            ("--gain-jitter", self.gain_jitter)):
+            if not (math.isfinite(value) and value >= 0):
+                raise UsageError(f"{flag} must be >= 0, got {value}")
+        if not self.pose_bias_tau_s > 0:
+            raise UsageError(f"--pose-bias-tau must be > 0 s, got {self.pose_bias_tau_s}")
+        if self.exposure_ms > 100:
+            raise UsageError(f"--exposure must be at most 100 ms, got {self.exposure_ms}")
+
+    def _check_recording(self) -> None:
         if self.camera not in CAMERA_MODELS:
             raise UsageError(
                 f"unknown camera {self.camera!r}; choose one of {', '.join(CAMERA_MODELS)}")
@@ -151,19 +196,6 @@ class RecordSummary:
     wall_time_s: float
 
 
-@dataclass(frozen=True)
-class _Plan:
-    """Options resolved against the scenario: what the frame loop runs."""
-
-    scenario: Scenario
-    rate_hz: float
-    frames: int
-
-    @property
-    def pose_period_ns(self) -> int:
-        return max(1, round(_NS / self.rate_hz / 2))  # poses at twice the camera rate
-
-
 def _version(dist: str) -> str:
     try:
         return metadata.version(dist)
@@ -185,34 +217,89 @@ def _resolve_scenario(path: Path, scenario: str | None) -> str:
     return name
 
 
-def _plan(path: Path, options: RecordOptions) -> _Plan:
-    """The scenario, rate and frame count; refuses a missing folder or an existing log."""
+def _plan(path: Path, options: RecordOptions) -> Plan:
+    """The scenario, rates, frame count and camera phases; refuses a missing folder or an
+    existing log."""
     name = _resolve_scenario(path, options.scenario)
-    sc = make_scenario(name, options.seed, robots=options.robots, field=options.field)
+    sc = make_scenario(name, options.seed, robots=options.robots, field=options.field,
+                       distractors=options.distractors)
     rate = sc.default_rate_hz if options.rate_hz is None else options.rate_hz
     if options.frames is not None:
         frames = options.frames
     else:
         duration = sc.default_duration_s if options.duration_s is None else options.duration_s
         frames = max(1, round(duration * rate))
+    pose_rate = options.pose_rate_hz or sc.default_pose_rate_hz
+    if pose_rate is None:  # twice the camera rate, as the logs before match play
+        tick_ns, per_frame = max(1, round(_NS / rate / 2)), 2
+    else:
+        per_frame = round(pose_rate / rate)
+        if per_frame < 1 or abs(per_frame * rate - pose_rate) > 1e-6 * pose_rate:
+            raise UsageError(f"the pose rate {pose_rate:g} Hz must be a whole multiple of the "
+                             f"camera rate {rate:g} Hz")
+        tick_ns = max(1, round(_NS / pose_rate))
+    robots = [tr.name for tr in sc.robots]
+    phase = options.camera_phase or ("random" if sc.play is not None else "sync")
+    phases = dict.fromkeys(robots, 0)
+    if phase == "random":
+        if per_frame < len(robots):
+            raise UsageError(f"random camera phases need at least {len(robots)} pose ticks "
+                             f"per frame; raise --pose-rate to {len(robots) * rate:g} Hz or more")
+        rng = np.random.default_rng([options.seed, 4])
+        draw = rng.choice(per_frame, size=len(robots), replace=False)
+        phases = {r: int(k) for r, k in zip(robots, draw, strict=True)}
     check_suffix("output", path, (".mcap",))
     check_output_path(path, force=options.force)
-    return _Plan(sc, rate, frames)
+    return Plan(sc, rate, frames, tick_ns, per_frame, phases)
+
+
+def _extended(plan: Plan, options: RecordOptions) -> bool:
+    """True when the recording uses anything the logs before match play did not have (then
+    the metadata states every new parameter; otherwise it stays as it was)."""
+    return (plan.scenario.play is not None or options.pose_rate_hz is not None
+            or any(plan.phase_ticks.values()) or options.camera_phase is not None
+            or bool(options.ball_odometry) or any((
+                options.pose_bias_m, options.yaw_bias_deg, options.exposure_ms,
+                options.image_noise, options.gain_jitter)))
+
+
+def _recording(plan: Plan, options: RecordOptions) -> meta.RecordingMetadata:
+    """How the scenario is recorded; the match-play parameters only when used."""
+    rec = meta.RecordingMetadata(
+        rate_hz=plan.rate_hz, pose_rate_hz=plan.pose_rate_hz, frames=plan.frames,
+        camera=options.camera, image_format=options.image_format,
+        pose_noise_m=options.pose_noise_m, yaw_noise_deg=options.yaw_noise_deg,
+        face_px=options.face_px, physics_hz=PHYSICS_HZ,
+    )
+    if not _extended(plan, options):
+        return rec
+    return dataclasses.replace(
+        rec, camera_phase="random" if any(plan.phase_ticks.values()) else "sync",
+        camera_offsets_ns=plan.phase_ns(), pose_bias_m=options.pose_bias_m,
+        yaw_bias_deg=options.yaw_bias_deg, pose_bias_tau_s=options.pose_bias_tau_s,
+        exposure_ms=options.exposure_ms, image_noise=options.image_noise,
+        gain_jitter=options.gain_jitter, ball_odometry=_ball_odometry(plan, options))
+
+
+def _ball_odometry(plan: Plan, options: RecordOptions) -> bool:
+    if options.ball_odometry is not None:
+        return options.ball_odometry
+    return plan.scenario.play is not None
 
 
 def log_metadata(
     sc: Scenario, options: RecordOptions, *, rate_hz: float, frames: int, renderer: str,
-    camera: CameraModel,
+    camera: CameraModel, plan: Plan | None = None,
 ) -> tuple[meta.ScenarioMetadata, meta.CamerasMetadata, meta.RecorderMetadata]:
     """The log's metadata records: the scenario (with how it is recorded), each robot's
-    camera model and the recorder (renderer, physics, package versions)."""
+    camera model and the recorder (renderer, physics, package versions). ``plan``: the
+    resolved timing (default: poses at twice ``rate_hz``, cameras in sync)."""
+    if plan is None:
+        plan = Plan(sc, rate_hz, frames, max(1, round(_NS / rate_hz / 2)), 2,
+                    {tr.name: 0 for tr in sc.robots})
     scene = sc.params()
     field_name = scene.pop("field")
-    recording = meta.RecordingMetadata(
-        rate_hz=rate_hz, pose_rate_hz=2 * rate_hz, frames=frames, camera=options.camera,
-        image_format=options.image_format, pose_noise_m=options.pose_noise_m,
-        yaw_noise_deg=options.yaw_noise_deg, face_px=options.face_px, physics_hz=PHYSICS_HZ,
-    )
+    recording = _recording(plan, options)
     scenario = meta.ScenarioMetadata(sc.name, sc.seed, field_name, recording, scene)
     cameras = meta.CamerasMetadata(tuple(meta.CameraMetadata(tr.name, camera.to_dict())
                                       for tr in sc.robots))
@@ -227,84 +314,6 @@ def log_metadata(
     }
     recorder = meta.RecorderMetadata(renderer, PHYSICS_HZ, options.face_px, versions)
     return scenario, cameras, recorder
-
-
-def _encode(img: np.ndarray, fmt: str, jpeg_quality: int) -> bytes:
-    if fmt == "png":
-        ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, 3])
-    else:
-        ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
-    if not ok:  # pragma: no cover - OpenCV failure
-        raise RecorderError(f"OpenCV could not encode a {fmt} image")
-    return buf.tobytes()
-
-
-class _Simulation:
-    """The frame loop: steps the world and writes poses, /tf, truth and images."""
-
-    def __init__(self, world: World, plan: _Plan, options: RecordOptions,
-                 camera: CameraModel) -> None:
-        self.world = world
-        self.plan = plan
-        self.options = options
-        sc = plan.scenario
-        for tr in (*sc.robots, *sc.opponents):
-            world.add_robot(tr.name, opponent=tr.opponent)
-            world.set_robot_pose(tr.name, *tr.pose_at(0.0))
-        world.set_ball(*sc.ball_xy_m, *sc.ball_velocity_mps)
-        self.moving = [tr for tr in (*sc.robots, *sc.opponents) if tr.moving]
-        self.omni = OmniRenderer(camera, face_px=options.face_px, renderer=world.renderer)
-        self.noise_rng = np.random.default_rng([options.seed, 1])
-        self.steps_done = 0
-        self.frames_done = 0
-
-    def run(self, writer: LogWriter, bar: Any) -> None:
-        """Two pose ticks per camera frame; images on the even ones."""
-        for k in range(2 * self.plan.frames):
-            t_ns = k * self.plan.pose_period_ns
-            self._advance_to(t_ns)
-            truth = {tr.name: tr.pose_at(t_ns / _NS) for tr in self.plan.scenario.robots}
-            self._write_poses(writer, t_ns, truth)
-            if k % 2 == 0:
-                for robot, (x, y, yaw) in truth.items():
-                    img = self.omni.render(self.world, robot, x, y, yaw)
-                    fmt = self.options.image_format
-                    writer.write_image(robot, t_ns, _encode(img, fmt, self.options.jpeg_quality),
-                                       fmt)
-                self.frames_done += 1
-                bar.update(1)
-
-    def _advance_to(self, t_ns: int) -> None:
-        """Physics steps (moving the kinematic robots) up to the one nearest ``t_ns``."""
-        target = (t_ns * PHYSICS_HZ + _NS // 2) // _NS
-        while self.steps_done < target:
-            self.steps_done += 1
-            for tr in self.moving:
-                self.world.set_robot_pose(tr.name, *tr.pose_at(self.steps_done / PHYSICS_HZ))
-            self.world.step()
-
-    def _believed(self, truth: dict[str, tuple[float, float, float]]
-                  ) -> dict[str, tuple[float, float, float]]:
-        """The truth plus the options' Gaussian noise (yaw wrapped to (-pi, pi])."""
-        yaw_sigma = np.deg2rad(self.options.yaw_noise_deg)
-        believed = {}
-        for robot, (x, y, yaw) in truth.items():
-            dx, dy = self.noise_rng.normal(0.0, 1.0, 2) * self.options.pose_noise_m
-            dyaw = float(self.noise_rng.normal(0.0, 1.0)) * yaw_sigma
-            yaw_b = float(np.arctan2(np.sin(yaw + dyaw), np.cos(yaw + dyaw)))
-            believed[robot] = (x + float(dx), y + float(dy), yaw_b)
-        return believed
-
-    def _write_poses(self, writer: LogWriter, t_ns: int,
-                     truth: dict[str, tuple[float, float, float]]) -> None:
-        believed = self._believed(truth)
-        for robot, (x, y, yaw) in truth.items():
-            writer.write_pose(c.topic_for(c.GT_POSE_TOPIC, robot), t_ns, x, y, 0.0, yaw)
-        for robot, (x, y, yaw) in believed.items():
-            writer.write_pose(c.topic_for(c.POSE_TOPIC, robot), t_ns, x, y, 0.0, yaw)
-        writer.write_tf(t_ns, believed)
-        bx, by, bz = self.world.ball_position()
-        writer.write_pose(c.GT_BALL_TOPIC, t_ns, bx, by, bz, 0.0)
 
 
 PARTIAL = ".partial"
@@ -353,17 +362,19 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
     plan = _plan(path, options)
     camera = make_camera(options.camera)
     with World(field_spec(options.field), renderer=options.renderer) as world:
-        sim = _Simulation(world, plan, options, camera)
+        sim = Simulation(world, plan, options, camera,
+                         ball_odometry=_ball_odometry(plan, options))
         scenario, cameras, recorder = log_metadata(
             plan.scenario, options, rate_hz=plan.rate_hz, frames=plan.frames,
-            renderer=world.renderer, camera=camera)
+            renderer=world.renderer, camera=camera, plan=plan)
 
         def fill(writer: LogWriter) -> None:
             writer.metadata(c.SCENARIO_METADATA, scenario.to_metadata())
             writer.metadata(c.CAMERAS_METADATA, cameras.to_metadata())
             writer.metadata(c.RECORDER_METADATA, recorder.to_metadata())
             writer.flush()  # the metadata reach the disk before the first frame
-            with progress_bar(plan.frames, path.name, options.progress, unit="frame") as bar:
+            with progress_bar(plan.frames * len(plan.scenario.robots), path.name,
+                              options.progress, unit="image") as bar:
                 sim.run(writer, bar)
 
         messages = _write_log(path, fill,
@@ -379,7 +390,7 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
         camera=options.camera,
         image_format=options.image_format,
         rate_hz=plan.rate_hz,
-        sim_duration_ns=(2 * plan.frames - 1) * plan.pose_period_ns,
+        sim_duration_ns=plan.sim_duration_ns,
         messages=messages,
         file_size_bytes=path.stat().st_size,
         renderer=used_renderer,

@@ -3,7 +3,9 @@
 ``scenario1`` .. ``scenario4`` are the paper's (Section II.J, docs/method.md),
 ball at rest. ``random`` draws robot poses and a ball from the seed, sometimes with the ball
 hidden behind an opponent or out of robot 1's range. ``rolling`` rolls the ball across the
-field while the robots drive. Pure data and arithmetic: no pybullet here.
+field while the robots drive. ``match`` is match play (:mod:`recorder.match`): robots driving
+loops, the ball kicked and passed at 2-8 m/s, bouncing and slowing. Pure data and
+arithmetic: no pybullet here.
 """
 
 from __future__ import annotations
@@ -21,18 +23,20 @@ from dsp.contract import robot_name
 from dsp.errors import UsageError
 from recorder.errors import UnknownScenarioError
 from recorder.field import field_spec
+from recorder.match import MATCH_POSE_RATE_HZ, MatchPlay, PathTrack, match_parts
 
 __all__ = [
     "PAPER_SCENARIOS",
     "SCENARIOS",
     "RobotTrack",
     "Scenario",
+    "Track",
     "make_scenario",
     "scenario_from_path",
 ]
 
 PAPER_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
-SCENARIOS = (*PAPER_SCENARIOS, "random", "rolling")
+SCENARIOS = (*PAPER_SCENARIOS, "random", "rolling", "match")
 """Every scenario name ``make_scenario`` knows."""
 
 _DEG = math.pi / 180.0
@@ -70,6 +74,12 @@ class RobotTrack:
         return bool(self.vx_mps or self.vy_mps or self.yaw_rate_radps)
 
 
+Track = RobotTrack | PathTrack
+"""A robot's motion: ``name``, ``opponent``, ``moving`` and ``pose_at(t_s)``."""
+_OPTIONAL = ("play", "default_pose_rate_hz")
+"""Scenario fields left out of ``params()`` while None (the scenes before match play)."""
+
+
 @dataclass(frozen=True)
 class Scenario:
     """A scene: our robots (with cameras), opponents (obstacles), the ball and defaults."""
@@ -77,18 +87,25 @@ class Scenario:
     name: str
     seed: int
     field: str
-    robots: tuple[RobotTrack, ...]
+    robots: tuple[Track, ...]
     ball_xy_m: tuple[float, float]
     ball_velocity_mps: tuple[float, float] = (0.0, 0.0)
     opponents: tuple[RobotTrack, ...] = ()
     default_duration_s: float = 1.0
     default_rate_hz: float = 5.0
     notes: dict[str, Any] = dc_field(default_factory=dict)
+    play: MatchPlay | None = None
+    """Kicks, distractors and walls (match play); None: the ball only rolls."""
+    default_pose_rate_hz: float | None = None
+    """Poses, /tf and truth per second; None: twice the camera rate."""
 
     def params(self) -> dict[str, Any]:
         """JSON-able parameters (for the log's dsp.scenario metadata)."""
         d = asdict(self)
         del d["name"], d["seed"]
+        for key in _OPTIONAL:
+            if d[key] is None:
+                del d[key]
         return d
 
 
@@ -104,9 +121,20 @@ def _check_robots(name: str, robots: int | None, fixed: int | None = None) -> in
 
 
 def make_scenario(name: str, seed: int = 0, *, robots: int | None = None,
-                  field: str = "18x12") -> Scenario:
-    """The scenario ``name`` (one of ``SCENARIOS``) for a seed, robot count and field."""
+                  field: str = "18x12", distractors: int = 0) -> Scenario:
+    """The scenario ``name`` (one of ``SCENARIOS``) for a seed, robot count and field;
+    ``distractors`` orange boxes beside the field (match only)."""
     spec = field_spec(field)
+    if distractors and name != "match":
+        raise UsageError(f"--distractors is for the match scenario, not {name}")
+    if not 0 <= distractors <= 20:
+        raise UsageError(f"--distractors must be between 0 and 20, got {distractors}")
+    if name == "match":
+        paths, ball, play = match_parts(seed, _check_robots(name, robots), spec.half_length_m,
+                                        spec.half_width_m, spec.border_m, distractors)
+        return Scenario(name, seed, field, tuple(paths), ball, play=play,
+                        default_duration_s=10.0, default_rate_hz=20.0,
+                        default_pose_rate_hz=MATCH_POSE_RATE_HZ)
     if name in _PAPER:
         _check_robots(name, robots, 3)
         poses, ball = _PAPER[name]

@@ -291,6 +291,45 @@ class World:
         w = [-vy_mps / BALL_RADIUS_M, vx_mps / BALL_RADIUS_M, 0.0]
         p.resetBaseVelocity(self.ball, [vx_mps, vy_mps, 0.0], w, physicsClientId=c)
 
+    def kick_ball(self, vx_mps: float, vy_mps: float) -> None:
+        """Strike the ball where it is: it rolls off with (vx, vy) without slipping."""
+        c = self._client
+        w = [-vy_mps / BALL_RADIUS_M, vx_mps / BALL_RADIUS_M, 0.0]
+        p.resetBaseVelocity(self.ball, [vx_mps, vy_mps, 0.0], w, physicsClientId=c)
+
+    def ball_velocity(self) -> tuple[float, float, float]:
+        """The ball centre's linear velocity [m/s] (field frame)."""
+        v, _ = p.getBaseVelocity(self.ball, physicsClientId=self._client)
+        return (float(v[0]), float(v[1]), float(v[2]))
+
+    def add_walls(self, height_m: float = 0.5) -> None:
+        """Invisible walls (collision only, never rendered) along the carpet's edge, so a
+        ball kicked out bounces back into play."""
+        c = self._client
+        hl = self.field.half_length_m + self.field.border_m
+        hw = self.field.half_width_m + self.field.border_m
+        t = 0.1
+        for half, centre in (((t, hw + t, height_m / 2), (hl + t, 0.0, height_m / 2)),
+                             ((t, hw + t, height_m / 2), (-hl - t, 0.0, height_m / 2)),
+                             ((hl + t, t, height_m / 2), (0.0, hw + t, height_m / 2)),
+                             ((hl + t, t, height_m / 2), (0.0, -hw - t, height_m / 2))):
+            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
+            body = p.createMultiBody(0, col, -1, centre, physicsClientId=c)
+            p.changeDynamics(body, -1, restitution=0.6, lateralFriction=0.3, physicsClientId=c)
+
+    def add_distractor(self, x_m: float, y_m: float, size_m: float, yaw_rad: float = 0.0
+                       ) -> None:
+        """An orange box (the ball's colour; side ``size_m``) standing on the floor, turned
+        by ``yaw_rad``: seen from above at an angle, a colour threshold may take it for the
+        ball (square-on, its fill ratio gives it away)."""
+        c = self._client
+        half = [size_m / 2] * 3
+        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(BALL_RGB),
+                                  specularColor=[0, 0, 0], physicsClientId=c)
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
+        p.createMultiBody(0, col, vis, [x_m, y_m, size_m / 2],
+                          p.getQuaternionFromEuler([0, 0, yaw_rad]), physicsClientId=c)
+
     def ball_position(self) -> tuple[float, float, float]:
         pos, _ = p.getBasePositionAndOrientation(self.ball, physicsClientId=self._client)
         return (float(pos[0]), float(pos[1]), float(pos[2]))

@@ -85,6 +85,16 @@ class LogWriter:
         msg = c.pose_stamped(t_ns, x, y, z, quaternion_from_yaw(yaw_rad))
         self._write(topic, c.POSE_STAMPED, msg, t_ns)
 
+    def write_odometry(self, topic: str, t_ns: int, child_frame_id: str, x: float, y: float,
+                       z: float, vx: float, vy: float, vz: float) -> None:
+        """nav_msgs/Odometry in frame ``field`` (position and velocity, no covariance). Its
+        schema is registered at the first one, so logs without odometry stay as they were."""
+        if c.ODOMETRY not in self._schemas:
+            self._schemas[c.ODOMETRY] = self._w.register_msgdef(
+                c.ODOMETRY, c.MESSAGE_DEFINITIONS[c.ODOMETRY])
+        msg = c.odometry(t_ns, child_frame_id, x, y, vx, vy, z_m=z, vz_m_s=vz)
+        self._write(topic, c.ODOMETRY, msg, t_ns)
+
     def write_tf(self, t_ns: int, poses: dict[str, tuple[float, float, float]]) -> None:
         """field -> robot transforms for every robot's (x, y, yaw)."""
         msg = c.tf_message([c.transform_stamped(t_ns, robot, x, y, 0.0, quaternion_from_yaw(yaw))

@@ -2,6 +2,7 @@
 
     dsp-eval [--camera ideal] [--calibration calib.json] [--out-dir eval/]
     dsp-eval --suite random --count 200 --seed 1 [--workers N | --ray]
+    dsp-eval --suite match --count 20 [--workers N | --ray]
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
@@ -21,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from dsp.atomic import atomic_output, check_distinct
-from dsp.checks import check_int
+from dsp.checks import check_int, check_number
 from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
 from dsp.jsonio import dumps as strict_json
@@ -33,6 +34,13 @@ from replay.evaluate import (
     random_markdown,
     run_paper_suite,
     run_random_suite,
+)
+from replay.evaluate_match import (
+    MatchLogScore,
+    MatchOptions,
+    MatchTask,
+    match_markdown,
+    run_match_suite,
 )
 from replay.parallel import Outcome, Workers, add_worker_arguments, map_tasks, workers_from_args
 from replay.scenes import SceneMapper, SceneTask
@@ -51,18 +59,36 @@ def build_parser() -> argparse.ArgumentParser:
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
-    p.add_argument("--suite", choices=("paper", "random"), default="paper",
-                   help="the paper's four scenarios (default) or random scenes")
-    p.add_argument("--count", type=int, default=200, help="random scenes (default 200)")
+    p.add_argument("--suite", choices=("paper", "random", "match"), default="paper",
+                   help="the paper's four scenarios (default), random scenes or seeded "
+                   "matches (the tracker against window fusion)")
+    p.add_argument("--count", type=int, default=None,
+                   help="random scenes (default 200) or matches (default 20)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first scene (default 0)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration from dsp-calibrate for the corrected estimator "
                    "(default: the camera model in the log's metadata)")
     p.add_argument("--out-dir", type=Path, default=Path("eval"), metavar="DIR",
                    help="logs and tables go here (default ./eval)")
+    _add_match_arguments(p)
     add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
     return p
+
+
+def _add_match_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("--suite match")
+    g.add_argument("--sync-count", type=int, metavar="N",
+                   help="record the first N matches again with synchronised cameras "
+                   "(default: all)")
+    g.add_argument("--duration", type=float, default=10.0, metavar="S",
+                   help="sim seconds per match (default %(default)s)")
+    g.add_argument("--rate", type=float, metavar="HZ",
+                   help="camera frames per second per robot (default: the scenario's, 20)")
+    g.add_argument("--face-px", type=int, metavar="PX",
+                   help="render resolution (default: the recorder's, 1024)")
+    g.add_argument("--distractors", type=int, default=3, metavar="N",
+                   help="orange boxes beside the field per match (default %(default)s)")
 
 
 @dataclass(frozen=True)
@@ -81,8 +107,12 @@ class SimRecorder:
 
 def _check(args: argparse.Namespace) -> None:
     """Refuse bad options and a bad calibration before recording anything."""
+    if args.count is None:
+        args.count = 20 if args.suite == "match" else 200
     check_int("--count", args.count, low=1, high=MAX_COUNT)
     check_int("--seed", args.seed, low=0, high=MAX_SEED)
+    check_int("--sync-count", args.sync_count, low=0, high=MAX_COUNT)
+    check_number("--duration", args.duration, low=0, high=3600, low_open=True, unit="s")
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
     if args.calibration is not None:
@@ -111,6 +141,8 @@ def _scene_mapper(workers: Workers, bar: Any) -> SceneMapper:
 def _run_suite(args: argparse.Namespace,
                workers: Workers) -> tuple[str, str, dict[str, Any]]:
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
+    if args.suite == "match":
+        return _run_match_suite(args, workers)
     record = SimRecorder(args.camera, args.renderer)
     stem = _stem(args)
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
@@ -131,6 +163,27 @@ def _stem(args: argparse.Namespace) -> str:
     """The tables' file stem in --out-dir."""
     stem = f"{args.suite}-{args.camera}"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
+
+
+def _run_match_suite(args: argparse.Namespace,
+                     workers: Workers) -> tuple[str, str, dict[str, Any]]:
+    options = MatchOptions(camera=args.camera, duration_s=args.duration, rate_hz=args.rate,
+                           face_px=args.face_px, distractors=args.distractors,
+                           renderer=args.renderer, calibration=args.calibration)
+    sync = args.count if args.sync_count is None else min(args.sync_count, args.count)
+    with progress_bar(args.count + sync, PROG, progress_enabled(args), unit="log") as bar:
+
+        def done(i: int, outcome: Outcome[Any]) -> None:
+            bar.update(1)
+
+        def map_logs(fn: Callable[[MatchTask], MatchLogScore],
+                     tasks: Sequence[MatchTask]) -> list[MatchLogScore]:
+            outcomes = map_tasks(fn, tasks, workers, on_done=done, fail_fast=True)
+            return [o.unwrap() for o in outcomes]
+
+        suite = run_match_suite(args.out_dir, options, count=args.count, seed=args.seed,
+                                sync_count=sync, map_tasks=map_logs)
+    return _stem(args), match_markdown(suite), suite.to_dict()
 
 
 def _main(argv: Sequence[str] | None) -> int:

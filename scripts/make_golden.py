@@ -51,6 +51,11 @@ SCENES: dict[str, dict[str, Any]] = {
     # robot1 (the goalkeeper) never sees it, so "no_detection" frames are pinned too
     "rolling": {"scenario": "rolling", "seed": 0, "frames": 4, "rate_hz": 2.0,
                 "camera": "ideal"},
+    # match play: the ball kicked at t = 0, robots driving, each camera at its own phase (no
+    # two images share a stamp), poses and truth (with the ball's velocity, nav_msgs/Odometry)
+    # at 240 Hz; 4 frames per robot at 5 Hz (0.8 s), two distractors beside the field
+    "match": {"scenario": "match", "seed": 0, "frames": 4, "rate_hz": 5.0,
+              "camera": "ideal", "distractors": 2},
 }
 """Golden scene name (= log file stem) -> keyword arguments of ``recorder.record.record``."""
 

@@ -105,12 +105,13 @@ def test_rolling_lasts_ten_seconds_and_moves() -> None:
 
 
 def test_names_and_errors() -> None:
-    assert set(SCENARIOS) == {*PAPER_SCENARIOS, "random", "rolling"}
+    assert set(SCENARIOS) == {*PAPER_SCENARIOS, "random", "rolling", "match"}
     assert scenario_from_path("logs/scenario1.mcap") == "scenario1"
     assert scenario_from_path("rolling-seed3.mcap") == "rolling"
     assert scenario_from_path("random_2.mcap") == "random"
     assert scenario_from_path("scenario1.partial.mcap") == "scenario1"
-    assert scenario_from_path("match.mcap") is None
+    assert scenario_from_path("match-seed2.mcap") == "match"
+    assert scenario_from_path("friendly.mcap") is None
     with pytest.raises(UnknownScenarioError, match="scenario1, scenario2"):
         make_scenario("scenario5")
     with pytest.raises(UsageError, match="exactly 3"):

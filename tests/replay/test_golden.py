@@ -128,7 +128,9 @@ def test_expected_files_hold_every_field(scene: str) -> None:
     assert {"format", "version", "log", "options", "frames", "fused", "summary"} <= set(doc)
     assert len(doc["log"]["sha256"]) == 64
     assert all(set(f) == FRAME_FIELDS for f in doc["frames"])
-    assert all(set(s) == STEP_FIELDS for s in doc["fused"])
+    # a log with the ball's true velocity (match) adds it to every step
+    velocity = {"truth_velocity_m_s"} if scene == "match" else set()
+    assert all(set(s) == STEP_FIELDS | velocity for s in doc["fused"])
     ok = [f for f in doc["frames"] if f["status"] == "ok"]
     assert ok and all(f["pose"] and f["truth"] and f["error_m"] is not None for f in ok)
     assert all({"bbox_px", "circularity"} <= set(f["detection"]) for f in ok)

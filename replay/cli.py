@@ -193,7 +193,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_intermixed_args(argv)
     live = [f for f, v in (("--bind", args.bind), ("--port", args.port),
                            ("--grpc-port", args.grpc_port)) if v is not None]
     if live and not args.serve:

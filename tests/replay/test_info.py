@@ -82,4 +82,3 @@ def test_not_a_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main([str(bad)]) == 1
     assert capsys.readouterr().err.count("\n") == 1
     assert main([str(tmp_path / "missing.mcap")]) == 1
-

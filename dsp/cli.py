@@ -22,6 +22,7 @@ Importing this module imports neither pybullet nor mcap.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -219,6 +220,10 @@ def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],
     except KeyboardInterrupt:
         _fail(prog, "interrupted")
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `dsp-info LOG | head`: the reader has what it wanted
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # so the flush at exit does not fail again
+        return EXIT_INPUT
     except OSError as err:
         _fail(prog, f"error: {err}")
         return EXIT_INPUT

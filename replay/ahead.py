@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from replay.decode import decode_image
+from replay.decode import DEFAULT_MAX_PIXELS, decode_image
 from replay.estimation import Detected, detect
 from replay.reader import ImageMessage
 
@@ -39,10 +39,11 @@ class Decoded:
     """Wall time of the decoding and detection."""
 
 
-def decode_and_detect(msg: ImageMessage) -> Decoded:
-    """Decode an image message and detect the ball in it (pure, thread-safe)."""
+def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> Decoded:
+    """Decode an image message (none over ``max_pixels``) and detect the ball in it (pure,
+    thread-safe)."""
     t0 = time.perf_counter()
-    image = decode_image(msg)
+    image = decode_image(msg, max_pixels=max_pixels)
     detected = detect(image)
     return Decoded(image, detected, time.perf_counter() - t0)
 

@@ -194,6 +194,10 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: not a folder")
     out_dir.mkdir(parents=True, exist_ok=True)
+    workers = workers or Workers(count=1)
+    if options.threads is None and (workers.ray or workers.processes > 1):
+        # the workers already use the cores: a thread pool per log would oversubscribe them
+        options = dataclasses.replace(options, threads=1)
     tasks = _tasks(logs, out_dir, options, estimates_mcap)
     rows: list[LogRow | None] = [None] * len(tasks)
     with progress_bar(len(tasks), "dsp-replay", progress, unit="log") as bar:
@@ -209,7 +213,7 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
             if on_log is not None and row is not None:
                 on_log(row)
 
-        map_tasks(replay_log, tasks, workers or Workers(count=1), on_done=done)
+        map_tasks(replay_log, tasks, workers, on_done=done)
     summary = BatchSummary(tuple(r for r in rows if r is not None), options.results_view())
     _write_summary(summary, out_dir)
     return summary

@@ -26,6 +26,7 @@ from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
+from replay.recovery import describe as describe_recovery
 from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
 from replay.stats import ReplaySummary
@@ -89,6 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fusion window grouping the robots' images (default 0.05 s)")
     p.add_argument("--recover", action="store_true",
                    help="replay every complete chunk of a truncated or damaged log")
+    p.add_argument("--max-chunk-mib", type=float, default=128.0, metavar="MIB",
+                   help="refuse chunks larger than this, compressed or not (default 128)")
+    p.add_argument("--max-image-mpx", type=float, default=40.0, metavar="MPX",
+                   help="skip images whose header declares more megapixels (default 40)")
     p.add_argument("--threads", type=int, metavar="N",
                    help="threads decoding and detecting images ahead (default: the cores; "
                    "1: serial); the outputs are the same whatever N")
@@ -131,6 +136,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
         out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun, threads=args.threads,
         progress=progress_enabled(args),
+        max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx, quiet=args.quiet,
     )
 
 
@@ -159,11 +165,7 @@ def format_summary(s: ReplaySummary) -> str:
     if s.undecodable_messages:
         lines.append(f"undecodable messages: {s.undecodable_messages}")
     if s.recovered is not None:
-        rec = s.recovered
-        lines.append(
-            f"recovered: lost {rec['lost_bytes']} of {rec['file_bytes']} bytes"
-            f"{' (truncated)' if rec['truncated'] else ''}, {rec['bad_chunks']} bad chunks"
-        )
+        lines.extend(describe_recovery(s.recovered))
     for out in s.outputs:
         lines.append(f"wrote {out}")
     return "\n".join(lines)
@@ -191,7 +193,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_intermixed_args(argv)
     live = [f for f, v in (("--bind", args.bind), ("--port", args.port),
                            ("--grpc-port", args.grpc_port)) if v is not None]
     if live and not args.serve:

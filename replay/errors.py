@@ -18,11 +18,20 @@ __all__ = [
     "ImageDecodeError",
     "InputNotFoundError",
     "MissingPosesError",
+    "NoFramesError",
     "NoImageTopicsError",
     "NotMcapError",
     "ReplayError",
+    "SchemaError",
     "TruncatedLogError",
 ]
+
+
+def shown(text: str, limit: int = 120) -> str:
+    """``text`` from a log made safe for a terminal: control characters escaped, cut to
+    ``limit`` characters."""
+    out = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in text)
+    return out if len(out) <= limit else out[:limit] + "..."
 
 
 class ReplayError(InputError):
@@ -85,6 +94,20 @@ class ImageDecodeError(ReplayError):
 
     def __init__(self, path: Path | str, detail: str) -> None:
         super().__init__(f"{path}: images do not decode: {detail}")
+
+
+class SchemaError(ReplayError):
+    """The schema of a topic replay reads is missing or does not parse."""
+
+    def __init__(self, path: Path | str, what: str, detail: str) -> None:
+        super().__init__(f"{path}: unusable schema for {what}: {shown(detail)}")
+
+
+class NoFramesError(ReplayError):
+    """The replay read no image frame at all (an empty selection, or nothing readable)."""
+
+    def __init__(self, path: Path | str, detail: str) -> None:
+        super().__init__(f"{path}: no frames replayed: {detail}")
 
 
 class EstimatorUnavailableError(ReplayError):

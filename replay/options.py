@@ -20,6 +20,7 @@ from dsp.atomic import check_distinct, check_output_path
 from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
 from estimator.fusion import FUSION_METHODS
+from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
 __all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "NS", "ReplayOptions", "RerunTarget",
            "Timing"]
@@ -110,6 +111,12 @@ class ReplayOptions:
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
+    quiet: bool = False
+    """Print no warnings (a log without camera metadata, skipped bad messages)."""
+    max_chunk_mib: float = 128.0
+    """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
+    max_image_mpx: float = 40.0
+    """Refuse to decode an image whose header declares more megapixels than this."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -126,6 +133,10 @@ class ReplayOptions:
                      unit="s")
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
             check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
+        check_number("--max-chunk-mib", self.max_chunk_mib, low=0, high=1 << 20, low_open=True,
+                     unit="MiB")
+        check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,
+                     unit="Mpx")
         if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
         if self.noise not in NOISE_MODELS:
@@ -163,6 +174,16 @@ class ReplayOptions:
             start_ns=None if self.start_s is None else round(self.start_s * NS),
             end_ns=None if self.end_s is None else round(self.end_s * NS),
         )
+
+    def limits(self) -> Limits:
+        """The reader's size limits in bytes."""
+        chunk = int(self.max_chunk_mib * 1024 * 1024)
+        return Limits(max_message_bytes=min(DEFAULT_MAX_MESSAGE_BYTES, chunk),
+                      max_chunk_bytes=chunk)
+
+    @property
+    def max_image_pixels(self) -> int:
+        return int(self.max_image_mpx * 1_000_000)
 
     def check_outputs(self, log: Path | str | None = None) -> None:
         """Refuse, before any work: an output that exists already (unless ``force``), is a

@@ -1,109 +1,73 @@
 """Stream a log's images, poses and ground truth in log-time order.
 
-:class:`LogReader` opens an MCAP file, checks it (magic, summary, topics), and yields frozen
-records (:class:`ImageMessage`, :class:`PoseMessage`, :class:`TruthMessage`) one at a time,
-so memory stays flat however long the log is.
+:class:`LogReader` opens an MCAP file, checks it, and yields frozen records
+(:class:`ImageMessage`, :class:`PoseMessage`, :class:`TruthMessage`) one at a time, so memory
+stays flat however long the log is.
 
-Order: ascending ``log_time``; messages with equal ``log_time`` keep their file order (mcap's
-indexed reader breaks ties by chunk offset, then position in the chunk; the recovery reader
-sorts each chunk stably). Only the topics replay needs are decoded.
+Checks (:mod:`replay.catalogue`): the data section is scanned record by record with every
+length bounded (:class:`~replay.mcap_records.Limits`); chunk, data and summary CRCs are
+verified; the summary must agree with the data (chunk and metadata index entries, channels,
+statistics). Any valid MCAP layout reads the same: chunked or not, any compression, with or
+without indexes, statistics, summary offsets or repeated channels and schemas; metadata is
+found by the scan, not only through its index.
 
-``recover=True`` reads the file front to back with mcap's :class:`~mcap.stream_reader.StreamReader`
-and stops at the first incomplete record, so a truncated log replays every complete chunk;
-damaged chunks are skipped and counted. :attr:`LogReader.loss` says what was lost.
+Order: ascending ``log_time``; equal ``log_time`` keeps file order (chunk offset, then
+position in the chunk). Only the topics replay needs are decoded. A message that does not
+decode, or decodes to a pose with a non-finite value or a zero quaternion or an empty image,
+is skipped and counted (:attr:`LogReader.bad_messages`).
+
+Strict (default): damage raises a :class:`~replay.errors.ReplayError` naming the file and
+byte. ``recover=True`` reads every intact chunk and the complete messages of an unchunked
+tail; :attr:`LogReader.loss` says exactly what was lost (chunks, messages, sim-time ranges).
 """
 
 from __future__ import annotations
 
+import heapq
 import os
-import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from mcap.exceptions import McapError
-from mcap.reader import SeekingReader
-from mcap.records import Channel, Chunk, Message, Metadata, Schema
-from mcap.stream_reader import MAGIC_SIZE, StreamReader, breakup_chunk
+from mcap.records import Channel, Message
 from mcap_ros2.decoder import DecoderFactory
 
 from dsp import contract
 from dsp import metadata as meta
+from replay.catalogue import (
+    Catalogue,
+    build_catalogue,
+    check_definition,
+    load_block,
+    read_all_blocks,
+)
 from replay.errors import (
     CorruptLogError,
     InputNotFoundError,
     MissingPosesError,
     NoImageTopicsError,
     NotMcapError,
-    TruncatedLogError,
+    SchemaError,
+    shown,
 )
+from replay.mcap_records import MAGIC, Limits, Malformed
+from replay.mcap_scan import Block
+from replay.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage, convert
+from replay.recovery import RecoveryLoss
+from replay.schemas import definition_mismatch
 
-__all__ = ["ImageMessage", "LogInfo", "LogReader", "PoseMessage", "RecoveryLoss",
-           "TruthMessage"]
+__all__ = [
+    "ImageMessage",
+    "Limits",
+    "LogInfo",
+    "LogReader",
+    "PoseMessage",
+    "RecoveryLoss",
+    "TruthMessage",
+]
 
-_MCAP_MAGIC = b"\x89MCAP0\r\n"
 GT_ODOMETRY = contract.GT_BALL_ODOMETRY_TOPIC
-
-# Errors mcap (and its decompressors) raise on damaged bytes. lz4 raises RuntimeError.
-_READ_ERRORS: tuple[type[BaseException], ...] = (
-    McapError,
-    ValueError,
-    struct.error,
-    EOFError,
-    RuntimeError,
-)
-try:  # zstandard is optional in mcap
-    import zstandard as _zstd
-
-    _READ_ERRORS = (*_READ_ERRORS, _zstd.ZstdError)
-except ImportError:  # pragma: no cover
-    pass
-
-# ... and what a message that decodes to an unexpected shape raises in _convert.
-_DECODE_ERRORS: tuple[type[BaseException], ...] = (*_READ_ERRORS, AttributeError, TypeError,
-                                                   IndexError, KeyError)
-
-
-@dataclass(frozen=True)
-class ImageMessage:
-    """One camera image. ``data`` is the compressed bytes (``fmt`` "png"/"jpeg"/...) or the
-    raw pixel buffer (``fmt`` "raw", with ``encoding``, ``width_px``, ``height_px``, ``step``)."""
-
-    robot: str
-    stamp_ns: int
-    log_time_ns: int
-    fmt: str
-    data: bytes
-    encoding: str = ""
-    width_px: int = 0
-    height_px: int = 0
-    step: int = 0
-
-
-@dataclass(frozen=True)
-class PoseMessage:
-    """A robot's pose in the field frame: position in metres, quaternion (x, y, z, w)."""
-
-    robot: str
-    stamp_ns: int
-    x_m: float
-    y_m: float
-    qx: float
-    qy: float
-    qz: float
-    qw: float
-
-
-@dataclass(frozen=True)
-class TruthMessage:
-    """The ball's true position [m], velocity [m/s] from Odometry, field frame (evaluation)."""
-
-    stamp_ns: int
-    x_m: float
-    y_m: float
-    vx_m_s: float | None = None
-    vy_m_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -127,40 +91,18 @@ class LogInfo:
     """The ``dsp.cameras`` record, parsed; no cameras when the log has none."""
     recorder: meta.RecorderMetadata | None = None
     """The ``dsp.recorder`` record, parsed; None when the log has none."""
+    warnings: tuple[str, ...] = ()
+    """What the replay falls back to (a robot without camera metadata), for the user."""
 
 
-@dataclass
-class RecoveryLoss:
-    """What ``recover=True`` could not read."""
-
-    file_bytes: int = 0
-    read_bytes: int = 0
-    bad_chunks: int = 0
-    truncated: bool = False
-    detail: str = ""
-
-    @property
-    def lost_bytes(self) -> int:
-        return self.file_bytes - self.read_bytes
-
-
-@dataclass
-class _Catalogue:
-    schemas: dict[int, Schema] = field(default_factory=dict)
-    channels: dict[int, Channel] = field(default_factory=dict)
-    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
-    counts: dict[int, int] | None = None
-    start_ns: int | None = None
-    end_ns: int | None = None
-
-
-def _check_file(path: Path) -> None:
+def _check_file(path: Path) -> int:
     if not path.is_file():
         raise InputNotFoundError(path)
     with path.open("rb") as f:
-        head = f.read(MAGIC_SIZE)
-    if head != _MCAP_MAGIC:
+        head = f.read(len(MAGIC))
+    if head != MAGIC:
         raise NotMcapError(path)
+    return path.stat().st_size
 
 
 class LogReader:
@@ -182,31 +124,51 @@ class LogReader:
         robots: list[str] | tuple[str, ...] | None = None,
         recover: bool = False,
         validate_crcs: bool = True,
+        limits: Limits | None = None,
     ) -> None:
         self.path = Path(path)
         self._image_pattern = image_topic
         self._pose_pattern = pose_topic
         self._truth_topic = truth_topic
         self._robots_wanted = tuple(robots) if robots else None
-        self._recover = self.recover = recover
+        self.recover = recover
         self._validate = validate_crcs
+        self.limits = limits or Limits()
         self._file: IO[bytes] | None = None
-        self._cat = _Catalogue()
         self._decoders = DecoderFactory()
+        self._wanted: dict[int, tuple[str, str, Callable[[bytes], Any]]] = {}
+        self.catalogue: Catalogue
         self.loss = RecoveryLoss()
-        self.undecodable: int = 0
+        self.bad_messages: dict[str, int] = {}
+        """Skipped messages by reason ("undecodable", "bad pose: zero quaternion", ...)."""
         self.info: LogInfo
+
+    @property
+    def undecodable(self) -> int:
+        """Messages skipped (every reason)."""
+        return sum(self.bad_messages.values())
 
     # --- opening ---------------------------------------------------------------------------
     def __enter__(self) -> LogReader:
-        _check_file(self.path)
+        size = _check_file(self.path)
         self._file = self.path.open("rb")
         try:
-            if self._recover:
-                self._catalogue_by_streaming()
-            else:
-                self._catalogue_from_summary()
-            self.info = self._make_info()
+            self.catalogue = build_catalogue(self._file, self.path, size, self.limits,
+                                             recover=self.recover,
+                                             validate_crcs=self._validate)
+            cat = self.catalogue
+            if self.recover:
+                blocks = cat.blocks
+                self.loss = RecoveryLoss.from_damage(
+                    size, cat.damage, cat.problems,
+                    max((b.end_ns for b in blocks), default=None))
+            try:
+                self.info = self._make_info()
+            except (NoImageTopicsError, MissingPosesError):
+                if not cat.chunks_checked:  # a damaged summary would say it better
+                    read_all_blocks(self._file, cat, self.limits, recover=False,
+                                    validate_crcs=self._validate)
+                raise
         except BaseException:
             self.close()
             raise
@@ -220,92 +182,9 @@ class LogReader:
             self._file.close()
             self._file = None
 
-    def _catalogue_from_summary(self) -> None:
-        assert self._file is not None
-        try:
-            reader = SeekingReader(self._file, validate_crcs=self._validate)
-            summary = reader.get_summary()
-        except _READ_ERRORS as err:
-            raise TruncatedLogError(self.path, "no readable footer or summary") from err
-        if summary is None:
-            # A valid but unindexed log: catalogue it by streaming (no loss is tolerated).
-            self._catalogue_by_streaming(strict=True)
-            return
-        self._reader = reader
-        self._cat.schemas = dict(summary.schemas)
-        self._cat.channels = dict(summary.channels)
-        if summary.statistics is not None:
-            self._cat.counts = dict(summary.statistics.channel_message_counts)
-            if summary.statistics.message_count:
-                self._cat.start_ns = summary.statistics.message_start_time
-                self._cat.end_ns = summary.statistics.message_end_time
-        try:
-            for record in reader.iter_metadata():
-                self._cat.metadata[record.name] = dict(record.metadata)
-        except _READ_ERRORS as err:
-            raise CorruptLogError(self.path, f"metadata: {_short(err)}") from err
-
-    def _catalogue_by_streaming(self, *, strict: bool = False) -> None:
-        """One pass over the file collecting schemas, channels, metadata and message counts,
-        stopping at the first incomplete record (and noting the loss)."""
-        assert self._file is not None
-        self.loss.file_bytes = self.path.stat().st_size
-        counts: dict[int, int] = {}
-        for item in self._stream_records(strict=strict, catalogue_only=True):
-            if isinstance(item, Message):
-                counts[item.channel_id] = counts.get(item.channel_id, 0) + 1
-        self._cat.counts = counts
-
-    def _stream_records(self, *, strict: bool, catalogue_only: bool) -> Iterator[Any]:
-        """Records of the file in file order; the messages of each chunk sorted stably by
-        log time. Schemas, channels and metadata go to the catalogue as they pass."""
-        assert self._file is not None
-        self._file.seek(0)
-        stream = StreamReader(self._file, emit_chunks=True, validate_crcs=False)
-        records = stream.records
-        cat = self._cat
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                return
-            except _READ_ERRORS as err:
-                if strict:
-                    raise TruncatedLogError(self.path, _short(err)) from err
-                self.loss.truncated = True
-                self.loss.detail = _short(err)
-                return
-            self.loss.read_bytes = self._file.tell()
-            if isinstance(record, Schema):
-                cat.schemas[record.id] = record
-            elif isinstance(record, Channel):
-                cat.channels[record.id] = record
-            elif isinstance(record, Metadata):
-                cat.metadata[record.name] = dict(record.metadata)
-            elif isinstance(record, Message):
-                yield record
-            elif isinstance(record, Chunk):
-                try:
-                    inner = breakup_chunk(record, validate_crc=self._validate)
-                except _READ_ERRORS as err:
-                    if strict:
-                        raise CorruptLogError(self.path, _short(err)) from err
-                    if catalogue_only:
-                        self.loss.bad_chunks += 1
-                    continue
-                messages: list[Message] = []
-                for rec in inner:
-                    if isinstance(rec, Schema):
-                        cat.schemas[rec.id] = rec
-                    elif isinstance(rec, Channel):
-                        cat.channels[rec.id] = rec
-                    elif isinstance(rec, Message):
-                        messages.append(rec)
-                messages.sort(key=lambda m: m.log_time)  # stable: equal times keep file order
-                yield from messages
-
     def _make_info(self) -> LogInfo:
-        topics = {ch.topic for ch in self._cat.channels.values()}
+        cat = self.catalogue
+        topics = {ch.topic for ch in cat.channels.values()}
         image_robots = contract.robot_names_in(topics, self._image_pattern)
         if self._robots_wanted is not None:
             image_robots = [r for r in image_robots if r in self._robots_wanted]
@@ -322,23 +201,21 @@ class LogReader:
             )
         image_topics = {r: contract.topic_for(self._image_pattern, r) for r in image_robots}
         pose_topics = {r: contract.topic_for(self._pose_pattern, r) for r in image_robots}
-        self._topic_kind: dict[str, tuple[str, str]] = {}
-        for r, t in image_topics.items():
-            self._topic_kind[t] = ("image", r)
-        for r, t in pose_topics.items():
-            self._topic_kind[t] = ("pose", r)
+        kinds: dict[str, tuple[str, str]] = {t: ("image", r) for r, t in image_topics.items()}
+        kinds.update({t: ("pose", r) for r, t in pose_topics.items()})
         if self._truth_topic == contract.GT_BALL_TOPIC and GT_ODOMETRY in topics:
             self._truth_topic = GT_ODOMETRY  # the same truth with the ball's velocity
         has_truth = self._truth_topic in topics
         if has_truth:
-            self._topic_kind[self._truth_topic] = ("truth", "")
+            kinds[self._truth_topic] = ("truth", "")
+        for cid, channel in sorted(cat.channels.items()):
+            if channel.topic in kinds:
+                kind, robot = kinds[channel.topic]
+                self._wanted[cid] = (kind, robot, self._decoder(channel))
         count = None
-        if self._cat.counts is not None:
-            count = sum(
-                n
-                for cid, n in self._cat.counts.items()
-                if cid in self._cat.channels and self._cat.channels[cid].topic in self._topic_kind
-            )
+        if cat.counts is not None:
+            count = sum(n for cid, n in cat.counts.items() if cid in self._wanted)
+        blocks = cat.blocks
         scenario, cameras, recorder = self._parse_metadata()
         return LogInfo(
             path=self.path,
@@ -347,19 +224,38 @@ class LogReader:
             pose_topics=pose_topics,
             has_truth=has_truth,
             message_count=count,
-            metadata=dict(self._cat.metadata),
-            start_ns=self._cat.start_ns,
-            end_ns=self._cat.end_ns,
+            metadata=dict(cat.metadata),
+            start_ns=min((b.start_ns for b in blocks), default=None),
+            end_ns=max((b.end_ns for b in blocks), default=None),
             scenario=scenario,
             cameras=cameras,
             recorder=recorder,
+            warnings=self._camera_warnings(image_robots, cameras, recorder),
         )
+
+    def _decoder(self, channel: Channel) -> Callable[[bytes], Any]:
+        schema = self.catalogue.schemas.get(channel.schema_id)
+        what = f"topic {shown(channel.topic)}"
+        if schema is None:
+            raise SchemaError(self.path, what, f"schema {channel.schema_id} is not in the log")
+        if schema.encoding == "ros2msg":
+            mismatch = definition_mismatch(schema.name, schema.data.decode("utf-8", "replace"))
+            if mismatch is not None:
+                raise SchemaError(self.path, what, f"{schema.name}: {mismatch}")
+        try:
+            decoder = self._decoders.decoder_for(channel.message_encoding, schema)
+        except Exception as err:  # the ROS 2 message parser raises many kinds on bad text
+            raise SchemaError(self.path, what, f"{type(err).__name__}: {err}") from err
+        if decoder is None:
+            raise SchemaError(self.path, what, "no decoder for message encoding "
+                              f"{shown(channel.message_encoding)!r}")
+        return decoder
 
     def _parse_metadata(self) -> tuple[meta.ScenarioMetadata | None,
                                        meta.CamerasMetadata, meta.RecorderMetadata | None]:
         """The dsp.* metadata records, typed (parse at the boundary): one that is there but
         unreadable raises :class:`dsp.metadata.MetadataError` naming the log."""
-        records = self._cat.metadata
+        records = self.catalogue.metadata
         scenario, recorder = (records.get(contract.SCENARIO_METADATA),
                               records.get(contract.RECORDER_METADATA))
         try:
@@ -371,80 +267,89 @@ class LogReader:
         except meta.MetadataError as err:
             raise meta.MetadataError(f"{self.path}: metadata {err}") from err
 
+    def _camera_warnings(self, robots: list[str], cameras: meta.CamerasMetadata,
+                         recorder: object) -> tuple[str, ...]:
+        """A log written by dsp-record names every robot's camera (missing: an error); for
+        another writer's log, say loudly that the paper's calibration stands in."""
+        have = cameras.by_robot()
+        missing = [shown(r) for r in robots if r not in have]
+        if not missing:
+            return ()
+        if recorder is not None:
+            raise meta.MetadataError(
+                f"{self.path}: metadata {contract.CAMERAS_METADATA} has no camera for "
+                f"{', '.join(missing)} although the log was written by dsp-record "
+                "(damaged metadata?)")
+        return (f"{self.path}: no camera metadata for {', '.join(missing)}: using the "
+                "paper's calibration and image centre (give --calibration to choose)",)
+
     # --- streaming -------------------------------------------------------------------------
     def messages(
         self, *, start_ns: int | None = None
     ) -> Iterator[ImageMessage | PoseMessage | TruthMessage]:
         """Decoded records in log-time order (from ``start_ns`` on, when given). A message
-        that does not decode is counted in :attr:`undecodable` and skipped."""
-        topics = list(self._topic_kind)
-        if self._recover or not hasattr(self, "_reader"):
-            raw: Iterator[tuple[Channel, Message]] = (
-                (self._cat.channels[m.channel_id], m)
-                for m in self._stream_records(strict=not self._recover, catalogue_only=False)
-                if m.channel_id in self._cat.channels
-                and self._cat.channels[m.channel_id].topic in self._topic_kind
-                and (start_ns is None or m.log_time >= start_ns)
-            )
-        else:
-            raw = self._indexed(topics, start_ns)
-        for channel, message in raw:
-            kind, robot = self._topic_kind[channel.topic]
+        that does not decode or holds bad values is counted in :attr:`bad_messages`."""
+        for message in self._merged(start_ns):
+            kind, robot, decoder = self._wanted[message.channel_id]
             try:
-                record = _convert(kind, robot, self._decode(channel, message), message)
-            except _DECODE_ERRORS:
-                self.undecodable += 1
+                record = convert(kind, robot, decoder(message.data), message)
+            except BadMessage as bad:
+                self._count(f"bad {kind}: {bad.reason}")
+                continue
+            except Exception:
+                self._count(f"undecodable {kind}")
                 continue
             yield record
 
-    def _indexed(
-        self, topics: list[str], start_ns: int | None
-    ) -> Iterator[tuple[Channel, Message]]:
-        it = self._reader.iter_messages(topics, log_time_order=True, starting_at=start_ns)
-        while True:
-            try:
-                _schema, channel, message = next(it)
-            except StopIteration:
-                return
-            except _READ_ERRORS as err:
-                raise CorruptLogError(self.path, _short(err)) from err
-            yield channel, message
+    def _count(self, reason: str) -> None:
+        self.bad_messages[reason] = self.bad_messages.get(reason, 0) + 1
 
-    def _decode(self, channel: Channel, message: Message) -> Any:
-        schema = self._cat.schemas.get(channel.schema_id)
-        decoder = self._decoders.decoder_for(channel.message_encoding, schema)
-        if decoder is None:
-            raise McapError(f"no decoder for {channel.topic} ({channel.message_encoding})")
-        return decoder(message.data)
+    def _merged(self, start_ns: int | None) -> Iterator[Message]:
+        """Wanted messages of every block, merged by (log time, block offset, position)."""
+        blocks = sorted((b for b in self.catalogue.blocks
+                         if start_ns is None or b.end_ns >= start_ns),
+                        key=lambda b: (b.start_ns, b.offset))
+        heap: list[tuple[int, int, int, list[Message]]] = []
+        held: dict[int, int] = {}  # open block offset -> bytes of its messages
+        budget = 2 * self.limits.max_chunk_bytes
+        i = 0
+        while i < len(blocks) or heap:
+            # open every block that could hold the next message: (start, offset) before it
+            while i < len(blocks) and (
+                    not heap or (blocks[i].start_ns, blocks[i].offset) < heap[0][:2]):
+                msgs = self._load(blocks[i], start_ns)
+                if msgs:
+                    heapq.heappush(heap, (msgs[0].log_time, blocks[i].offset, 0, msgs))
+                    held[blocks[i].offset] = sum(len(m.data) for m in msgs)
+                    if sum(held.values()) > budget:
+                        raise CorruptLogError(self.path, f"{len(held)} chunks overlap in "
+                                              "time by more than the memory limit allows "
+                                              "(raise --max-chunk-mib)")
+                i += 1
+            if not heap:
+                continue
+            _t, offset, j, msgs = heapq.heappop(heap)
+            yield msgs[j]
+            if j + 1 < len(msgs):
+                heapq.heappush(heap, (msgs[j + 1].log_time, offset, j + 1, msgs))
+            else:
+                held.pop(offset, None)
 
-
-def _convert(
-    kind: str, robot: str, msg: Any, record: Message
-) -> ImageMessage | PoseMessage | TruthMessage:
-    stamp = contract.stamp_to_ns(msg.header.stamp)
-    if kind == "pose":
-        pose = msg.pose
-        if hasattr(pose, "pose"):  # PoseWithCovarianceStamped (AMCL), nav_msgs/Odometry
-            pose = pose.pose
-        p, q = pose.position, pose.orientation
-        return PoseMessage(robot, stamp, float(p.x), float(p.y), float(q.x), float(q.y),
-                           float(q.z), float(q.w))
-    if kind == "truth":
-        if hasattr(msg, "twist"):  # nav_msgs/Odometry: the true position and velocity
-            p, v = msg.pose.pose.position, msg.twist.twist.linear
-            return TruthMessage(stamp, float(p.x), float(p.y), float(v.x), float(v.y))
-        p = msg.pose.position if hasattr(msg, "pose") else msg.point
-        return TruthMessage(stamp, float(p.x), float(p.y))
-    if hasattr(msg, "format"):  # sensor_msgs/CompressedImage
-        fmt = str(msg.format).lower()
-        fmt = "jpeg" if ("jpeg" in fmt or "jpg" in fmt) else ("png" if "png" in fmt else fmt)
-        return ImageMessage(robot, stamp, record.log_time, fmt, bytes(msg.data))
-    return ImageMessage(  # sensor_msgs/Image
-        robot, stamp, record.log_time, "raw", bytes(msg.data), encoding=str(msg.encoding),
-        width_px=int(msg.width), height_px=int(msg.height), step=int(msg.step),
-    )
-
-
-def _short(err: BaseException) -> str:
-    text = str(err).strip().splitlines()[0] if str(err).strip() else ""
-    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+    def _load(self, block: Block, start_ns: int | None) -> list[Message]:
+        """The wanted messages of one block, sorted stably by log time."""
+        assert self._file is not None
+        try:
+            records = load_block(self._file, block, self.limits, validate_crcs=self._validate)
+            out: list[Message] = []
+            for rec in records:
+                if isinstance(rec, Message):
+                    if rec.channel_id in self._wanted and (
+                            start_ns is None or rec.log_time >= start_ns):
+                        out.append(rec)
+                elif not self.catalogue.chunks_checked:
+                    check_definition(self.catalogue, rec, block)
+        except Malformed as err:
+            # the catalogue checked (recover: dropped) every block already when it read them
+            raise CorruptLogError(self.path, f"block at byte {block.offset}: {err}") from err
+        out.sort(key=lambda m: m.log_time)
+        return out

@@ -30,8 +30,8 @@ import numpy as np
 
 from dsp.errors import UsageError
 from estimator.errors import EstimatorError
-from replay.ahead import Ahead
-from replay.errors import ImageDecodeError, MissingPosesError
+from replay.ahead import Ahead, decode_and_detect
+from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
 from replay.estimation import FrameEstimator
 from replay.options import ReplayOptions, Timing
 from replay.reader import ImageMessage, LogReader, PoseMessage, TruthMessage
@@ -76,7 +76,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     options.check_outputs(path)
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
-                   robots=options.robots, recover=options.recover) as reader:
+                   robots=options.robots, recover=options.recover,
+                   limits=options.limits()) as reader:
         info = reader.info
         if options.robots is not None:
             unknown = sorted(set(options.robots) - set(info.robots))
@@ -90,15 +91,17 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         stats = ReplayStats(info.robots)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
-            ahead = stack.enter_context(Ahead(options.thread_count))
+            ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
+                decode_and_detect, max_pixels=options.max_image_pixels)))
             stream = _Stream(reader, estimator, options.timing(),
                              estimator.sinks([stats, *outputs, *sinks]), ahead)
             with _progress(options, reader) as bar:
                 stream.run(bar)
             estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
-            _check_outcome(path, stats)
+            _check_outcome(path, stats, reader)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
+        _warn(reader, options)  # once the outputs are written
     return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
         if p is not None))
@@ -135,14 +138,26 @@ def _open_outputs(stack: contextlib.ExitStack, reader: LogReader, options: Repla
 def _recovered(reader: LogReader) -> dict[str, Any] | None:
     if not reader.recover:
         return None
-    loss = reader.loss
-    return {"truncated": loss.truncated, "lost_bytes": loss.lost_bytes,
-            "file_bytes": loss.file_bytes, "bad_chunks": loss.bad_chunks}
+    return reader.loss.to_dict()
 
 
-def _check_outcome(path: Path, stats: ReplayStats) -> None:
-    if stats.frames == 0:
+def _warn(reader: LogReader, options: ReplayOptions) -> None:
+    """What the user must know about a replay that worked: the messages skipped."""
+    if options.quiet:
         return
+    lines = []
+    if reader.bad_messages:
+        lines.append(f"{reader.path}: skipped {reader.undecodable} bad message(s): "
+                     + ", ".join(f"{k} {v}" for k, v in sorted(reader.bad_messages.items())))
+    for line in lines:
+        print(f"warning: {line}", file=sys.stderr)
+
+
+def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
+    if stats.frames == 0:
+        raise NoFramesError(path, "no image in the selected time range and robots"
+                            + (" (the log's readable part holds none)" if reader.recover
+                               else ""))
     bad = stats.skipped.get(FrameStatus.BAD_IMAGE.value, 0)
     if bad == stats.frames:
         raise ImageDecodeError(path, f"none of the {bad} images decodes")

@@ -32,42 +32,46 @@ T = TypeVar("T", PoseMessage, TruthMessage)
 
 
 class History(Generic[T]):
-    """Time-ordered samples of one stream, pruned to a horizon behind the newest."""
+    """Time-ordered samples of one stream, pruned to a horizon behind the newest and to at
+    most ``max_samples`` (the newest). Adding is O(log n) search + a bounded move, so stamps
+    in any order cost the same."""
 
-    def __init__(self, horizon_ns: int) -> None:
+    def __init__(self, horizon_ns: int, max_samples: int = 4096) -> None:
         self.horizon_ns = horizon_ns
-        self._stamps: deque[int] = deque()
-        self._items: deque[T] = deque()
+        self.max_samples = max(2, max_samples)
+        self._stamps: list[int] = []
+        self._items: list[T] = []
+        self._lo = 0  # samples before it are pruned (compacted now and then)
 
     def __len__(self) -> int:
-        return len(self._items)
+        return len(self._items) - self._lo
 
     def add(self, item: T) -> None:
-        if self._stamps and item.stamp_ns < self._stamps[-1]:
+        stamps = self._stamps
+        if len(stamps) > self._lo and item.stamp_ns < stamps[-1]:
             # out of order (header stamps may disagree with log time): insert in place
-            i = bisect.bisect_right(list(self._stamps), item.stamp_ns)
-            self._stamps.insert(i, item.stamp_ns)
+            i = bisect.bisect_right(stamps, item.stamp_ns, self._lo)
+            stamps.insert(i, item.stamp_ns)
             self._items.insert(i, item)
         else:
-            self._stamps.append(item.stamp_ns)
+            stamps.append(item.stamp_ns)
             self._items.append(item)
-        limit = self._stamps[-1] - self.horizon_ns
+        limit = stamps[-1] - self.horizon_ns
         # keep one sample at or before the limit so a late image can still be bracketed
-        while len(self._stamps) > 1 and self._stamps[1] <= limit:
-            self._stamps.popleft()
-            self._items.popleft()
+        cut = bisect.bisect_right(stamps, limit, self._lo) - 1
+        lo = max(self._lo, cut, len(stamps) - self.max_samples)
+        self._lo = lo
+        if lo > 1024 and lo * 2 > len(stamps):
+            del stamps[:lo], self._items[:lo]
+            self._lo = 0
 
     def neighbours(self, t_ns: int) -> tuple[T | None, T | None]:
         """The last sample at or before ``t_ns`` and the first at or after it."""
-        stamps = self._stamps
-        # search from the right: the image is usually near the newest samples
-        i = len(stamps)
-        while i > 0 and stamps[i - 1] > t_ns:
-            i -= 1
-        before = self._items[i - 1] if i > 0 else None
+        i = bisect.bisect_right(self._stamps, t_ns, self._lo)
+        before = self._items[i - 1] if i > self._lo else None
         if before is not None and before.stamp_ns == t_ns:
             return before, before
-        after = self._items[i] if i < len(stamps) else None
+        after = self._items[i] if i < len(self._items) else None
         return before, after
 
 
@@ -146,29 +150,41 @@ def interpolate_truth_velocity(history: History[TruthMessage], t_ns: int, tolera
 
 
 class DelayLine:
-    """Holds images until the log time has passed their stamp by ``lookahead_ns``."""
+    """Holds images until the log time has passed their stamp by ``lookahead_ns``; never
+    more than ``max_images`` images or ``max_bytes`` of image data (the oldest go on early,
+    so images stamped far in the future cannot pile up)."""
 
-    def __init__(self, lookahead_ns: int, max_images: int = 4096) -> None:
+    def __init__(self, lookahead_ns: int, max_images: int = 256,
+                 max_bytes: int = 256 * 1024 * 1024) -> None:
         self.lookahead_ns = lookahead_ns
         self.max_images = max_images
+        self.max_bytes = max_bytes
         self._queue: deque[ImageMessage] = deque()
+        self._bytes = 0
 
     def __len__(self) -> int:
         return len(self._queue)
 
     def push(self, image: ImageMessage) -> None:
         self._queue.append(image)
+        self._bytes += len(image.data)
 
     def ready(self, now_ns: int) -> Iterator[ImageMessage]:
         """Images whose look-ahead has passed at log time ``now_ns`` (or that overflow the
-        bound), in arrival order."""
+        bounds), in arrival order."""
         q = self._queue
-        while q and (q[0].stamp_ns + self.lookahead_ns < now_ns or len(q) > self.max_images):
-            yield q.popleft()
+        while q and (q[0].stamp_ns + self.lookahead_ns < now_ns or len(q) > self.max_images
+                     or self._bytes > self.max_bytes):
+            yield self._pop()
+
+    def _pop(self) -> ImageMessage:
+        image = self._queue.popleft()
+        self._bytes -= len(image.data)
+        return image
 
     def drain(self) -> Iterator[ImageMessage]:
         while self._queue:
-            yield self._queue.popleft()
+            yield self._pop()
 
 
 E = TypeVar("E")

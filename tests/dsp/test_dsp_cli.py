@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import os
 import subprocess
 import sys
 from collections.abc import Callable, Sequence
@@ -237,3 +238,15 @@ def test_dsp_eval_counts_finished_scenes_on_its_bar() -> None:
     map_scenes = replay.evaluate_cli._scene_mapper(Workers(count=1), bar)
     assert map_scenes(lambda t: 2 * t, [1, 2, 3]) == [2, 4, 6]  # in order
     assert bar.n == 3
+
+
+def test_a_closed_pipe_ends_a_command_quietly() -> None:
+    """``dsp-info LOG | head``: output past what the reader took is no error to report."""
+    script = ("import sys\nfrom dsp.cli import run_main\n"
+              "def fn(argv):\n    for _ in range(20000):\n        print('x' * 100)\n"
+              "sys.exit(run_main('dsp-x', fn, []))\n")
+    proc = subprocess.run(f'{sys.executable} -c "$SCRIPT" | head -c 10', shell=True,
+                          capture_output=True, text=True, timeout=60, check=False,
+                          env={**os.environ, "SCRIPT": script})
+    assert proc.stdout == "x" * 10
+    assert proc.stderr == ""

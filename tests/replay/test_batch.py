@@ -18,6 +18,7 @@ import pytest
 from synthetic import write_log
 from test_evaluate import FakeRecorder
 
+import replay.batch
 import replay.cli
 import replay.evaluate_cli
 from dsp.errors import EXIT_INPUT, EXIT_OUTPUT_EXISTS, EXIT_USAGE, DspError
@@ -208,3 +209,23 @@ def test_ray_batch_and_eval_are_the_same_bytes_as_serial(
         map_tasks(time.sleep, [0.0, 60.0], Workers(ray=True), on_done=_interrupt)
     assert time.perf_counter() - t0 < 30
     assert ray_local.is_initialized()  # the session's instance is left running
+
+
+def test_logs_may_follow_the_options_and_pool_workers_replay_on_one_thread(
+        logs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    seen: list[int | None] = []
+    real = replay.batch.replay_log
+
+    def spy(task: LogTask) -> Any:
+        seen.append(task.options.threads)
+        return real(task)
+
+    monkeypatch.setattr(replay.batch, "map_tasks",
+                        lambda fn, tasks, workers, on_done: [
+                            on_done(i, Outcome(spy(t), None)) for i, t in enumerate(tasks)])
+    out = tmp_path / "out"
+    # logs after the options, as a shell glob often puts them
+    assert replay.cli.main([str(logs / "run0.mcap"), "--out-dir", str(out), "-q",
+                            "--workers", "2", str(logs / "run1.mcap")]) == 0
+    assert sorted(p.name for p in out.glob("run*.json")) == ["run0.json", "run1.json"]
+    assert seen == [1, 1]  # the workers already use the cores: no thread pool per log

@@ -94,7 +94,7 @@ def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path
         assert url in first and "Ctrl-C" in first, first
         assert _listening_address(web) == "127.0.0.1"
         assert _listening_address(grpc) == "127.0.0.1"
-        with urllib.request.urlopen(url, timeout=10) as page:
+        with urllib.request.urlopen(url, timeout=60) as page:
             assert page.status == 200 and b"<html" in page.read(4096).lower()
         done = proc.stderr.readline()
         assert "replay done; still serving" in done, done
@@ -102,7 +102,7 @@ def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path
         time.sleep(0.5)
         assert proc.poll() is None, "it serves until Ctrl-C"
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=15) == 0
+        assert proc.wait(timeout=60) == 0
         assert "stopped serving" in proc.stderr.read()
         assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
     finally:

@@ -107,7 +107,7 @@ class PaperSuite:
         return min(ranked)[2] if ranked else ""
 
     def to_dict(self) -> dict[str, Any]:
-        return _rounded_doc({
+        return rounded_doc({
             "suite": "paper", "camera": self.camera, "calibration": self.calibration,
             "paper": {"table1": PAPER_TABLE1, "rmse_m": PAPER_RMSE_M},
             "configs": {
@@ -122,7 +122,7 @@ class PaperSuite:
         })
 
 
-def _rounded_doc(doc: dict[str, Any]) -> dict[str, Any]:
+def rounded_doc(doc: dict[str, Any]) -> dict[str, Any]:
     """A table's document with its floats rounded (non-finite: None)."""
     rounded: dict[str, Any] = _rounded(doc)
     return rounded
@@ -255,7 +255,7 @@ class RandomSuite:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        return _rounded_doc({
+        return rounded_doc({
             "suite": "random", "camera": self.camera, "calibration": self.calibration,
             "count": self.count, "seed": self.seed,
             "dual_sight_scenes": self.dual_sight_scenes,

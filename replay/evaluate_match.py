@@ -33,8 +33,9 @@ import numpy as np
 from dsp import contract
 from dsp.metadata import MetadataError, ScenarioMetadata
 from estimator.fusion import FUSION_METHODS
+from replay.evaluate import rounded_doc
 from replay.options import ReplayOptions
-from replay.results import DECIMALS, ResultsCollector
+from replay.results import ResultsCollector
 from replay.runner import replay
 
 __all__ = [
@@ -304,7 +305,7 @@ class MatchSuite:
                 "sync": {f: s.stats() for f, s in self.pooled("sync", both).items()},
             },
         }
-        return _rounded(doc)  # type: ignore[no-any-return]
+        return rounded_doc(doc)
 
 
 def match_tasks(workdir: Path, options: MatchOptions, *, count: int, seed: int = 0,
@@ -317,15 +318,6 @@ def match_tasks(workdir: Path, options: MatchOptions, *, count: int, seed: int =
                       tuple(fusions))
             for phase, n in (("random", count), ("sync", sync_count)) for i in range(n)]
 
-
-def _rounded(obj: Any) -> Any:
-    if isinstance(obj, float):
-        return round(obj, DECIMALS) if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _rounded(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_rounded(v) for v in obj]
-    return obj
 
 
 def run_match_suite(workdir: Path, options: MatchOptions, *, count: int, seed: int = 0,

@@ -20,10 +20,9 @@ from dsp import metadata as meta
 from replay.catalogue import Catalogue, build_catalogue, read_all_blocks
 from replay.errors import InputNotFoundError, NotMcapError, shown
 from replay.mcap_records import MAGIC, Limits
+from replay.options import NS
 
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
-
-NS = 1_000_000_000
 
 
 @dataclass(frozen=True)

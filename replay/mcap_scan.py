@@ -17,7 +17,7 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 from mcap.records import Channel, Schema
 
@@ -34,6 +34,7 @@ from replay.mcap_records import (
     parse_metadata,
     parse_schema,
 )
+from replay.options import NS
 
 __all__ = ["Block", "Damage", "DataScan", "scan_data"]
 
@@ -69,6 +70,13 @@ class Damage:
     messages: int | None = None
     chunks: int = 0
     """Chunks lost in it (whole or in part)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """A results file's ``log.recovered.lost`` entry."""
+        return {"offset": self.offset, "bytes": self.length, "reason": self.reason,
+                "start_s": None if self.start_ns is None else self.start_ns / NS,
+                "end_s": None if self.end_ns is None else self.end_ns / NS,
+                "messages": self.messages}
 
 
 @dataclass

@@ -3,34 +3,13 @@ lost and the sim-time ranges they held. An undamaged log loses nothing."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
 from replay.mcap_scan import Damage
 
-__all__ = ["LostSpan", "RecoveryLoss", "describe"]
-
-NS = 1_000_000_000
-
-
-@dataclass(frozen=True)
-class LostSpan:
-    """One stretch of the file that was skipped."""
-
-    offset: int
-    length: int
-    reason: str
-    start_ns: int | None = None
-    end_ns: int | None = None
-    """Sim time the stretch held (None: unknown; an open end when the log was cut)."""
-    messages: int | None = None
-    """Messages lost in it, when the log says (message index records)."""
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"offset": self.offset, "bytes": self.length, "reason": self.reason,
-                "start_s": None if self.start_ns is None else self.start_ns / NS,
-                "end_s": None if self.end_ns is None else self.end_ns / NS,
-                "messages": self.messages}
+__all__ = ["RecoveryLoss", "describe"]
 
 
 @dataclass
@@ -42,7 +21,7 @@ class RecoveryLoss:
     bad_chunks: int = 0
     truncated: bool = False
     detail: str = ""
-    spans: list[LostSpan] = field(default_factory=list)
+    spans: list[Damage] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
     """Integrity problems that cost no data (a damaged summary, a data CRC mismatch)."""
     readable_end_ns: int | None = None
@@ -70,7 +49,7 @@ class RecoveryLoss:
             start = d.start_ns
             if start is None and d.offset + d.length >= file_bytes:
                 start = readable_end_ns  # cut short: everything after the last read time
-            spans.append(LostSpan(d.offset, d.length, d.reason, start, d.end_ns, d.messages))
+            spans.append(dataclasses.replace(d, start_ns=start))
         truncated = any(d.offset + d.length >= file_bytes for d in damage)
         bad_chunks = sum(d.chunks for d in damage)
         return cls(

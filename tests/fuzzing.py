@@ -56,19 +56,7 @@ class Raw:
 
 def read_raw(path: Path) -> Raw:
     with path.open("rb") as f:
-        reader = make_reader(f)
-        schemas: dict[int, tuple[str, str, bytes]] = {}
-        channels: dict[int, tuple[str, int, str, dict[str, str]]] = {}
-        messages = []
-        for schema, channel, msg in reader.iter_messages(log_time_order=False):
-            if schema is not None:
-                schemas[schema.id] = (schema.name, schema.encoding, schema.data)
-            channels[channel.id] = (channel.topic, channel.schema_id, channel.message_encoding,
-                                    dict(channel.metadata))
-            messages.append((msg.channel_id, msg.sequence, msg.log_time, msg.publish_time,
-                             msg.data))
-        metadata = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
-    return Raw(schemas, channels, messages, metadata)
+        return _raw_from_reader(make_reader(f))
 
 
 def write_raw(raw: Raw, **options: Any) -> bytes:

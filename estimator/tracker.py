@@ -13,7 +13,11 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   same robot's with nothing accepted between) under a free velocity (``|dz|`` within
   ``max_speed dt`` and their noise). The track is then re-run from the last accepted
   estimate before them with the velocity covariance inflated by ``kick_sigma^2 I`` (an
-  impulse of unknown size); the kick is kept if both then pass the gate.
+  impulse of unknown size); the kick is kept if both then pass the gate. When only one
+  robot sees the ball, nothing corroborates: a lone rejected estimate explains a kick by
+  itself when the last accepted one is at most ``lone_kick_ns`` old, a ball at most
+  ``max_speed`` fast could have gone there, and it does not fall where rejected estimates
+  keep falling (a still false blob: :class:`~estimator.tracker_clutter.ClutterMap`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
   velocity 0 with sigma ``kick_sigma``), confirmed by a second accepted estimate from another
@@ -45,6 +49,7 @@ import numpy as np
 from estimator.corrected import BallEstimate
 from estimator.errors import FusionError
 from estimator.fusion import CalibratedNoise, Covariance, FusedEstimate, Noise
+from estimator.tracker_clutter import ClutterMap
 from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
 from estimator.tracker_reacquire import Candidate, reachable, reacquire_from
 from estimator.tracker_smoother import FilterNode, SmoothedTrack
@@ -70,9 +75,11 @@ class TrackerParams:
     accel_noise_m2_s3: float = 1.0
     """q: spectral density of the white acceleration noise [m^2/s^3]: small, since kicks
     and bounces are handled apart (velocity sigma grows by sqrt(q dt), 0.13 m/s in 17 ms)."""
-    friction_per_s: float = 0.05
-    """beta: the rolling ball's velocity decays as exp(-beta t) [1/s] (0.05: the simulator's
-    linear damping, pybullet's v *= (1 - 0.05)^dt)."""
+    friction_per_s: float = 0.5
+    """beta: the rolling ball's velocity decays as exp(-beta t) [1/s]. Measured on the
+    simulator's match logs (true velocities): a ball at 1-2 m/s loses about 30 % of its speed
+    per second, at 2-3 m/s 45 %, faster (just after a kick, still sliding) more; 0.5 is the
+    middle. (pybullet's linear damping alone would be 0.05.)"""
     gate: float = GATE_CHI2_999
     """Largest accepted Mahalanobis distance squared d^2."""
     kick_sigma_m_s: float = 6.0
@@ -89,16 +96,22 @@ class TrackerParams:
     """Window of rejected estimates that may agree on a new path [ns] (memory_ns at most)."""
     reacquire_count: int = 2
     """Fewest rejected estimates that agree on a new path and may restart the track."""
+    lone_kick_ns: int = 250_000_000
+    """A lone rejected estimate may explain a kick when the track's last accepted estimate
+    is at most this old [ns] and within the tracker's memory (0: never; a kick then needs
+    corroboration)."""
 
     def __post_init__(self) -> None:
         positive = (self.gate, self.kick_sigma_m_s, self.max_speed_m_s, self.lost_after_ns)
         if not (all(v > 0 for v in positive) and self.accel_noise_m2_s3 >= 0.0
                 and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns
-                and self.reacquire_ns >= 0 and self.reacquire_count >= 2):
+                and self.reacquire_ns >= 0 and self.reacquire_count >= 2
+                and self.lone_kick_ns >= 0):
             raise FusionError(
                 f"tracker parameters {self}: gate, kick_sigma_m_s, max_speed_m_s and "
                 "lost_after_ns must be > 0, accel_noise_m2_s3 and friction_per_s >= 0, "
-                "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2"
+                "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2, "
+                "lone_kick_ns >= 0"
             )
 
 
@@ -194,6 +207,7 @@ class BallTracker:
         self._segment = -1
         self._track: _Track | None = None
         self._seq = 0
+        self._clutter = ClutterMap()
         self.late = 0
         """Estimates dropped because they were older than the tracker's memory."""
 
@@ -221,6 +235,8 @@ class BallTracker:
         if not e.accepted:
             if track.confirmed:
                 self._explain_by_kick(track, e)
+                if not e.accepted:
+                    self._explain_alone(track, e)
             else:
                 self._restart_from_pair(track, e)
             if not e.accepted and self._track is track:
@@ -229,6 +245,8 @@ class BallTracker:
         assert track is not None
         self._confirm(track, e)
         self._prune(track, m.stamp_ns)
+        if not e.accepted:
+            self._clutter.add(m.stamp_ns, m.x_m, m.y_m)
         return e.accepted
 
     def _initial(self, e: _Entry) -> Gaussian:
@@ -286,12 +304,37 @@ class BallTracker:
             while i > 0 and not track.entries[i - 1].accepted:
                 i -= 1  # the kick came after the last accepted estimate
             k = track.entries[i]
-            k.kick = True
+            was, k.kick = k.kick, True
             self._rerun(track, i)
             if f.accepted and e.accepted:
                 return
-            k.kick = False
+            k.kick = was  # a kick found before stays
             self._rerun(track, i)
+
+    def _explain_alone(self, track: _Track, e: _Entry) -> None:
+        """A lone rejected estimate as the first after a kick (module docstring): kept when
+        it then passes the gate and no estimate before it changes its verdict."""
+        prm = self.params
+        i = track.entries.index(e)
+        j = next((j for j in range(i - 1, -1, -1) if track.entries[j].accepted), -1)
+        if j < 0 or e.m.stamp_ns - track.entries[j].m.stamp_ns > prm.lone_kick_ns:
+            return
+        if self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m):
+            return
+        last = track.entries[j]
+        assert last.state is not None
+        x, p = last.state
+        reach = prm.max_speed_m_s * (e.m.stamp_ns - last.m.stamp_ns) / NS
+        dz = e.z - x[:2]
+        if float(dz @ np.linalg.solve(p[:2, :2] + e.r + reach**2 * np.eye(2), dz)) > prm.gate:
+            return  # farther than a ball could have gone
+        k = track.entries[j + 1]
+        was, k.kick = k.kick, True
+        self._rerun(track, j + 1)
+        if e.accepted and not any(f.accepted for f in track.entries[j + 1:i]):
+            return
+        k.kick = was
+        self._rerun(track, j + 1)
 
     def _restart_from_pair(self, track: _Track, e: _Entry) -> None:
         """A tentative track that two consistent rejected estimates contradict starts

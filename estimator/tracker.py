@@ -25,7 +25,9 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   consistent with each other start the track afresh from them.
 - **Re-acquisition**: rejected estimates of the last ``reacquire_ns`` that agree on one
   ball at constant velocity restart the track (confirmed) when the track heard nothing since
-  they began, or more robots support them (:mod:`estimator.tracker_reacquire`).
+  they began, or more robots support them (:mod:`estimator.tracker_reacquire`); never, while
+  the track moves, from where rejected estimates keep falling (clutter: a still false blob
+  that two robots report at once).
 - **Loss**: after ``lost_after_ns`` without an accepted estimate the track is lost
   (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
 - **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
@@ -51,7 +53,7 @@ from estimator.errors import FusionError
 from estimator.fusion import CalibratedNoise, FusedEstimate, Noise
 from estimator.tracker_clutter import ClutterMap
 from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
-from estimator.tracker_reacquire import Candidate, reachable, reacquire_from
+from estimator.tracker_reacquire import STILL_M_S, Candidate, reachable, reacquire_from
 from estimator.tracker_smoother import FilterNode, SmoothedTrack
 from estimator.tracker_types import (
     GATE_CHI2_999,
@@ -283,9 +285,12 @@ class BallTracker:
         i = track.entries.index(e)
         before = track.entries[i - 1].state if i > 0 else track.anchor
         assert before is not None
+        speed = math.hypot(before[0][2], before[0][3])
+        if speed >= STILL_M_S and self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m):
+            return  # a still false blob that robots keep reporting never displaces the ball
         first = reacquire_from(
             [_candidate(x) for x in track.entries[:i + 1]],
-            track_speed_m_s=math.hypot(before[0][2], before[0][3]),
+            track_speed_m_s=speed,
             window_ns=prm.reacquire_ns, count=prm.reacquire_count,
             max_speed_m_s=prm.max_speed_m_s, gate=prm.gate)
         if first is not None:

@@ -173,3 +173,18 @@ def test_the_clutter_map_marks_where_rejected_estimates_pile_up() -> None:
     for k in range(5):
         quick.add(k * 10 * MS, 0.0, 0.0)  # five within 40 ms: a burst, not a still object
     assert not quick.covers(50 * MS, 0.0, 0.0)
+
+
+def test_a_box_two_robots_take_for_the_ball_at_once_does_not_displace_it() -> None:
+    # from 0.5 s robots 1 and 2 lose the ball and both report the same box, 8 ms apart
+    # (their two estimates "move" by centimetres of noise: metres per second); robot3 still
+    # sees the ball rolling at 1.5 m/s
+    def roll(t: float) -> tuple[float, float]:
+        return (1.0 + 1.5 * t, 2.0 - 0.5 * t)
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot != "robot3" and t >= 0.5 else roll(t)
+
+    steps = feed(BallTracker(), seen, frames=20, seed=4)
+    assert not any(a for t, robot, a, _ in steps if robot != "robot3" and t >= 0.5)
+    assert max(off(state, roll(t)) for t, _, _, state in steps[3:]) < 0.05

@@ -1,12 +1,18 @@
 """Fused accuracy of window fusion against the tracker on unsynchronised cameras.
 
     python benchmarks/bench_track.py [--seconds 2] [--speed 3.16] [--phases-ms 0,17,34]
+    python benchmarks/bench_track.py --speed-of LOG [--runs 5]
 
 Writes a synthetic log (tests/synthetic.py: the paper's ideal camera, exact poses, three
 robots, 20 Hz cameras at their own phases, a ball rolling at a constant velocity, its true
 velocity on /ground_truth/ball/odometry), replays it with each window fusion, the tracker
 and the smoothed tracker, and prints one Markdown row each: fused position RMSE / p95 /
 max [m], the velocity's median error [m/s] (tracker only) and the replay's wall time.
+
+``--speed-of LOG`` instead times the replay of a recorded log (e.g. a ``match`` log) with
+window fusion (``mean``) and with the tracker, ``--runs`` times each, interleaved (mean,
+track, mean, track, ...) so a change of load falls on both; it prints the medians and the
+tracker's cost over window fusion.
 """
 
 from __future__ import annotations
@@ -31,7 +37,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="ball speed [m/s] along (3, -1) (default 3.16)")
     parser.add_argument("--phases-ms", default="0,17,34",
                         help="each robot's camera phase [ms] (0,0,0: synchronised)")
+    parser.add_argument("--speed-of", type=Path, metavar="LOG",
+                        help="time the replay of this log: mean fusion vs the tracker")
+    parser.add_argument("--runs", type=int, default=5, help="--speed-of: runs of each")
     args = parser.parse_args(argv)
+    if args.speed_of is not None:
+        return speed_of(args.speed_of, args.runs)
     from replay import ReplayOptions, replay  # before tests/ joins the path (tests/replay)
     from replay.results import ResultsCollector
 
@@ -62,6 +73,27 @@ def main(argv: list[str] | None = None) -> int:
             print(f"| {label} | {math.sqrt(np.mean(errors ** 2)):.4f} / "
                   f"{np.percentile(errors, 95):.4f} / {errors.max():.4f} | {v_text} | "
                   f"{wall:.2f} |")
+    return 0
+
+
+def speed_of(log: Path, runs: int) -> int:
+    """Replay ``log`` with mean fusion and with the tracker, interleaved; print medians."""
+    from replay import ReplayOptions, replay
+    from replay.results import ResultsCollector
+
+    walls: dict[str, list[float]] = {"mean": [], "track": []}
+    frames = 0
+    for _ in range(runs):
+        for fusion in walls:
+            collector = ResultsCollector()
+            t0 = time.perf_counter()
+            replay(log, ReplayOptions(fusion=fusion, progress=False), sinks=[collector])
+            walls[fusion].append(time.perf_counter() - t0)
+            frames = len(collector.frames)
+    mean, track = (float(np.median(walls[f])) for f in ("mean", "track"))
+    print(f"{log.name}: {frames} frames, median of {runs} interleaved runs each: "
+          f"mean {mean:.3f} s ({frames / mean:.1f} frames/s), track {track:.3f} s "
+          f"({frames / track:.1f} frames/s): the tracker costs {100 * (track / mean - 1):+.1f}%")
     return 0
 
 

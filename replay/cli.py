@@ -75,6 +75,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--smooth", action="store_true",
                    help="offline: smooth the track over the whole log (RTS smoother) instead "
                    "of the causal estimate a robot would have live (--fusion track)")
+    p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
+                   help="also a step at every tick of a HZ clock, with no image: the "
+                   "tracker's estimate then (as a robot's control loop reads it), scored "
+                   "against the truth at the tick")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration JSON (default: the log's camera metadata, else the paper's)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
@@ -130,7 +134,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
     return ReplayOptions(
         method=args.method, fusion=args.fusion, calibration=args.calibration, smooth=args.smooth,
-        noise=args.noise,
+        noise=args.noise, clock_hz=args.clock_hz,
         image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
         start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,

@@ -15,6 +15,12 @@ and robust). Scored over every fused step of every match:
   whose estimate is more than :data:`CAPTURE_ERROR_M` from the ball and within
   :data:`CAPTURE_RADIUS_M` of a distractor counts as one capture.
 
+The steps are at the images' stamps, which differ between the phases: synchronised cameras
+give one step per frame time, each with fresh estimates; free-running ones three, the other
+two predicted from older estimates. So the tracker is also read on a common clock, at every
+tick of :data:`CLOCK_HZ` (``replay --clock``, the row :data:`CLOCK_ROW`): the same instants
+in either phase, as a robot's control loop would read it.
+
 :func:`run_match_task` is a function of one :class:`MatchTask` (seed, camera phase,
 options) alone, so logs can be scored in any order, in a process pool or as Ray tasks;
 :func:`run_match_suite` folds them in task order.
@@ -42,6 +48,8 @@ __all__ = [
     "CAPTURE_ERROR_M",
     "CAPTURE_RADIUS_M",
     "CAPTURE_STEPS",
+    "CLOCK_HZ",
+    "CLOCK_ROW",
     "MATCH_FUSIONS",
     "MatchLogScore",
     "MatchOptions",
@@ -55,6 +63,7 @@ __all__ = [
     "match_tasks",
     "run_match_suite",
     "run_match_task",
+    "score_rows",
     "serial_map",
 ]
 
@@ -64,6 +73,15 @@ CAPTURE_ERROR_M = 0.5
 CAPTURE_RADIUS_M = 0.75
 CAPTURE_STEPS = 3
 PHASES = ("random", "sync")
+CLOCK_HZ = 100.0
+"""The common clock the tracker is also scored on (``dsp-replay --clock``)."""
+CLOCK_ROW = "track, 100 Hz clock"
+
+
+def score_rows(fusions: Sequence[str]) -> tuple[str, ...]:
+    """The table's rows: each fusion, and the tracker on the clock after ``track``."""
+    return tuple(r for f in fusions for r in ((f, CLOCK_ROW) if f == "track" else (f,)))
+
 
 @dataclass(frozen=True)
 class MatchOptions:
@@ -248,10 +266,14 @@ def run_match_task(task: MatchTask) -> MatchLogScore:
     robots: dict[str, list[float]] = {}
     for fusion in task.fusions:
         collected = ResultsCollector()
-        replay(task.log, ReplayOptions(method="corrected", fusion=fusion,
+        clock = CLOCK_HZ if fusion == "track" else None
+        replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
                                        calibration=task.options.calibration, progress=False),
                sinks=[collected])
-        fused[fusion] = _score(collected.fused, distractors)
+        fused[fusion] = _score([f for f in collected.fused if f["robots"]], distractors)
+        if clock is not None:  # the ticks: steps without images
+            fused[CLOCK_ROW] = _score([f for f in collected.fused if not f["robots"]],
+                                      distractors)
         if not robots:  # the robots' own estimates are the same under every fusion
             for fr in collected.frames:
                 if fr.get("error_m") is not None:
@@ -268,7 +290,7 @@ class MatchSuite:
     logs: list[MatchLogScore] = field(default_factory=list)
 
     def pooled(self, phase: str, seeds: set[int] | None = None) -> dict[str, Scores]:
-        out = {f: Scores() for f in self.fusions}
+        out = {f: Scores() for f in score_rows(self.fusions)}
         for log in self.logs:
             if log.phase == phase and (seeds is None or log.seed in seeds):
                 for fusion, s in log.fused.items():
@@ -364,11 +386,13 @@ def match_markdown(suite: MatchSuite) -> str:
         lines += ["", f"Random vs synchronised camera phases, the same {len(both)} matches:", "",
                   "| fusion | RMSE random [m] | RMSE sync [m] | random / sync |",
                   "|---|---|---|---|"]
-        for fusion in suite.fusions:
+        for fusion in score_rows(suite.fusions):
             a, b = rnd[fusion].stats()["rmse_m"], syn[fusion].stats()["rmse_m"]
             ratio = "-" if a is None or not b else f"{a / b:.2f}"
             lines.append(f"| {fusion} | {_fmt(a)} | {_fmt(b)} | {ratio} |")
     lines += ["", f"A capture: >= {CAPTURE_STEPS} consecutive fused steps more than "
               f"{CAPTURE_ERROR_M:g} m from the ball and within {CAPTURE_RADIUS_M:g} m of a "
-              "distractor."]
+              f"distractor. `{CLOCK_ROW}`: the tracker read at every tick of a "
+              f"{CLOCK_HZ:g} Hz clock (the same instants in both phases) instead of at the "
+              "images' stamps."]
     return "\n".join(lines) + "\n"

@@ -36,6 +36,8 @@ NS = 1_000_000_000
 MAX_WINDOW_S = 60.0
 """The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their
 poses, so the look-ahead stays bounded."""
+MAX_CLOCK_HZ = 10_000.0
+"""The fastest ``--clock`` [Hz]."""
 RERUN_MODES = ("spawn", "save", "connect", "serve")
 
 
@@ -59,6 +61,8 @@ class Timing:
     window_ns: int
     start_ns: int | None
     end_ns: int | None
+    clock_ns: int | None = None
+    """The clock's period, when steps are also made at its ticks."""
 
     @property
     def lookahead_ns(self) -> int:
@@ -97,6 +101,10 @@ class ReplayOptions:
     smooth: bool = False
     """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
     (``track`` fusion only); steps reach the sinks once the log is read."""
+    clock_hz: float | None = None
+    """Also a step at every tick k / clock_hz s of a clock (no image in it): the fused
+    estimate the fusion gives then (the tracker's prediction from the estimates so far; none
+    from a window fusion), scored against the truth at the tick. None: steps at images."""
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
@@ -133,6 +141,7 @@ class ReplayOptions:
                      unit="s")
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
             check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
+        check_number("--clock", self.clock_hz, low=0, high=MAX_CLOCK_HZ, low_open=True, unit="Hz")
         check_number("--max-chunk-mib", self.max_chunk_mib, low=0, high=1 << 20, low_open=True,
                      unit="MiB")
         check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,
@@ -173,6 +182,7 @@ class ReplayOptions:
             window_ns=max(1, round(self.window_s * NS)),
             start_ns=None if self.start_s is None else round(self.start_s * NS),
             end_ns=None if self.end_s is None else round(self.end_s * NS),
+            clock_ns=None if self.clock_hz is None else max(1, round(NS / self.clock_hz)),
         )
 
     def limits(self) -> Limits:
@@ -212,6 +222,7 @@ class ReplayOptions:
             # new options appear only when set: files made without them stay as they were
             **({"noise": self.noise} if self.noise != "cambada" else {}),
             **({"smooth": True} if self.smooth else {}),
+            **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
         }
 
     @property

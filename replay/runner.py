@@ -203,6 +203,7 @@ class _Stream:
             estimator.step_window_ns(timing.window_ns))
         self.frames = 0
         self.steps = 0
+        self.next_tick: int | None = None
 
     def run(self, bar: Any) -> None:
         t = self.timing
@@ -283,6 +284,24 @@ class _Stream:
             sink.frame(result, image)
 
     def _step(self, t0: int, frames: dict[str, FrameResult]) -> None:
+        """The step at t0, with the clock's ticks before it (and at t0, after it)."""
+        self._ticks(t0, inclusive=False)
+        self._emit_step(t0, frames)
+        self._ticks(t0, inclusive=True)
+
+    def _ticks(self, t_ns: int, *, inclusive: bool) -> None:
+        """Steps without images at the clock's ticks before ``t_ns`` (and at it when
+        ``inclusive``), from the first tick at or after the first step."""
+        period = self.timing.clock_ns
+        if period is None:
+            return
+        if self.next_tick is None:
+            self.next_tick = -(-t_ns // period) * period
+        while self.next_tick < t_ns or (inclusive and self.next_tick == t_ns):
+            self._emit_step(self.next_tick, {})
+            self.next_tick += period
+
+    def _emit_step(self, t0: int, frames: dict[str, FrameResult]) -> None:
         ordered = tuple(frames[r] for r in self.robots if r in frames)
         velocity = None if not self.has_truth else interpolate_truth_velocity(
             self.truth, t0, self.timing.tolerance_ns)

@@ -11,6 +11,7 @@ import pytest
 
 from replay import evaluate_cli
 from replay.evaluate_match import (
+    CLOCK_ROW,
     MATCH_FUSIONS,
     MatchOptions,
     Scores,
@@ -19,6 +20,7 @@ from replay.evaluate_match import (
     match_markdown,
     match_tasks,
     run_match_suite,
+    score_rows,
 )
 
 DISTRACTOR = (9.7, 3.0)
@@ -82,13 +84,18 @@ def test_short_suite_scores_every_fusion_both_phases_and_the_robots(
     out, doc, text = short_suite
     assert sorted(p.name for p in out.glob("*.mcap")) == [
         "match-2-random-ideal-d2-0.4s-r10-f256.mcap", "match-2-sync-ideal-d2-0.4s-r10-f256.mcap"]
-    assert set(doc["fused"]) == set(MATCH_FUSIONS)
+    assert set(doc["fused"]) == set(score_rows(MATCH_FUSIONS))
+    assert list(score_rows(("track", "mean"))) == ["track", CLOCK_ROW, "mean"]
     for fusion, st in doc["fused"].items():
         assert st["estimates"] > 0 and st["rmse_m"] is not None, fusion
     assert set(doc["robots"]) == {"robot1", "robot2", "robot3"}
     assert doc["phase_comparison"]["seeds"] == [2]
-    assert set(doc["phase_comparison"]["sync"]) == set(MATCH_FUSIONS)
-    assert "| mean |" in text and "random / sync" in text
+    assert set(doc["phase_comparison"]["sync"]) == set(score_rows(MATCH_FUSIONS))
+    assert "| mean |" in text and "random / sync" in text and f"| {CLOCK_ROW} |" in text
+    # the clock's ticks: about 100 a second from the first image on, in either phase
+    ticks = [doc["phase_comparison"][p][CLOCK_ROW]["steps"] for p in ("random", "sync")]
+    assert all(30 <= n <= 40 for n in ticks) and abs(ticks[0] - ticks[1]) <= 5, ticks
+    assert doc["fused"]["track"]["steps"] < ticks[0]  # the images' stamps: 12 of them
 
 
 def test_cli_rewrites_the_same_tables_from_the_same_logs(

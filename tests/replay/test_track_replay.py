@@ -177,3 +177,35 @@ def test_calibrated_noise_lets_robust_reject_what_weighted_averages_in(tmp_path:
     assert robust["summary"]["fused"]["rmse_m"] < 0.005 < weighted["summary"]["fused"]["rmse_m"]
     with pytest.raises(UsageError, match="--noise 'cambda'; choose one of cambada, calibrated"):
         ReplayOptions(noise="cambda")
+
+
+def test_clock_ticks_add_steps_without_images_and_leave_the_image_steps_alone(
+        moving_log: Path, replays: dict[str, Path], tmp_path: Path) -> None:
+    plain = _results(replays["track"])
+    out = tmp_path / "clock.json"
+    replay(moving_log, ReplayOptions(fusion="track", clock_hz=40.0, out=out, progress=False))
+    doc = _results(out)
+    assert doc["options"]["clock_hz"] == 40.0 and "clock_hz" not in plain["options"]
+    images = [s for s in doc["fused"] if s["robots"]]
+    ticks = [s for s in doc["fused"] if not s["robots"]]
+    strip = ("step",)  # numbered among the ticks
+    assert [{k: v for k, v in s.items() if k not in strip} for s in images] == [
+        {k: v for k, v in s.items() if k not in strip} for s in plain["fused"]]
+    # every 25 ms from the first image (t = 0) to the last (robot1's, t = 1 s), in order
+    assert [s["stamp_ns"] for s in ticks] == [k * 25 * MS for k in range(41)]
+    stamps = [s["stamp_ns"] for s in doc["fused"]]
+    assert stamps == sorted(stamps) and [s["step"] for s in doc["fused"]] == list(
+        range(len(stamps)))
+    # a tick is the track predicted to it: on the line the ball rolls, with its velocity
+    for s in ticks[2:]:
+        t = s["stamp_ns"] / NS
+        assert math.hypot(s["x_m"] - (0.5 + 3.0 * t), s["y_m"] - (0.3 - 1.0 * t)) < 0.01
+        assert s["error_m"] is not None and s["error_m"] < 0.01
+        assert math.hypot(s["velocity_m_s"][0] - 3.0, s["velocity_m_s"][1] + 1.0) < 0.3
+    # a window fusion has nothing at a tick
+    window = tmp_path / "weighted.json"
+    replay(moving_log, ReplayOptions(fusion="weighted", clock_hz=40.0, out=window,
+                                     progress=False))
+    assert all(s["x_m"] is None for s in _results(window)["fused"] if not s["robots"])
+    with pytest.raises(UsageError, match="--clock"):
+        ReplayOptions(clock_hz=0.0)

@@ -270,10 +270,9 @@ def run_match_task(task: MatchTask) -> MatchLogScore:
         replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
                                        calibration=task.options.calibration, progress=False),
                sinks=[collected])
-        fused[fusion] = _score([f for f in collected.fused if f["robots"]], distractors)
+        fused[fusion] = _score([f for f in collected.fused if not f.get("tick")], distractors)
         if clock is not None:  # the ticks: steps without images
-            fused[CLOCK_ROW] = _score([f for f in collected.fused if not f["robots"]],
-                                      distractors)
+            fused[CLOCK_ROW] = _score([f for f in collected.fused if f.get("tick")], distractors)
         if not robots:  # the robots' own estimates are the same under every fusion
             for fr in collected.frames:
                 if fr.get("error_m") is not None:

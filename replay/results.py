@@ -216,6 +216,8 @@ def step_to_dict(s: StepResult) -> dict[str, Any]:
         "truth": None if s.truth is None else {"x_m": s.truth[0], "y_m": s.truth[1]},
         "error_m": s.error_m,
     }
+    if not s.frames:  # a tick of --clock's clock: no image in it
+        out["tick"] = True
     # velocity keys only where there is a velocity: window fusions' files stay as they were
     if s.velocity_m_s is not None:
         out["velocity_m_s"] = list(s.velocity_m_s)

@@ -186,8 +186,9 @@ def test_clock_ticks_add_steps_without_images_and_leave_the_image_steps_alone(
     replay(moving_log, ReplayOptions(fusion="track", clock_hz=40.0, out=out, progress=False))
     doc = _results(out)
     assert doc["options"]["clock_hz"] == 40.0 and "clock_hz" not in plain["options"]
-    images = [s for s in doc["fused"] if s["robots"]]
-    ticks = [s for s in doc["fused"] if not s["robots"]]
+    images = [s for s in doc["fused"] if "tick" not in s]
+    ticks = [s for s in doc["fused"] if s.get("tick")]
+    assert all(s["robots"] == [] and s["tick"] is True for s in ticks)
     strip = ("step",)  # numbered among the ticks
     assert [{k: v for k, v in s.items() if k not in strip} for s in images] == [
         {k: v for k, v in s.items() if k not in strip} for s in plain["fused"]]
@@ -206,6 +207,6 @@ def test_clock_ticks_add_steps_without_images_and_leave_the_image_steps_alone(
     window = tmp_path / "weighted.json"
     replay(moving_log, ReplayOptions(fusion="weighted", clock_hz=40.0, out=window,
                                      progress=False))
-    assert all(s["x_m"] is None for s in _results(window)["fused"] if not s["robots"])
+    assert all(s["x_m"] is None for s in _results(window)["fused"] if s.get("tick"))
     with pytest.raises(UsageError, match="--clock"):
         ReplayOptions(clock_hz=0.0)

@@ -104,6 +104,7 @@ class OmniRenderer:
         self.face_px = int(face_px)
         self._build_maps()
         self._maps: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._atlas: np.ndarray | None = None
         if renderer is not None:
             self._maps_for(renderer)
 
@@ -161,15 +162,24 @@ class OmniRenderer:
         ``robot`` names the world's robot that carries the camera; it is hidden while
         rendering. ``None`` renders from a bare camera (e.g. tests).
         """
+        if self._atlas is None:  # drawn into anew each frame: every piece is rendered
+            self._atlas = self._new_atlas()
         if robot is None:
-            atlas = self.render_atlas(world, x_m, y_m, yaw_rad)
+            atlas = self.render_atlas(world, x_m, y_m, yaw_rad, out=self._atlas)
         else:
             with world.hidden(robot):
-                atlas = self.render_atlas(world, x_m, y_m, yaw_rad)
+                atlas = self.render_atlas(world, x_m, y_m, yaw_rad, out=self._atlas)
         return self.remap(atlas, world.renderer)
 
-    def render_atlas(self, world: World, x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
-        """The rendered pieces side by side (BGR), top-aligned, then the body's patch.
+    def _new_atlas(self) -> np.ndarray:
+        atlas = np.zeros(self._atlas_shape, np.uint8)
+        atlas[:_PATCH_PX, -_PATCH_PX:] = ROBOT_RGB[::-1]
+        return atlas
+
+    def render_atlas(self, world: World, x_m: float, y_m: float, yaw_rad: float, *,
+                     out: np.ndarray | None = None) -> np.ndarray:
+        """The rendered pieces side by side (BGR), top-aligned, then the body's patch; in
+        ``out`` (an atlas of an earlier call) if given.
 
         A piece larger than the renderer's largest exact image (EGL draws into a 1024 x 768
         window and resamples anything bigger) is rendered as a grid of sub-images with
@@ -178,8 +188,7 @@ class OmniRenderer:
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         eye = np.array([x_m, y_m, self.camera.height_m])
-        atlas = np.zeros(self._atlas_shape, np.uint8)
-        atlas[:_PATCH_PX, -_PATCH_PX:] = ROBOT_RGB[::-1]
+        atlas = self._new_atlas() if out is None else out
         limit = MAX_RENDER_PX.get(world.renderer)
         for piece in self._pieces:
             view = _look_at(eye, rot @ piece.view.forward, rot @ piece.view.up)

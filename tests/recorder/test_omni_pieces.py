@@ -19,6 +19,7 @@ import recorder.omni as omni_module
 import recorder.omni_layout as omni_layout
 from estimator.camera import CAMERA_MODELS, make_camera
 from recorder.omni import OmniRenderer
+from recorder.world import ROBOT_RGB
 
 SPOT_RAD = 1.2 / 512
 """The spot's sigma: 1.2 px at a cube face's centre (1024 px faces)."""
@@ -144,6 +145,20 @@ def test_the_pieces_cover_every_ray_at_the_sampling_of_a_cube(name: str, face_px
         jac = omni_layout._jacobian(omni._map_x.astype(np.float64),
                                     omni._map_y.astype(np.float64), sel, 1)
         assert omni_layout._smin(jac, 1.0) >= bar / omni_layout.FIT_SLACK - 1e-6, piece.view.name
+
+
+@pytest.mark.parametrize("renderer", ["egl", "tiny"])
+@pytest.mark.parametrize("name", CAMERA_MODELS)
+def test_the_remap_draws_the_body_and_blacks_the_rest(name: str, renderer: str) -> None:
+    omni = OmniRenderer(make_camera(name))
+    atlas = omni._new_atlas()
+    rng = np.random.default_rng(0)
+    atlas[:, :-omni_module._PATCH_PX] = rng.integers(30, 256, atlas[:, :-4].shape, np.uint8)
+    out = omni.remap(atlas, renderer)
+    assert omni._body.sum() > 500 and omni._black.sum() > 1000
+    assert (out[omni._black] == 0).all()
+    assert (out[omni._body] == ROBOT_RGB[::-1]).all()
+    assert (out[~omni._black & ~omni._body].max(axis=-1) >= 30).all()  # the scene elsewhere
 
 
 @pytest.mark.parametrize("limit", [None, 300])

@@ -12,9 +12,10 @@ Only what the lens sees is rendered, at the resolution the omni image needs:
 - a model that sees everything through a cube's down face (the ideal camera's virtual view
   from high above) gets that one face, narrowed to the widest ray;
 - any other (the fisheye, the mirror) gets a down view and four side views tilted down
-  (30 deg for both), each cropped to the rectangle its rays land in (from the horizon
-  down) and sized across and up apart to the sampling the omni image needs there: five
-  renders of at most EGL's 1024 x 768 each (a render has a fixed cost: fewer is faster).
+  (20-30 deg, picked per model and face size), each cropped to the rectangle its rays
+  land in (from the horizon down) and sized across and up apart to the sampling the omni
+  image needs there: at 1024 px faces, five renders that each fit EGL's 1024 x 768 (a
+  render has a fixed cost: fewer is faster).
 
 The robot's own body is taken out of the scene while its camera renders (it would sit a few
 centimetres below the lens and fill the view); the image shows instead a dark square where

@@ -64,6 +64,9 @@ _SEARCH_STEP = 6
 
 @dataclass(frozen=True)
 class View:
+    """A perspective view from the optical centre, in the robot frame: its axis, its up
+    and its right (image columns grow to the right, rows downward)."""
+
     name: str
     forward: np.ndarray
     up: np.ndarray
@@ -156,13 +159,6 @@ def _smin(jac: np.ndarray, aspect: float) -> float:
     s1 = np.hypot(au + bv, av - bu) / 2
     s2 = np.hypot(au - bv, av + bu) / 2
     return float(np.min(np.abs(s1 - s2)))
-
-
-def _best_aspect(jac: np.ndarray) -> float:
-    """The ratio (rows per plane unit) / (columns per plane unit) that needs the fewest
-    pixels for the sampling bar: the one minimising aspect / smin(aspect)^2."""
-    costs = [(k / max(_smin(jac, k), 1e-12) ** 2, k) for k in _ASPECTS]
-    return min(costs)[1]
 
 
 def _span(lo: float, hi: float, n: int) -> tuple[int, int]:

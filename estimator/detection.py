@@ -152,19 +152,41 @@ def _keep_mask(height: int, width: int, centre_16: tuple[int, int], radius_16: i
     return keep
 
 
+@functools.lru_cache(maxsize=16)
+def _hsv_bounds(lo: tuple[int, int, int], hi: tuple[int, int, int]
+                ) -> tuple[tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]], ...]:
+    """inRange bounds of the HSV range: one pair, or two when the hue wraps around 180."""
+    pairs = [(lo, hi)] if lo[0] <= hi[0] else [(lo, (179, hi[1], hi[2])),
+                                               ((0, lo[1], lo[2]), hi)]
+    out = []
+    for pair in pairs:
+        lower, upper = (np.array(b, np.uint8) for b in pair)
+        lower.setflags(write=False)
+        upper.setflags(write=False)
+        out.append((lower, upper))
+    return tuple(out)
+
+
+@functools.lru_cache(maxsize=4)
+def _open_kernel(size: int) -> npt.NDArray[np.uint8] | None:
+    """The OPEN's elliptical structuring element (None: no OPEN), read-only."""
+    if size <= 1:
+        return None
+    kernel = np.asarray(cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)), np.uint8)
+    kernel.setflags(write=False)
+    return kernel
+
+
 def _threshold(pixels: npt.NDArray[np.uint8], params: DetectionParams,
                origin: tuple[int, int] | None, image_shape: tuple[int, ...]
                ) -> npt.NDArray[np.uint8]:
     """The colour mask of ``pixels``: the image, a ROI of it starting at ``origin``, or (origin
     None) a subsample, which is not masked by the ignored disc."""
     hsv = cv2.cvtColor(pixels, cv2.COLOR_BGR2HSV)
-    lo, hi = params.hsv_lower, params.hsv_upper
-    if lo[0] <= hi[0]:
-        mask = cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
-    else:  # hue range wraps around 180 (red)
-        upper = cv2.inRange(hsv, np.array(lo, np.uint8), np.array((179, hi[1], hi[2]), np.uint8))
-        lower = cv2.inRange(hsv, np.array((0, lo[1], lo[2]), np.uint8), np.array(hi, np.uint8))
-        mask = cv2.bitwise_or(upper, lower)
+    bounds = _hsv_bounds(params.hsv_lower, params.hsv_upper)
+    mask = cv2.inRange(hsv, *bounds[0])
+    if len(bounds) > 1:  # hue range wraps around 180 (red)
+        mask = cv2.bitwise_or(mask, cv2.inRange(hsv, *bounds[1]))
     if params.ignore_radius_px > 0 and origin is not None:
         h, w = image_shape[:2]
         cu, cv = params.ignore_centre_px or ((w - 1) / 2.0, (h - 1) / 2.0)
@@ -329,11 +351,7 @@ def _candidates(
 ) -> list[tuple[bool, Detection]]:
     """(plausible, detection) for every blob, best first."""
     _check_image(image_bgr)
-    kernel = None
-    if params.open_kernel_px > 1:
-        kernel = cv2.getStructuringElement(
-            cv2.MORPH_ELLIPSE, (params.open_kernel_px, params.open_kernel_px)
-        )
+    kernel = _open_kernel(params.open_kernel_px)
     blobs: list[tuple[npt.NDArray[np.int32], Region]] = []
     for region in _regions(image_bgr, params):
         opened = region.mask if kernel is None else cv2.morphologyEx(

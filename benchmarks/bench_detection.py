@@ -1,13 +1,15 @@
 """Time detect_ball on 1080 x 1080 omni frames, beside one frame copy of the same frames.
 
-Two sets of frames: the recorded ones of the golden logs (``logs/golden/*.mcap``, 48
-frames, the ball in 44), taken in turn so that every call meets a frame not in the cache,
+Two sets of frames: the recorded ones of the golden logs (``logs/golden/*.mcap``, 60
+frames, the ball in 56), taken in turn so that every call meets a frame not in the cache,
 as a replay does; and one synthetic frame (a green field with white lines, an orange ball
 with a shaded limb, a dark robot body) taken again and again, so it stays in the cache.
 For each: the median time per frame of detect_ball (the coarse-to-fine search, the
 default), of detect_ball on the whole image (``search_stride_px=1``, the reference path),
-and of ``frame.copy()`` (touching every byte once), and the ratios to the copy. One run,
-side by side: the machine's load moves all figures together.
+of ``frame.copy()`` (touching every byte once), and of summing every third row
+(``cv2.sumElems(frame[::3])``: reading the rows the search tests, its memory floor), and
+the ratios to the copy. One run, side by side: the machine's load moves all figures
+together.
 
 Run: python benchmarks/bench_detection.py [--repeat 10]
 """
@@ -80,8 +82,10 @@ def row(name: str, frames: list[npt.NDArray[np.uint8]], params: DetectionParams,
     fast = median_ms(lambda f: detect_ball(f, params), frames, repeat)
     ref = median_ms(lambda f: detect_ball(f, whole), frames, repeat)
     copy = median_ms(lambda f: f.copy(), frames, repeat)
+    rows = median_ms(lambda f: cv2.sumElems(f[::3]), frames, repeat)
     return (f"{name:28s} detect_ball {fast:6.3f} ms ({fast / copy:4.1f}x)   whole image "
-            f"{ref:6.3f} ms ({ref / copy:5.1f}x)   frame.copy() {copy:6.3f} ms")
+            f"{ref:6.3f} ms ({ref / copy:5.1f}x)   frame.copy() {copy:6.3f} ms   "
+            f"every third row read {rows:6.3f} ms ({rows / copy:3.1f}x)")
 
 
 def main() -> None:

@@ -319,12 +319,12 @@ def _measure(contour: npt.NDArray[np.int32], image_bgr: npt.NDArray[np.uint8],
     grown = cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1 else filled
     mask = region.mask[y0 - region.y0:y1 - region.y0, x0 - region.x0:x1 - region.x0]
     blob = np.asarray(cv2.bitwise_or(cv2.bitwise_and(grown, mask), filled), dtype=np.uint8)
-    weights = _weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel)
-    m00 = float(weights.sum())
+    moments = cv2.moments(_weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel))
+    m00 = float(moments["m00"])
     if m00 <= 0.0:
         return None
-    cx = float((weights * np.arange(x0, x1)).sum()) / m00  # eq. 1: Cx = M10 / M00
-    cy = float((weights * np.arange(y0, y1)[:, None]).sum()) / m00  # eq. 2: Cy = M01 / M00
+    cx = x0 + float(moments["m10"]) / m00  # eq. 1: Cx = M10 / M00 (M10 about the ROI's x0)
+    cy = y0 + float(moments["m01"]) / m00  # eq. 2: Cy = M01 / M00
     contour_area = float(cv2.contourArea(contour))
     perimeter = float(cv2.arcLength(contour, True))
     circularity = 4.0 * math.pi * contour_area / perimeter**2 if perimeter > 0 else 0.0

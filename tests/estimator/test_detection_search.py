@@ -222,3 +222,17 @@ def test_ranges_holding_greys_have_no_channel_gap() -> None:
     assert _channel_gap((0, 0, 200), (179, 60, 255)) is None  # white lines
     assert _channel_gap((5, 0, 80), (25, 255, 255)) is None  # S from 0: greys pass
     assert _channel_gap((0, 100, 100), (179, 255, 255)) is None  # every hue
+
+
+def test_views_of_an_image_give_the_blobs_of_their_copies() -> None:
+    # the search reads byte-shifted views of the rows; a ROI, a mirrored image and the
+    # BGR channels of a BGRA image are not laid out like a fresh array
+    image = field_image(240)
+    for cx, cy, r in ((40.3, 61.7, 5.0), (200.0, 30.2, 2.5), (232.5, 120.0, 4.0)):
+        draw_disc(image, cx, cy, r)
+    bgra = np.dstack((image, np.full(image.shape[:2], 255, np.uint8)))
+    for view in (image[7:233, 3:239], image[:, ::-1], image[::-1], bgra[..., :3]):
+        assert not view.flags.c_contiguous
+        blobs = _same_as_whole_image(view, DetectionParams())
+        assert _as_tuples(blobs) == _as_tuples(detect_blobs(view.copy()))
+        assert len(blobs) >= 2

@@ -274,7 +274,8 @@ def _weights(
         return binary
     band = (cv2.subtract(region, core) if has_core else region).reshape(-1) > 0
     p = pixels.compress(band, axis=0) - c_g
-    w = np.clip(p @ delta / norm2, 0.0, 1.0)  # coverage: position on the blend line
+    w = p @ delta / norm2  # coverage: position on the blend line, clipped to [0, 1]
+    np.minimum(np.maximum(w, 0.0, out=w), 1.0, out=w)
     r = p - w[:, None] * delta
     off_line = np.sqrt((r * r).sum(axis=1)) > 0.25 * math.sqrt(norm2)  # not a blend
     weights = binary.reshape(-1)  # a view

@@ -49,7 +49,8 @@ MAX_CANDIDATES = 20_000
 MAX_AREA_FRACTION = 0.25
 """Boxes covering more of the image than this: threshold the whole image instead."""
 TILE_ROWS = 8
-"""Hits are grouped in square tiles of ``TILE_ROWS * stride`` px, one seed box per tile."""
+"""Hits are grouped in square tiles of ``TILE_ROWS * stride`` px, one seed box per tile
+(one box for them all when they fit in a tile's span)."""
 
 
 @dataclass(frozen=True)
@@ -151,7 +152,7 @@ def _hits(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int,
 
 def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad: int,
            gap: ChannelGap | None) -> list[Box] | None:
-    """One box per tile of hits (None: too many hits)."""
+    """Boxes around the hits, one per tile of them (None: too many hits)."""
     height, width = image.shape[:2]
     ys, xs = _hits(image, threshold, stride, gap)
     if len(ys) == 0:
@@ -159,18 +160,22 @@ def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad:
     if len(ys) > MAX_HITS:
         return None
     tile = TILE_ROWS * stride
-    key = (ys // tile) * (width // tile + 1) + xs // tile
-    order = np.argsort(key, kind="stable")
-    key, ys, xs = key[order], ys[order], xs[order]
-    starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+    spans: list[Box] = [(int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max()))]
+    if spans[0][2] - spans[0][0] >= tile or spans[0][3] - spans[0][1] >= tile:
+        # not all within one tile's span (the usual frame: one ball): per tile
+        key = (ys // tile) * (width // tile + 1) + xs // tile
+        order = np.argsort(key, kind="stable")
+        key, ys, xs = key[order], ys[order], xs[order]
+        starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+        spans = list(zip(np.minimum.reduceat(xs, starts).tolist(),
+                         np.minimum.reduceat(ys, starts).tolist(),
+                         np.maximum.reduceat(xs, starts).tolist(),
+                         np.maximum.reduceat(ys, starts).tolist(), strict=True))
     # the blob may reach into the rows between samples (and bulge sideways there): the
     # hits' bounding box grown by a sample spacing less one, then by pad
     grow = stride - 1 + pad
-    boxes = zip(np.minimum.reduceat(xs, starts).tolist(), np.minimum.reduceat(ys, starts).tolist(),
-                np.maximum.reduceat(xs, starts).tolist(), np.maximum.reduceat(ys, starts).tolist(),
-                strict=True)
     return _merge([(max(x0 - grow, 0), max(y0 - grow, 0), min(x1 + 1 + grow, width),
-                    min(y1 + 1 + grow, height)) for x0, y0, x1, y1 in boxes])
+                    min(y1 + 1 + grow, height)) for x0, y0, x1, y1 in spans])
 
 
 def _grow(box: Box, mask: npt.NDArray[np.uint8], band: int, width: int,

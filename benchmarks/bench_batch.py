@@ -1,6 +1,7 @@
 """Benchmark scale-out: serial vs a local process pool vs Ray, on the same work, side by side.
 
     python benchmarks/bench_batch.py [--count 6] [--workers 2] [--repeat 1] [--no-ray]
+                                     [--renderer auto|egl|tiny]
 
 One command prints everything (a Markdown table, the load average before and after each run):
 
@@ -14,14 +15,18 @@ One command prints everything (a Markdown table, the load average before and aft
    and Ray (connected), as (time for M tasks - time for 2) / (M - 2).
 
 Each command runs in a child process, so the times include imports and start-up, as a user
-sees them. Runs of the modes are interleaved (repeat r: serial, pool, ray) so a change of
-load on a shared machine falls on all of them; the load average is printed beside each.
+sees them. The serial run's CPU time (user + system, from ``getrusage``) over its wall time
+says how many cores it already keeps busy (EGL's software renderer draws in threads), which
+bounds what W workers can gain: W / that. Runs of the modes are interleaved (repeat r:
+serial, pool, ray) so a change of load on a shared machine falls on all of them; the load
+average is printed beside each.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -42,12 +47,24 @@ def _load() -> str:
     return "/".join(f"{v:.1f}" for v in os.getloadavg())
 
 
-def _run(cmd: list[str], env: dict[str, str]) -> float:
-    t0 = time.perf_counter()
+def _cpu_s() -> float:
+    """CPU seconds (user + system) of this process's finished children."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+CPU: dict[str, list[float]] = {}
+"""Per command kind, the serial runs' CPU seconds / wall seconds."""
+
+
+def _run(cmd: list[str], env: dict[str, str], kind: str = "") -> float:
+    t0, c0 = time.perf_counter(), _cpu_s()
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         sys.exit(f"bench_batch: {' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}")
+    if kind:
+        CPU.setdefault(kind, []).append((_cpu_s() - c0) / wall)
     return wall
 
 
@@ -76,8 +93,8 @@ def _modes(workers: int, ray_address: str | None) -> dict[str, tuple[list[str], 
     return modes
 
 
-def bench_eval(tmp: Path, count: int, workers: int, repeat: int,
-               ray_address: str | None) -> tuple[dict[str, list[float]], str, Path]:
+def bench_eval(tmp: Path, count: int, workers: int, repeat: int, ray_address: str | None,
+               renderer: str) -> tuple[dict[str, list[float]], str, Path]:
     modes = _modes(workers, ray_address)
     times: dict[str, list[float]] = {m: [] for m in modes}
     outputs: dict[str, dict[str, bytes]] = {}
@@ -86,7 +103,8 @@ def bench_eval(tmp: Path, count: int, workers: int, repeat: int,
             out = tmp / f"eval-{r}-{_slug(mode)}"
             load = _load()
             wall = _run([sys.executable, "-m", "replay.evaluate_cli", "--suite", "random",
-                         "--count", str(count), "--out-dir", str(out), "-q", *flags], env)
+                         "--count", str(count), "--out-dir", str(out), "--renderer", renderer,
+                         "-q", *flags], env, "eval" if flags == ["--workers", "1"] else "")
             times[mode].append(wall)
             outputs[f"{mode} #{r}"] = _files(out, "*")  # the logs, the tables
             print(f"  dsp-eval {mode}: {wall:.1f} s (load {load} -> {_load()})", flush=True)
@@ -104,7 +122,8 @@ def bench_replay(tmp: Path, logs: Path, workers: int, repeat: int,
             out = tmp / f"replay-{r}-{_slug(mode)}"
             load = _load()
             wall = _run([sys.executable, "-m", "replay.cli", str(logs), "--out-dir", str(out),
-                         "--out-mcap", "-q", *flags], env)
+                         "--out-mcap", "-q", *flags], env,
+                        "replay" if flags == ["--workers", "1"] else "")
             times[mode].append(wall)
             outputs[f"{mode} #{r}"] = _files(out, "*")
             print(f"  dsp-replay batch {mode}: {wall:.1f} s (load {load} -> {_load()})",
@@ -170,13 +189,15 @@ def main() -> int:
     p.add_argument("--repeat", type=int, default=1, help="runs of each mode (medians)")
     p.add_argument("--tasks", type=int, default=402, help="no-op tasks for the overhead")
     p.add_argument("--no-ray", action="store_true", help="leave out the Ray runs")
+    p.add_argument("--renderer", choices=("auto", "egl", "tiny"), default="auto",
+                   help="dsp-eval's pybullet renderer (default auto: EGL if it loads)")
     args = p.parse_args()
     print(f"{os.cpu_count()} CPUs; load average {_load()} (1/5/15 min) at the start")
     ray_address, ray_start_s = (None, 0.0) if args.no_ray else _start_ray(args.workers)
     tmp = Path(tempfile.mkdtemp(prefix="bench-batch-"))
     try:
         eval_times, eval_check, logs = bench_eval(tmp, args.count, args.workers, args.repeat,
-                                                  ray_address)
+                                                  ray_address, args.renderer)
         replay_times, replay_check = bench_replay(tmp, logs, args.workers, args.repeat,
                                                   ray_address)
         overhead = bench_overhead(args.workers, args.tasks, ray_address is not None)
@@ -194,6 +215,11 @@ def main() -> int:
     print(_row(f"`dsp-eval --suite random --count {args.count}`", eval_times, eval_check))
     print(_row(f"`dsp-replay` batch of those {args.count} logs", replay_times, replay_check))
     print()
+    for kind, what in (("eval", "dsp-eval"), ("replay", "dsp-replay batch")):
+        busy = statistics.median(CPU[kind])
+        print(f"{what} --workers 1 keeps {busy:.2f} cores busy (CPU time / wall time, renderer "
+              f"{args.renderer}): {args.workers} workers on {args.workers} idle cores can be "
+              f"at most {args.workers / max(busy, 1.0):.2f}x faster")
     for name, (first, t2, per) in overhead.items():
         print(f"{name}: 2 no-op tasks {first:.2f} s the first time, {t2:.2f} s the next "
               f"(start-up), then {1e3 * per:.2f} ms per further task ({args.tasks} tasks)")

@@ -13,7 +13,11 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   same robot's with nothing accepted between) under a free velocity (``|dz|`` within
   ``max_speed dt`` and their noise). The track is then re-run from the last accepted
   estimate before them with the velocity covariance inflated by ``kick_sigma^2 I`` (an
-  impulse of unknown size); the kick is kept if both then pass the gate.
+  impulse of unknown size); the kick is kept if both then pass the gate. When only one
+  robot sees the ball, nothing corroborates: a lone rejected estimate explains a kick by
+  itself when the last accepted one is at most ``lone_kick_ns`` old, a ball at most
+  ``max_speed`` fast could have gone there, and it does not fall where rejected estimates
+  keep falling (a still false blob: :class:`~estimator.tracker_clutter.ClutterMap`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
   velocity 0 with sigma ``kick_sigma``), confirmed by a second accepted estimate from another
@@ -21,7 +25,9 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   consistent with each other start the track afresh from them.
 - **Re-acquisition**: rejected estimates of the last ``reacquire_ns`` that agree on one
   ball at constant velocity restart the track (confirmed) when the track heard nothing since
-  they began, or more robots support them (:mod:`estimator.tracker_reacquire`).
+  they began, or more robots support them (:mod:`estimator.tracker_reacquire`); never, while
+  the track moves, from where rejected estimates keep falling (clutter: a still false blob
+  that two robots report at once).
 - **Loss**: after ``lost_after_ns`` without an accepted estimate the track is lost
   (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
 - **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
@@ -44,10 +50,20 @@ import numpy as np
 
 from estimator.corrected import BallEstimate
 from estimator.errors import FusionError
-from estimator.fusion import CalibratedNoise, Covariance, FusedEstimate, Noise
+from estimator.fusion import CalibratedNoise, FusedEstimate, Noise
+from estimator.tracker_clutter import ClutterMap
 from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
-from estimator.tracker_reacquire import Candidate, reachable, reacquire_from
+from estimator.tracker_reacquire import STILL_M_S, Candidate, reachable, reacquire_from
 from estimator.tracker_smoother import FilterNode, SmoothedTrack
+from estimator.tracker_types import (
+    GATE_CHI2_999,
+    NS,
+    Measurement,
+    TrackerParams,
+    TrackState,
+)
+from estimator.tracker_types import covariance as _cov
+from estimator.tracker_types import track_state as _state
 
 __all__ = [
     "GATE_CHI2_999",
@@ -57,90 +73,6 @@ __all__ = [
     "TrackState",
     "TrackerParams",
 ]
-
-GATE_CHI2_999 = 13.815510557964274
-"""chi-square quantile, 2 degrees of freedom, 0.999: -2 ln(0.001)."""
-NS = 1_000_000_000
-
-
-@dataclass(frozen=True)
-class TrackerParams:
-    """The tracker's tuning (units in the names)."""
-
-    accel_noise_m2_s3: float = 1.0
-    """q: spectral density of the white acceleration noise [m^2/s^3]: small, since kicks
-    and bounces are handled apart (velocity sigma grows by sqrt(q dt), 0.13 m/s in 17 ms)."""
-    friction_per_s: float = 0.05
-    """beta: the rolling ball's velocity decays as exp(-beta t) [1/s] (0.05: the simulator's
-    linear damping, pybullet's v *= (1 - 0.05)^dt)."""
-    gate: float = GATE_CHI2_999
-    """Largest accepted Mahalanobis distance squared d^2."""
-    kick_sigma_m_s: float = 6.0
-    """Sigma of a kick's velocity change, and of the velocity of a new track [m/s]."""
-    max_speed_m_s: float = 12.0
-    """Fastest ball: bounds how far two estimates that corroborate each other may lie."""
-    manoeuvre_ns: int = 150_000_000
-    """How long a rejected estimate waits to be corroborated [ns]."""
-    lost_after_ns: int = NS
-    """A track without an accepted estimate for this long is lost [ns]."""
-    memory_ns: int = 300_000_000
-    """How far back late estimates are re-inserted [ns] (>= manoeuvre_ns)."""
-    reacquire_ns: int = 300_000_000
-    """Window of rejected estimates that may agree on a new path [ns] (memory_ns at most)."""
-    reacquire_count: int = 2
-    """Fewest rejected estimates that agree on a new path and may restart the track."""
-
-    def __post_init__(self) -> None:
-        positive = (self.gate, self.kick_sigma_m_s, self.max_speed_m_s, self.lost_after_ns)
-        if not (all(v > 0 for v in positive) and self.accel_noise_m2_s3 >= 0.0
-                and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns
-                and self.reacquire_ns >= 0 and self.reacquire_count >= 2):
-            raise FusionError(
-                f"tracker parameters {self}: gate, kick_sigma_m_s, max_speed_m_s and "
-                "lost_after_ns must be > 0, accel_noise_m2_s3 and friction_per_s >= 0, "
-                "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2"
-            )
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """One robot's estimate of the ball's position at its stamp, with its covariance."""
-
-    stamp_ns: int
-    robot: str
-    x_m: float
-    y_m: float
-    covariance: Covariance
-    """R [m^2], 2 x 2, symmetric positive definite."""
-
-
-@dataclass(frozen=True)
-class TrackState:
-    """The track at one stamp: position [m], velocity [m/s] and their covariances."""
-
-    stamp_ns: int
-    x_m: float
-    y_m: float
-    vx_m_s: float
-    vy_m_s: float
-    position_covariance: Covariance
-    velocity_covariance: Covariance
-    confirmed: bool
-    """False while the track rests on one estimate (or on one robot's alone)."""
-
-    @property
-    def speed_m_s(self) -> float:
-        return math.hypot(self.vx_m_s, self.vy_m_s)
-
-
-def _cov(m: Matrix) -> Covariance:
-    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
-
-
-def _state(stamp_ns: int, g: Gaussian, confirmed: bool) -> TrackState:
-    x, p = g
-    return TrackState(stamp_ns, float(x[0]), float(x[1]), float(x[2]), float(x[3]),
-                      _cov(p[:2, :2]), _cov(p[2:, 2:]), confirmed)
 
 
 @dataclass(eq=False)
@@ -194,6 +126,7 @@ class BallTracker:
         self._segment = -1
         self._track: _Track | None = None
         self._seq = 0
+        self._clutter = ClutterMap()
         self.late = 0
         """Estimates dropped because they were older than the tracker's memory."""
 
@@ -221,6 +154,8 @@ class BallTracker:
         if not e.accepted:
             if track.confirmed:
                 self._explain_by_kick(track, e)
+                if not e.accepted:
+                    self._explain_alone(track, e)
             else:
                 self._restart_from_pair(track, e)
             if not e.accepted and self._track is track:
@@ -229,6 +164,8 @@ class BallTracker:
         assert track is not None
         self._confirm(track, e)
         self._prune(track, m.stamp_ns)
+        if not e.accepted:
+            self._clutter.add(m.stamp_ns, m.x_m, m.y_m)
         return e.accepted
 
     def _initial(self, e: _Entry) -> Gaussian:
@@ -286,12 +223,37 @@ class BallTracker:
             while i > 0 and not track.entries[i - 1].accepted:
                 i -= 1  # the kick came after the last accepted estimate
             k = track.entries[i]
-            k.kick = True
+            was, k.kick = k.kick, True
             self._rerun(track, i)
             if f.accepted and e.accepted:
                 return
-            k.kick = False
+            k.kick = was  # a kick found before stays
             self._rerun(track, i)
+
+    def _explain_alone(self, track: _Track, e: _Entry) -> None:
+        """A lone rejected estimate as the first after a kick (module docstring): kept when
+        it then passes the gate and no estimate before it changes its verdict."""
+        prm = self.params
+        i = track.entries.index(e)
+        j = next((j for j in range(i - 1, -1, -1) if track.entries[j].accepted), -1)
+        if j < 0 or e.m.stamp_ns - track.entries[j].m.stamp_ns > prm.lone_kick_ns:
+            return
+        if self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m):
+            return
+        last = track.entries[j]
+        assert last.state is not None
+        x, p = last.state
+        reach = prm.max_speed_m_s * (e.m.stamp_ns - last.m.stamp_ns) / NS
+        dz = e.z - x[:2]
+        if float(dz @ np.linalg.solve(p[:2, :2] + e.r + reach**2 * np.eye(2), dz)) > prm.gate:
+            return  # farther than a ball could have gone
+        k = track.entries[j + 1]
+        was, k.kick = k.kick, True
+        self._rerun(track, j + 1)
+        if e.accepted and not any(f.accepted for f in track.entries[j + 1:i]):
+            return
+        k.kick = was
+        self._rerun(track, j + 1)
 
     def _restart_from_pair(self, track: _Track, e: _Entry) -> None:
         """A tentative track that two consistent rejected estimates contradict starts
@@ -323,9 +285,12 @@ class BallTracker:
         i = track.entries.index(e)
         before = track.entries[i - 1].state if i > 0 else track.anchor
         assert before is not None
+        speed = math.hypot(before[0][2], before[0][3])
+        if speed >= STILL_M_S and self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m):
+            return  # a still false blob that robots keep reporting never displaces the ball
         first = reacquire_from(
             [_candidate(x) for x in track.entries[:i + 1]],
-            track_speed_m_s=math.hypot(before[0][2], before[0][3]),
+            track_speed_m_s=speed,
             window_ns=prm.reacquire_ns, count=prm.reacquire_count,
             max_speed_m_s=prm.max_speed_m_s, gate=prm.gate)
         if first is not None:

@@ -10,7 +10,8 @@ whether the track should restart from them:
 - when more robots support them than the track heard over the window (a false blob is
   usually seen by one robot at a time, the ball by several);
 - but a false blob is a still object: still estimates never displace a moving track, and a
-  still track yields to moving estimates even when fewer robots see them.
+  still track yields to moving estimates even when fewer robots see them. Estimates are
+  moving when their fit says so and they moved by more than their noise.
 
 The constant-velocity test is a weighted least-squares fit of ``z_i = p + v (t_i - t_0) + w_i`` with
 ``w_i ~ N(0, R_i + M_i)``, where ``M_i = (m^2 + (a_max dt_i^2 / 2)^2) I`` allows for a few
@@ -101,6 +102,14 @@ def reachable(a: Candidate, b: Candidate, *, max_speed_m_s: float, gate: float) 
     return float(dz @ np.linalg.solve(c, dz)) <= gate
 
 
+def _moving(first: Candidate, last: Candidate, v: tuple[float, float]) -> bool:
+    """Moving: the fitted speed exceeds MOVING_M_S and the estimates moved by more than 3
+    sigma of their noise (two estimates 13 ms apart give a speed of metres per second from
+    centimetres of noise alone)."""
+    dz = last.z - first.z
+    return math.hypot(*v) > MOVING_M_S and float(dz @ np.linalg.solve(first.r + last.r, dz)) > 9.0
+
+
 def reacquire_from(history: Sequence[Candidate], *, track_speed_m_s: float, window_ns: int,
                    count: int, max_speed_m_s: float, gate: float) -> int | None:
     """The index in ``history`` (the track's estimates in stamp order, ending with a rejected
@@ -124,7 +133,7 @@ def reacquire_from(history: Sequence[Candidate], *, track_speed_m_s: float, wind
              if x.accepted and x.stamp_ns >= min(first, newest.stamp_ns - window_ns)]
     support = len({history[j].robot for j in agree}) - len({x.robot for x in heard})
     silent = not any(x.stamp_ns >= first for x in heard)
-    still, moving = track_speed_m_s < STILL_M_S, math.hypot(*v) > MOVING_M_S
+    still, moving = track_speed_m_s < STILL_M_S, _moving(history[agree[0]], newest, v)
     if len(agree) < count or not (still or moving) or not (
             silent or support > 0 or (still and moving)):
         return None

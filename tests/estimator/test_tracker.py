@@ -288,7 +288,7 @@ def test_the_smoother_beats_the_causal_track_offline() -> None:
         smoothed.append(math.hypot(g[0][0] - x, g[0][1] - y))
         assert np.all(np.linalg.eigvalsh(g[1]) > 0)
     rms = [float(np.sqrt(np.mean(np.square(e)))) for e in (causal, smoothed)]
-    assert rms[1] < 0.6 * rms[0]  # the bounce's late estimate and the noise both shrink
+    assert rms[1] < 0.75 * rms[0]  # the noise and the bounce's first estimate both shrink
     assert smooth.state_at(-1) is None
     with pytest.raises(FusionError, match="record=True"):
         BallTracker().smoothed()

@@ -9,7 +9,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from estimator.tracker import BallTracker, Measurement, TrackState
+from estimator.tracker import BallTracker, Measurement, TrackerParams, TrackState
+from estimator.tracker_clutter import ClutterMap
 from estimator.tracker_reacquire import chi_square_tail, cv_fit
 
 MS = 1_000_000
@@ -109,3 +110,81 @@ def test_the_constant_velocity_fit() -> None:
     # the closed-form tail against known quantiles
     assert math.isclose(chi_square_tail(13.815510557964274, 2), 0.001, rel_tol=1e-9)
     assert math.isclose(chi_square_tail(18.466826952903, 4), 0.001, rel_tol=1e-6)
+
+
+# --- a kick only one robot sees, and clutter ----------------------------------------------------
+
+
+def kicked(t: float) -> tuple[float, float]:
+    """+x at 1.5 m/s, kicked at t = 0.55 s to (2, -4) m/s (between two of robot1's images)."""
+    if t < 0.55:
+        return (1.0 + 1.5 * t, 2.0)
+    dt = t - 0.55
+    return (1.0 + 1.5 * 0.55 + 2.0 * dt, 2.0 - 4.0 * dt)
+
+
+def test_a_kick_that_one_robot_sees_is_followed_at_its_first_estimate() -> None:
+    # robots 1 and 2 see the ball until the kick; after it only robot1 does, and robots 2
+    # and 3 report boxes of their own (far off, as in a match)
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if robot == "robot3" or (robot == "robot2" and t >= 0.55):
+            return BOX if robot == "robot3" else (8.5, -6.4)
+        return kicked(t)
+
+    for lone_kick_ns, followed in ((250 * MS, True), (0, False)):
+        steps = feed(BallTracker(TrackerParams(lone_kick_ns=lone_kick_ns)), seen, frames=12)
+        first = next(s for s in steps if s[1] == "robot1" and s[0] > 0.55)  # t = 0.608 s
+        assert first[2] is followed
+        assert (off(first[3], kicked(first[0])) < 0.03) is followed
+        later = [s for s in steps if s[1] == "robot1" and s[0] > first[0]]
+        assert all(a for _, _, a, _ in later)  # corroborated by robot1's next at the latest
+        assert max(off(state, kicked(t)) for t, _, _, state in later) < 0.05
+        assert not any(a for t, robot, a, _ in steps if robot != "robot1" and t > 0.55)
+
+
+def test_a_still_false_blob_near_the_ball_never_takes_the_track() -> None:
+    # robot2 reports a box from the start, which the ball rolls past 0.7 m away at 0.93 s;
+    # robot1 alone sees the ball
+    box = (2.4, 1.3)
+
+    def roll(t: float) -> tuple[float, float]:
+        return (1.0 + 1.5 * t, 2.0)
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if robot == "robot3":
+            return None
+        return box if robot == "robot2" and t > 0.05 else roll(t)
+
+    steps = feed(BallTracker(), seen, frames=20)
+    assert not any(a for t, robot, a, _ in steps if robot == "robot2" and t > 0.05)
+    assert max(off(state, roll(t)) for t, _, _, state in steps) < 0.05  # 0.7 m: no pull
+
+
+def test_the_clutter_map_marks_where_rejected_estimates_pile_up() -> None:
+    clutter = ClutterMap(memory_ns=1000 * MS, radius_m=0.3, count=3, span_ns=200 * MS)
+    for k in range(3):
+        clutter.add(k * 100 * MS, 5.0 + 0.1 * k, 1.0)  # three, over 0.2 s, 0.2 m apart
+    clutter.add(250 * MS, 0.0, 0.0)
+    assert clutter.covers(300 * MS, 5.1, 1.05)
+    assert not clutter.covers(300 * MS, 5.5, 1.0)  # two of them within 0.3 m
+    assert not clutter.covers(150 * MS, 5.1, 1.0)  # before the third: 0.1 s apart
+    assert not clutter.covers(1150 * MS, 5.1, 1.0)  # the first is forgotten by then
+    quick = ClutterMap(span_ns=200 * MS)
+    for k in range(5):
+        quick.add(k * 10 * MS, 0.0, 0.0)  # five within 40 ms: a burst, not a still object
+    assert not quick.covers(50 * MS, 0.0, 0.0)
+
+
+def test_a_box_two_robots_take_for_the_ball_at_once_does_not_displace_it() -> None:
+    # from 0.5 s robots 1 and 2 lose the ball and both report the same box, 8 ms apart
+    # (their two estimates "move" by centimetres of noise: metres per second); robot3 still
+    # sees the ball rolling at 1.5 m/s
+    def roll(t: float) -> tuple[float, float]:
+        return (1.0 + 1.5 * t, 2.0 - 0.5 * t)
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot != "robot3" and t >= 0.5 else roll(t)
+
+    steps = feed(BallTracker(), seen, frames=20, seed=4)
+    assert not any(a for t, robot, a, _ in steps if robot != "robot3" and t >= 0.5)
+    assert max(off(state, roll(t)) for t, _, _, state in steps[3:]) < 0.05

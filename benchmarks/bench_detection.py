@@ -1,13 +1,16 @@
 """Time detect_ball on 1080 x 1080 omni frames, beside one frame copy of the same frames.
 
-Two sets of frames: the recorded ones of the golden logs (``logs/golden/*.mcap``, 48
-frames, the ball in 44), taken in turn so that every call meets a frame not in the cache,
+Two sets of frames: the recorded ones of the golden logs (``logs/golden/*.mcap``, 60
+frames, the ball in 56), taken in turn so that every call meets a frame not in the cache,
 as a replay does; and one synthetic frame (a green field with white lines, an orange ball
 with a shaded limb, a dark robot body) taken again and again, so it stays in the cache.
 For each: the median time per frame of detect_ball (the coarse-to-fine search, the
 default), of detect_ball on the whole image (``search_stride_px=1``, the reference path),
-and of ``frame.copy()`` (touching every byte once), and the ratios to the copy. One run,
-side by side: the machine's load moves all figures together.
+of detect_ball looking for a magenta ball, a colour not in the frames (the coarse search
+alone: the rows are tested, nothing is found, no chain runs), of ``frame.copy()``
+(touching every byte once), and of summing every third row (``cv2.sumElems(frame[::3])``:
+reading the rows the search tests, its memory floor), and the ratios to the copy. One
+run, side by side: the machine's load moves all figures together.
 
 Run: python benchmarks/bench_detection.py [--repeat 10]
 """
@@ -75,13 +78,19 @@ def recorded_frames() -> list[npt.NDArray[np.uint8]]:
 def row(name: str, frames: list[npt.NDArray[np.uint8]], params: DetectionParams,
         repeat: int) -> str:
     whole = dataclasses.replace(params, search_stride_px=1)
-    for frame in frames[:5]:  # warm up (and the sampling grid's table)
+    absent = dataclasses.replace(params, hsv_lower=(140, 150, 150), hsv_upper=(160, 255, 255))
+    for frame in frames[:5]:  # warm up (and the cached colour tests)
         detect_ball(frame, params)
+        detect_ball(frame, absent)
     fast = median_ms(lambda f: detect_ball(f, params), frames, repeat)
     ref = median_ms(lambda f: detect_ball(f, whole), frames, repeat)
+    search = median_ms(lambda f: detect_ball(f, absent), frames, repeat)
     copy = median_ms(lambda f: f.copy(), frames, repeat)
+    rows = median_ms(lambda f: cv2.sumElems(f[::3]), frames, repeat)
     return (f"{name:28s} detect_ball {fast:6.3f} ms ({fast / copy:4.1f}x)   whole image "
-            f"{ref:6.3f} ms ({ref / copy:5.1f}x)   frame.copy() {copy:6.3f} ms")
+            f"{ref:6.3f} ms ({ref / copy:5.1f}x)   search alone (magenta) {search:6.3f} ms "
+            f"({search / copy:3.1f}x)   frame.copy() {copy:6.3f} ms   every third row read "
+            f"{rows:6.3f} ms ({rows / copy:3.1f}x)")
 
 
 def main() -> None:

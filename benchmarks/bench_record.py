@@ -68,7 +68,7 @@ def bench(renderer: str, face_px: int, runs: int) -> list[str]:
             img = omni.render(world, r2.name, x, y, yaw)
             png = statistics.median(_timed(lambda img=img: cv2.imencode(
                 ".png", img, [cv2.IMWRITE_PNG_COMPRESSION, 3])) for _ in range(runs))
-            faces = "+".join(f"{f}{n}" for f, n in omni.pieces)
+            faces = "+".join(f"{f}{w}x{h}" for f, w, h in omni.pieces)
             rows.append(
                 f"{renderer:5s} {name:8s} omni {render * 1e3:7.1f} ms = {render / floor:4.2f}x "
                 f"the floor ({omni.rendered_px / 1e6:.2f} Mpx rendered: {faces}); +png "

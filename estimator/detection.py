@@ -24,13 +24,14 @@ centroid is accurate to a few hundredths of a pixel, where the binary mask alone
 accurate to about 0.5 / sqrt(radius) px (digitisation noise). ``subpixel=False`` gives
 the paper's plain binary moments.
 
-Search. The chain runs only where the colour is: the threshold is first tested on a
-subsample of one pixel in ``search_stride_px``^2, and thresholding, OPEN, outlines and
-moments run in boxes around the hits, grown until each holds whole blobs with an empty
-margin (:mod:`estimator.detection_regions`). The numbers are those of the whole image, for
-every blob with a pixel on the sampling grid (any blob holding a ``search_stride_px`` square,
-and any anti-aliased ball of radius >= 2 px at the default 3); ``search_stride_px=1``
-processes the whole image.
+Search. The chain runs only where the colour is: the threshold is first tested on every
+``search_stride_px``-th row (after a cheaper test, a gap between two colour channels that
+every pixel in the HSV range shows, picks the few pixels worth converting), and
+thresholding, OPEN, outlines and moments run in boxes around the hits, grown until each
+holds whole blobs with an empty margin (:mod:`estimator.detection_regions`). The numbers
+are those of the whole image, for every blob with a pixel on a sampled row (any blob at
+least ``search_stride_px`` rows tall, so any anti-aliased ball of radius >= 2 px at the
+default 3); ``search_stride_px=1`` processes the whole image.
 
 Plausibility (several blobs). A blob is plausible when ``min_area_px <= area <=
 max_area_px``, its circularity ``4 pi A / P^2`` (contour area A and perimeter P) is at
@@ -43,6 +44,7 @@ plausible first, then by the shape score ``min(circularity, 1) * (1 - |fill - pi
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -50,7 +52,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from estimator.detection_regions import Region, search_regions
+from estimator.detection_regions import ChannelGap, Region, search_regions
 from estimator.errors import DetectionError
 
 __all__ = ["Detection", "DetectionParams", "detect_ball", "detect_blobs"]
@@ -78,9 +80,9 @@ class DetectionParams:
     subpixel: bool = True
     """Weight edge pixels by their ball coverage (see the module docstring)."""
     search_stride_px: int = 3
-    """Coarse-to-fine search: the colour is first tested on one pixel in
-    ``search_stride_px``^2, and the full chain runs only in boxes around the hits (see the
-    module docstring); the results are the whole image's. 1: process the whole image."""
+    """Coarse-to-fine search: the colour is first tested on every ``search_stride_px``-th
+    row, and the full chain runs only in boxes around the hits (see the module docstring);
+    the results are the whole image's. 1: process the whole image."""
 
     def __post_init__(self) -> None:
         for name, lo, hi in (("H", 0, 179), ("S", 0, 255), ("V", 0, 255)):
@@ -150,19 +152,41 @@ def _keep_mask(height: int, width: int, centre_16: tuple[int, int], radius_16: i
     return keep
 
 
+@functools.lru_cache(maxsize=16)
+def _hsv_bounds(lo: tuple[int, int, int], hi: tuple[int, int, int]
+                ) -> tuple[tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]], ...]:
+    """inRange bounds of the HSV range: one pair, or two when the hue wraps around 180."""
+    pairs = [(lo, hi)] if lo[0] <= hi[0] else [(lo, (179, hi[1], hi[2])),
+                                               ((0, lo[1], lo[2]), hi)]
+    out = []
+    for pair in pairs:
+        lower, upper = (np.array(b, np.uint8) for b in pair)
+        lower.setflags(write=False)
+        upper.setflags(write=False)
+        out.append((lower, upper))
+    return tuple(out)
+
+
+@functools.lru_cache(maxsize=4)
+def _open_kernel(size: int) -> npt.NDArray[np.uint8] | None:
+    """The OPEN's elliptical structuring element (None: no OPEN), read-only."""
+    if size <= 1:
+        return None
+    kernel = np.asarray(cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)), np.uint8)
+    kernel.setflags(write=False)
+    return kernel
+
+
 def _threshold(pixels: npt.NDArray[np.uint8], params: DetectionParams,
                origin: tuple[int, int] | None, image_shape: tuple[int, ...]
                ) -> npt.NDArray[np.uint8]:
     """The colour mask of ``pixels``: the image, a ROI of it starting at ``origin``, or (origin
     None) a subsample, which is not masked by the ignored disc."""
     hsv = cv2.cvtColor(pixels, cv2.COLOR_BGR2HSV)
-    lo, hi = params.hsv_lower, params.hsv_upper
-    if lo[0] <= hi[0]:
-        mask = cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
-    else:  # hue range wraps around 180 (red)
-        upper = cv2.inRange(hsv, np.array(lo, np.uint8), np.array((179, hi[1], hi[2]), np.uint8))
-        lower = cv2.inRange(hsv, np.array((0, lo[1], lo[2]), np.uint8), np.array(hi, np.uint8))
-        mask = cv2.bitwise_or(upper, lower)
+    bounds = _hsv_bounds(params.hsv_lower, params.hsv_upper)
+    mask = cv2.inRange(hsv, *bounds[0])
+    if len(bounds) > 1:  # hue range wraps around 180 (red)
+        mask = cv2.bitwise_or(mask, cv2.inRange(hsv, *bounds[1]))
     if params.ignore_radius_px > 0 and origin is not None:
         h, w = image_shape[:2]
         cu, cv = params.ignore_centre_px or ((w - 1) / 2.0, (h - 1) / 2.0)
@@ -173,10 +197,56 @@ def _threshold(pixels: npt.NDArray[np.uint8], params: DetectionParams,
     return np.asarray(mask, dtype=np.uint8)
 
 
+def _hue_weight(channel: int, hue: float) -> float:
+    """How much of max - min a channel (BGR index) holds at a hue (OpenCV units, 0-180):
+    1 within 30 of its own hue (B 120, G 60, R 0), 0 beyond 60, linear between."""
+    distance = abs((hue - (2 - channel) * 60.0 + 90.0) % 180.0 - 90.0)
+    return min(1.0, max(0.0, 2.0 - distance / 30.0))
+
+
+@functools.lru_cache(maxsize=16)
+def _channel_gap(lower: tuple[int, int, int], upper: tuple[int, int, int]) -> ChannelGap | None:
+    """The largest gap between two channels that every pixel in the HSV range shows (None:
+    no pair of channels is ordered over the whole range, e.g. greys are in it).
+
+    A pixel with maximum V, minimum m and hue h has channel k = m + (V - m) w_k(h)
+    (:func:`_hue_weight`), so ``plus - minus = (V - m) (w_plus(h) - w_minus(h))``, and
+    ``V - m = S V / 255 >= S_lo V_lo / 255``, and ``V - m >= 1`` when S >= 1. OpenCV rounds
+    H and S to integers (to within 0.5 and a table error well under 0.2), so the true hue is
+    taken over the range widened by 1 on each side and S_lo is taken 1 lower. The weights
+    are linear between multiples of 30, so their difference is least at the range's ends
+    or at such a multiple."""
+    if lower[1] < 1:
+        return None
+    hue_lo, hue_hi = lower[0] - 1.0, upper[0] + 1.0 + (180.0 if lower[0] > upper[0] else 0.0)
+    spread = max(1.0, (lower[1] - 1) * lower[2] / 255.0)
+    hues = [hue_lo, hue_hi, *range(math.ceil(hue_lo / 30) * 30, math.floor(hue_hi), 30)]
+    best: ChannelGap | None = None
+    for plus, minus in itertools.permutations(range(3), 2):
+        least = min(_hue_weight(plus, h) - _hue_weight(minus, h) for h in hues)
+        if least <= 0.0:
+            continue
+        gap = ChannelGap(plus, minus, max(1, math.floor(spread * least)))  # integers
+        if best is None or gap.min_gap > best.min_gap:
+            best = gap
+    return best
+
+
 _CROSS3 = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 _ELLIPSE5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
 _ELLIPSE9 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))
 _PAD = 6  # ROI margin around a blob's bounding box: room for the 9 x 9 ring
+
+
+def _median_bgr(pixels: npt.NDArray[np.uint8]) -> npt.NDArray[np.float64]:
+    """Per-channel median of N x 3 pixels (``np.median(pixels, axis=0)``, without its
+    float copy: the middle value, or the mean of the two middle values)."""
+    n = len(pixels)
+    k = (n - 1) // 2
+    if n % 2:
+        return np.asarray(np.partition(pixels, k, axis=0)[k], np.float64)
+    middle = np.partition(pixels, (k, k + 1), axis=0)[k:k + 2].astype(np.float64)
+    return np.asarray((middle[0] + middle[1]) / 2.0, np.float64)
 
 
 def _weights(
@@ -185,32 +255,35 @@ def _weights(
     subpixel: bool,
 ) -> npt.NDArray[np.float64]:
     """Per-pixel ball coverage in [0, 1] of one blob (binary, or edge-weighted)."""
-    binary = (blob > 0).astype(np.float64)
+    binary: npt.NDArray[np.float64] = np.divide(blob, 255.0)  # 0 or 1 exactly
     if not subpixel:
         return binary
-    core = cv2.erode(blob, _CROSS3) > 0  # pixels whose 4 neighbours are ball: weight 1
-    region = cv2.dilate(blob, _ELLIPSE5) > 0  # blob + 2 px: every partly covered pixel
-    ring = (cv2.dilate(blob, _ELLIPSE9) > 0) & ~region  # the local background
-    inside = core if np.any(core) else blob > 0
-    if not np.any(ring):
+    core = cv2.erode(blob, _CROSS3)  # pixels whose 4 neighbours are ball: weight 1
+    region = cv2.dilate(blob, _ELLIPSE5)  # blob + 2 px: every partly covered pixel
+    ring = cv2.subtract(cv2.dilate(blob, _ELLIPSE9), region)  # the local background
+    if cv2.countNonZero(ring) == 0:
         return binary
-    pixels = image_roi.astype(np.float64)
-    c_b = np.median(pixels[inside], axis=0)  # ball colour
-    c_g = np.median(pixels[ring], axis=0)  # background colour
+    has_core = cv2.countNonZero(core) > 0
+    pixels = image_roi.reshape(-1, 3)
+    inside = ((core if has_core else blob) > 0).reshape(-1)
+    c_b = _median_bgr(pixels.compress(inside, axis=0))  # ball colour
+    c_g = _median_bgr(pixels.compress(ring.reshape(-1) > 0, axis=0))  # background colour
     delta = c_b - c_g
     norm2 = float(np.dot(delta, delta))
     if norm2 < 30.0**2:  # ball and background too alike to unmix: binary moments
         return binary
-    band = region & ~core
-    p = pixels[band] - c_g
-    w = np.clip(p @ delta / norm2, 0.0, 1.0)  # coverage: position on the blend line
-    residual = np.linalg.norm(p - w[:, None] * delta[None, :], axis=1)
-    off_line = residual > 0.25 * math.sqrt(norm2)  # not a ball/background blend
-    w = np.where(off_line, binary[band], w)
-    weights = binary.copy()
-    weights[core] = 1.0
+    band = (cv2.subtract(region, core) if has_core else region).reshape(-1) > 0
+    p = pixels.compress(band, axis=0) - c_g
+    w = p @ delta / norm2  # coverage: position on the blend line, clipped to [0, 1]
+    np.minimum(np.maximum(w, 0.0, out=w), 1.0, out=w)
+    r = p - w[:, None] * delta
+    off_line = np.sqrt((r * r).sum(axis=1)) > 0.25 * math.sqrt(norm2)  # not a blend
+    weights = binary.reshape(-1)  # a view
+    np.copyto(w, weights.compress(band), where=off_line)  # off the line: binary
+    if has_core:
+        weights[inside] = 1.0
     weights[band] = w
-    return np.asarray(weights, dtype=np.float64)
+    return binary
 
 
 def _regions(image_bgr: npt.NDArray[np.uint8], params: DetectionParams) -> list[Region]:
@@ -224,7 +297,8 @@ def _regions(image_bgr: npt.NDArray[np.uint8], params: DetectionParams) -> list[
     if params.search_stride_px > 1:
         band = max(_PAD, params.open_kernel_px // 2) + 1
         regions = search_regions(image_bgr, threshold, stride=params.search_stride_px,
-                                 band=band)
+                                 band=band, gap=_channel_gap(params.hsv_lower,
+                                                             params.hsv_upper))
         if regions is not None:
             return regions
     height, width = shape[:2]
@@ -246,17 +320,16 @@ def _measure(contour: npt.NDArray[np.int32], image_bgr: npt.NDArray[np.uint8],
     grown = cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1 else filled
     mask = region.mask[y0 - region.y0:y1 - region.y0, x0 - region.x0:x1 - region.x0]
     blob = np.asarray(cv2.bitwise_or(cv2.bitwise_and(grown, mask), filled), dtype=np.uint8)
-    weights = _weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel)
-    m00 = float(weights.sum())
+    moments = cv2.moments(_weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel))
+    m00 = float(moments["m00"])
     if m00 <= 0.0:
         return None
-    vs, us = np.mgrid[y0:y1, x0:x1]
-    cx = float((weights * us).sum()) / m00  # eq. 1: Cx = M10 / M00
-    cy = float((weights * vs).sum()) / m00  # eq. 2: Cy = M01 / M00
+    cx = x0 + float(moments["m10"]) / m00  # eq. 1: Cx = M10 / M00 (M10 about the ROI's x0)
+    cy = y0 + float(moments["m01"]) / m00  # eq. 2: Cy = M01 / M00
     contour_area = float(cv2.contourArea(contour))
     perimeter = float(cv2.arcLength(contour, True))
     circularity = 4.0 * math.pi * contour_area / perimeter**2 if perimeter > 0 else 0.0
-    fill = float(np.count_nonzero(blob)) / float(w * h)
+    fill = cv2.countNonZero(blob) / float(w * h)
     plausible = (
         params.min_area_px <= m00 <= params.max_area_px
         and circularity >= params.min_circularity
@@ -269,7 +342,7 @@ def _measure(contour: npt.NDArray[np.int32], image_bgr: npt.NDArray[np.uint8],
         area_px=m00,
         bbox_px=(int(x), int(y), int(w), int(h)),
         circularity=circularity,
-        outline_px=contour.reshape(-1, 2).astype(np.int32),
+        outline_px=contour.reshape(-1, 2),
     )
     return (not plausible, -score, -m00, cy, cx), detection
 
@@ -279,11 +352,7 @@ def _candidates(
 ) -> list[tuple[bool, Detection]]:
     """(plausible, detection) for every blob, best first."""
     _check_image(image_bgr)
-    kernel = None
-    if params.open_kernel_px > 1:
-        kernel = cv2.getStructuringElement(
-            cv2.MORPH_ELLIPSE, (params.open_kernel_px, params.open_kernel_px)
-        )
+    kernel = _open_kernel(params.open_kernel_px)
     blobs: list[tuple[npt.NDArray[np.int32], Region]] = []
     for region in _regions(image_bgr, params):
         opened = region.mask if kernel is None else cv2.morphologyEx(

@@ -2,22 +2,26 @@
 
 The ball covers well under 1 % of an omni image, so thresholding, opening and tracing the
 whole 1080 x 1080 frame spends nearly all its time on the field. Instead the colour test
-runs first on a subsample of one pixel in ``stride``^2: every ``stride``-th row, and in row
-``stride * m`` every ``stride``-th column from column ``m % stride`` (a sheared grid; each
-sample is an original pixel, so it passes exactly when the full-resolution test does).
-Each hit seeds a small box; each box is thresholded at full resolution and grown until no
-thresholded pixel lies within ``band`` pixels of a side that is not the image's border. A
-grown box therefore holds whole connected components of the threshold mask with an empty
-margin around them, and boxes that meet are merged, so:
+runs first on every ``stride``-th row (rows 0, ``stride``, ``2 stride``, ... in full: a
+third of the frame's bytes at the default 3, and no more memory traffic than any pixel
+subsample of those rows, as a row is read in whole cache lines). Each hit seeds a small
+box; each box is thresholded at full resolution and grown until no thresholded pixel lies
+within ``band`` pixels of a side that is not the image's border. A grown box therefore
+holds whole connected components of the threshold mask with an empty margin around them,
+and boxes that meet are merged, so:
 
 - the OPEN of a box equals the OPEN of the whole mask inside it (the margin is at least the
   structuring element's radius), and its blobs, outlines and moments are the same numbers;
-- every blob whose threshold mask has a pixel on the sampling grid is found. The grid has a
-  pixel in every ``stride`` x ``stride`` square, so a blob whose mask holds such a square
-  cannot be missed; the shear also catches the 10-13 pixel mask of an anti-aliased ball of
-  radius 2 px at every sub-pixel position, which a square grid of stride 3 misses when the
-  ball is centred on a pixel corner in phase with the grid (the mask is 4 x 4 less its
-  corners, and holds no 3 x 3 square).
+- every blob whose threshold mask has a pixel on a sampled row is found: any blob at least
+  ``stride`` rows tall, so any anti-aliased ball of radius 2 px or more at the default 3
+  (its 10-13 pixel mask spans 3 or 4 rows) wherever it is, the image's border included.
+
+The rows are tested cheaply first when the caller can say which difference of two colour
+channels every pixel in its colour range exceeds (:class:`ChannelGap`, e.g. red - blue >=
+37 for the orange ball): one saturating subtraction of two byte-shifted views of the rows
+(no copy of the pixels), a per-row sum to find the rows that hold candidates, and the exact
+colour test on the candidates alone. The hits are exactly those of the exact test on the
+rows; the shortcut only skips the colour conversion of pixels that cannot pass it.
 
 When the hits or the boxes cover much of the image the caller thresholds the whole image
 instead (the same results, just no faster).
@@ -25,7 +29,6 @@ instead (the same results, just no faster).
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -33,16 +36,31 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Region", "search_regions"]
+__all__ = ["ChannelGap", "Region", "search_regions"]
 
 Threshold = Callable[[npt.NDArray[np.uint8], tuple[int, int] | None], npt.NDArray[np.uint8]]
 """(pixels, origin) -> their threshold mask; origin (x0, y0): where a ROI of the image
-starts, None for the subsample (which skips position-dependent masking)."""
+starts, None for sampled pixels (which skip position-dependent masking)."""
 
-MAX_HITS = 2_000
-"""More samples than this pass the colour test: threshold the whole image instead."""
+MAX_HITS = 6_000
+"""More sampled pixels than this pass the colour test: threshold the whole image instead."""
+MAX_CANDIDATES = 20_000
+"""More candidates than this pass the channel gap: test the sampled rows exactly instead."""
 MAX_AREA_FRACTION = 0.25
 """Boxes covering more of the image than this: threshold the whole image instead."""
+TILE_ROWS = 8
+"""Hits are grouped in square tiles of ``TILE_ROWS * stride`` px, one seed box per tile
+(one box for them all when they fit in a tile's span)."""
+
+
+@dataclass(frozen=True)
+class ChannelGap:
+    """``pixel[plus] - pixel[minus] >= min_gap`` (BGR channel indices 0-2): a test that
+    every pixel in the colour range passes, and most of the field fails."""
+
+    plus: int
+    minus: int
+    min_gap: int
 
 
 @dataclass(frozen=True)
@@ -57,6 +75,8 @@ class Region:
 
 
 Box = tuple[int, int, int, int]
+Pixels = tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]
+"""(rows, columns) of sampled pixels, in image coordinates."""
 
 
 def _overlap(a: Box, b: Box) -> bool:
@@ -83,68 +103,108 @@ def _merge(boxes: list[Box]) -> list[Box]:
     return out
 
 
-@functools.lru_cache(maxsize=8)
-def _grid(height: int, width: int, stride: int) -> npt.NDArray[np.int16]:
-    """The sampling grid as a nearest-neighbour remap table (CV_16SC2): row ``m`` of the
-    subsample is image row ``stride * m``, sampled at columns ``m % stride + stride * j``
-    (the last column repeated where a row runs out)."""
-    rows = np.arange(0, height, stride)
-    cols = (rows[:, None] // stride) % stride + stride * np.arange(-(-width // stride))[None, :]
-    map_x = np.minimum(cols, width - 1).astype(np.float32)
-    map_y = np.broadcast_to(rows[:, None], map_x.shape).astype(np.float32)
-    table, _ = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
-    table.setflags(write=False)
-    return np.asarray(table, dtype=np.int16)
+def _nonzero_rows(rows: npt.NDArray[np.uint8], stride: int, width: int) -> Pixels:
+    """The non-zero entries of an n x (width * k) byte array whose row i is image row
+    ``stride * i`` and whose entry j lies in image column ``j // k``."""
+    # row sums in float32 (faster than int32): bytes >= 0 sum to 0 only when all are 0
+    hot = np.flatnonzero(cv2.reduce(rows, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32F))
+    if len(hot) == 0:
+        return hot, hot
+    ji = cv2.findNonZero(rows[hot]).reshape(-1, 2)  # (j, i): entry j of hot row i
+    return stride * hot[ji[:, 1]], ji[:, 0] // (rows.shape[1] // width)
 
 
-def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int,
-           pad: int) -> list[Box] | None:
-    """One box per tile of hits on the sampling grid (None: too many hits)."""
+def _gap_candidates(image: npt.NDArray[np.uint8], stride: int, gap: ChannelGap) -> Pixels:
+    """The pixels of the sampled rows that pass ``gap``."""
+    width = image.shape[1]
+    sampled = image[::stride]
+    n = sampled.shape[0]
+    flat = sampled.reshape(n, 3 * width)  # a view: each row's bytes are contiguous
+    span = 3 * (width - 1)  # shifted views of pixels 0 .. width - 2, channel 0 = plus/minus
+    plus = flat[:, gap.plus:gap.plus + span].reshape(n, width - 1, 3)
+    minus = flat[:, gap.minus:gap.minus + span].reshape(n, width - 1, 3)
+    diff = np.asarray(cv2.subtract(plus, minus), np.uint8)  # channel 0: plus - minus, >= 0
+    # channel 0 > 0 where plus - minus >= min_gap; channels 1 and 2 (other pixels' bytes) 0
+    cv2.subtract(diff, (gap.min_gap - 1, 255, 255, 0), dst=diff)  # type: ignore[call-overload]
+    ys, xs = _nonzero_rows(diff.reshape(n, span), stride, width - 1)
+    # the last column, which the shifted views do not reach
+    last = sampled[:, width - 1].astype(np.int16)
+    tail = np.flatnonzero(last[:, gap.plus] - last[:, gap.minus] >= gap.min_gap)
+    return (np.concatenate((ys, stride * tail)),
+            np.concatenate((xs, np.full(len(tail), width - 1, np.intp))))
+
+
+def _hits(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int,
+          gap: ChannelGap | None) -> Pixels:
+    """The pixels of the sampled rows that pass the colour test."""
+    width = image.shape[1]
+    if gap is not None and width > 1:
+        ys, xs = _gap_candidates(image, stride, gap)
+        if len(ys) <= MAX_CANDIDATES:
+            if len(ys) == 0:
+                return ys, xs
+            passed = threshold(image[ys, xs][:, None], None)[:, 0]
+            keep = np.flatnonzero(passed)
+            return ys[keep], xs[keep]
+    mask = threshold(image[::stride], None)
+    return _nonzero_rows(mask, stride, width)
+
+
+def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad: int,
+           gap: ChannelGap | None) -> list[Box] | None:
+    """Boxes around the hits, one per tile of them (None: too many hits)."""
     height, width = image.shape[:2]
-    small = cv2.remap(image, _grid(height, width, stride), None,  # type: ignore[call-overload]
-                      cv2.INTER_NEAREST)
-    coarse = threshold(small, None)
-    count = cv2.countNonZero(coarse)
-    if count == 0:
+    ys, xs = _hits(image, threshold, stride, gap)
+    if len(ys) == 0:
         return []
-    if count > MAX_HITS:
+    if len(ys) > MAX_HITS:
         return None
-    # the hit at subsample (j, i) is the pixel (stride * j + i % stride, stride * i); the
-    # box of a tile spans its pixels, a grid cell more and ``pad``
-    tile = 8  # hits grouped in tiles of tile x tile grid cells, one seed box per tile
-    cells = {(j // tile, i // tile) for j, i in cv2.findNonZero(coarse).reshape(-1, 2).tolist()}
-    span = tile * stride
-    boxes: list[Box] = []
-    for cj, ci in sorted(cells):
-        x0, y0 = int(cj) * span - stride - pad, int(ci) * span - stride - pad
-        x1, y1 = x0 + span + 2 * (stride + pad), y0 + span + 2 * (stride + pad)
-        boxes.append((max(x0, 0), max(y0, 0), min(x1, width), min(y1, height)))
-    return _merge(boxes)
+    tile = TILE_ROWS * stride
+    spans: list[Box] = [(int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max()))]
+    if spans[0][2] - spans[0][0] >= tile or spans[0][3] - spans[0][1] >= tile:
+        # not all within one tile's span (the usual frame: one ball): per tile
+        key = (ys // tile) * (width // tile + 1) + xs // tile
+        order = np.argsort(key, kind="stable")
+        key, ys, xs = key[order], ys[order], xs[order]
+        starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+        spans = list(zip(np.minimum.reduceat(xs, starts).tolist(),
+                         np.minimum.reduceat(ys, starts).tolist(),
+                         np.maximum.reduceat(xs, starts).tolist(),
+                         np.maximum.reduceat(ys, starts).tolist(), strict=True))
+    # the blob may reach into the rows between samples (and bulge sideways there): the
+    # hits' bounding box grown by a sample spacing less one, then by pad
+    grow = stride - 1 + pad
+    return _merge([(max(x0 - grow, 0), max(y0 - grow, 0), min(x1 + 1 + grow, width),
+                    min(y1 + 1 + grow, height)) for x0, y0, x1, y1 in spans])
 
 
 def _grow(box: Box, mask: npt.NDArray[np.uint8], band: int, width: int,
           height: int) -> Box:
     """The box grown on each inner side whose ``band`` outermost pixels hold mask pixels."""
     x0, y0, x1, y1 = box
+    bx, by, bw, bh = cv2.boundingRect(mask)  # of the mask's pixels; 0 x 0: none
+    if bw == 0:
+        return box
     step = 4 * band
-    if x0 > 0 and mask[:, :band].any():
+    if x0 > 0 and bx < band:
         x0 = max(x0 - step, 0)
-    if y0 > 0 and mask[:band].any():
+    if y0 > 0 and by < band:
         y0 = max(y0 - step, 0)
-    if x1 < width and mask[:, -band:].any():
+    if x1 < width and bx + bw > mask.shape[1] - band:
         x1 = min(x1 + step, width)
-    if y1 < height and mask[-band:].any():
+    if y1 < height and by + bh > mask.shape[0] - band:
         y1 = min(y1 + step, height)
     return x0, y0, x1, y1
 
 
 def search_regions(image: npt.NDArray[np.uint8], threshold: Threshold, *, stride: int,
-                   band: int) -> list[Region] | None:
-    """Disjoint regions holding every mask component with a pixel on the sampling grid,
-    each with an empty margin of ``band`` px inside its sides that are not the image's
-    border; None when searching would not pay (threshold the whole image instead)."""
+                   band: int, gap: ChannelGap | None = None) -> list[Region] | None:
+    """Disjoint regions holding every mask component with a pixel on a sampled row, each
+    with an empty margin of ``band`` px inside its sides that are not the image's border;
+    None when searching would not pay (threshold the whole image instead). ``gap``: a
+    channel difference every pixel passing ``threshold`` exceeds (a cheap first test)."""
     height, width = image.shape[:2]
-    seeds = _seeds(image, threshold, stride, band)
+    seeds = _seeds(image, threshold, stride, band, gap)
     if seeds is None:
         return None
     pending = list(seeds)

@@ -355,6 +355,18 @@ class World:
     def render(self, width: int, height: int, view: list[float] | tuple[float, ...],
                proj: list[float] | tuple[float, ...]) -> np.ndarray:
         """One RGB image (height x width x 3, uint8, row 0 = top) from a view/projection."""
+        return np.ascontiguousarray(self._render_rgba(width, height, view, proj)[:, :, :3])
+
+    def render_into(self, out: np.ndarray, view: list[float] | tuple[float, ...],
+                    proj: list[float] | tuple[float, ...]) -> None:
+        """Render ``out``'s width x height from a view/projection into ``out`` as BGR
+        (uint8, height x width x 3; a view into a larger image will do)."""
+        rgba = self._render_rgba(out.shape[1], out.shape[0], view, proj)
+        if cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR, dst=out) is not out:  # pragma: no cover
+            out[...] = rgba[:, :, 2::-1]  # OpenCV could not write into this view
+
+    def _render_rgba(self, width: int, height: int, view: list[float] | tuple[float, ...],
+                     proj: list[float] | tuple[float, ...]) -> np.ndarray:
         with silenced():
             _, _, rgba, _, _ = p.getCameraImage(
                 width, height, view, proj,
@@ -368,8 +380,7 @@ class World:
                 lightSpecularCoeff=0.0,
                 physicsClientId=self._client,
             )
-        img = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
-        return np.ascontiguousarray(img[:, :, :3])
+        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
 
     def close(self) -> None:
         if self._client >= 0:

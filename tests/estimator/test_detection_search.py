@@ -17,9 +17,16 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 import pytest
-from test_estimator_detection import ORANGE_BGR, draw_disc, field_image
+from test_estimator_detection import GREEN_BGR, ORANGE_BGR, draw_disc, field_image
 
-from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
+from estimator.detection import (
+    Detection,
+    DetectionParams,
+    _channel_gap,
+    _threshold,
+    detect_ball,
+    detect_blobs,
+)
 from estimator.errors import DetectionError
 
 GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
@@ -140,3 +147,92 @@ def test_a_big_ball_and_a_mostly_orange_image_fall_back_to_the_whole_image() -> 
 def test_search_stride_must_be_positive() -> None:
     with pytest.raises(DetectionError, match="search_stride_px = 0"):
         DetectionParams(search_stride_px=0)
+
+
+def test_every_blob_with_a_pixel_on_a_sampled_row_is_found() -> None:
+    # the colour is tested on every third row in full: a blob of one pixel is found where
+    # it lies on such a row, in any column (the first and the last included: the fast
+    # channel test reaches the last column separately), and only there
+    params = DetectionParams(open_kernel_px=1, min_area_px=0.0)
+    width = 61
+    for x, y in itertools.product((0, 1, 2, 3, 4, 5, 30, width - 2, width - 1), range(12)):
+        image = field_image(width)
+        image[y, x] = ORANGE_BGR
+        whole = detect_blobs(image, dataclasses.replace(params, search_stride_px=1))
+        assert len(whole) == 1
+        blobs = detect_blobs(image, params)
+        assert _as_tuples(blobs) == (_as_tuples(whole) if y % 3 == 0 else []), (x, y)
+
+
+def test_a_ball_among_many_channel_gap_candidates_is_found() -> None:
+    # a red field: every sampled pixel passes the cheap channel test (red - blue) but not
+    # the hue range, too many candidates to convert one by one; the rows are tested
+    # exactly instead, with the same results
+    image = field_image(400)
+    image[:] = (20, 20, 200)  # red, hue 0: outside the ball's 5-25
+    draw_disc(image, 200.3, 150.6, 6.0)
+    draw_disc(image, 392.0, 6.0, 2.5)
+    blobs = _same_as_whole_image(image, DetectionParams())
+    assert len(blobs) == 2
+
+
+HSV_RANGES = [
+    ((5, 120, 80), (25, 255, 255)),  # the default orange
+    ((170, 100, 100), (15, 255, 255)),  # red, wrapping around 180
+    ((0, 1, 1), (29, 255, 255)),  # the whole red-to-yellow sector, barely saturated
+    ((28, 60, 60), (32, 255, 255)),  # across the sector boundary at 30 (yellow)
+    ((45, 200, 30), (75, 255, 255)),  # green
+    ((100, 90, 90), (130, 255, 255)),  # blue
+    ((140, 150, 200), (160, 255, 255)),  # magenta
+]
+
+
+@pytest.fixture(scope="module")
+def every_colour() -> npt.NDArray[np.uint8]:
+    codes = np.arange(1 << 24, dtype=np.uint32)
+    bgr = np.stack([(codes >> s) & 255 for s in (16, 8, 0)], axis=1).astype(np.uint8)
+    return bgr.reshape(4096, 4096, 3)
+
+
+@pytest.mark.parametrize(("lower", "upper"), HSV_RANGES)
+def test_the_channel_gap_holds_for_every_colour_in_the_range(
+        lower: tuple[int, int, int], upper: tuple[int, int, int],
+        every_colour: npt.NDArray[np.uint8]) -> None:
+    # the cheap first test must pass every pixel the HSV range passes (all 2^24 colours,
+    # through the detector's own threshold), or the search would miss blobs
+    gap = _channel_gap(lower, upper)
+    assert gap is not None
+    params = DetectionParams(hsv_lower=lower, hsv_upper=upper)
+    inside = _threshold(every_colour, params, None, every_colour.shape) > 0
+    pixels = every_colour[inside].astype(np.int16)
+    assert len(pixels) > 1000
+    assert int((pixels[:, gap.plus] - pixels[:, gap.minus]).min()) >= gap.min_gap
+
+
+def test_the_default_channel_gap_rejects_the_field_lines_and_robots() -> None:
+    params = DetectionParams()
+    gap = _channel_gap(params.hsv_lower, params.hsv_upper)
+    assert gap is not None
+    for colour in (GREEN_BGR, (235, 235, 235), (96, 88, 88), (25, 25, 25)):
+        assert colour[gap.plus] - colour[gap.minus] < gap.min_gap, colour
+    assert ORANGE_BGR[gap.plus] - ORANGE_BGR[gap.minus] >= gap.min_gap
+
+
+def test_ranges_holding_greys_have_no_channel_gap() -> None:
+    assert _channel_gap((0, 0, 200), (179, 60, 255)) is None  # white lines
+    assert _channel_gap((5, 0, 80), (25, 255, 255)) is None  # S from 0: greys pass
+    assert _channel_gap((0, 100, 100), (179, 255, 255)) is None  # every hue
+
+
+def test_views_of_an_image_give_the_blobs_of_their_copies() -> None:
+    # the search reads byte-shifted views of the rows; a ROI, a mirrored image and the
+    # BGR channels of a BGRA image are not laid out like a fresh array
+    image = field_image(240)
+    for cx, cy, r in ((40.3, 61.7, 5.0), (200.0, 30.2, 2.5), (232.5, 120.0, 4.0)):
+        draw_disc(image, cx, cy, r)
+    bgra = np.dstack((image, np.full(image.shape[:2], 255, np.uint8)))
+    for view in (image[7:233, 3:239], image[:, ::-1], image[::-1], bgra[..., :3]):
+        assert not view.flags.c_contiguous
+        blobs = _same_as_whole_image(view, DetectionParams())
+        assert _as_tuples(blobs) == _as_tuples(detect_blobs(view.copy()))
+        assert len(blobs) >= 2

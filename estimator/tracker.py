@@ -20,9 +20,10 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   keep falling (a still false blob: :class:`~estimator.tracker_clutter.ClutterMap`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
-  velocity 0 with sigma ``kick_sigma``), confirmed by a second accepted estimate from another
-  robot (or the same robot when no other reports). While tentative, two rejected estimates
-  consistent with each other start the track afresh from them.
+  velocity 0 with sigma ``kick_sigma``), confirmed once it has accepted estimates from two
+  robots (or from the same robot when no other reports), and when a robot disagreed with it,
+  once these span ``confirm_ns``. While tentative, two rejected estimates consistent with
+  each other start the track afresh from them.
 - **Re-acquisition**: rejected estimates of the last ``reacquire_ns`` that agree on one
   ball at constant velocity restart the track (confirmed) when the track heard nothing since
   they began, or more robots support them (:mod:`estimator.tracker_reacquire`); never, while
@@ -112,6 +113,10 @@ class _Track:
     anchor_accepted_ns: int = 0
     anchor_robot: str | None = None
     """The robot whose estimate is the anchor (a new track's first), None once pruned."""
+    start_ns: int = 0
+    """The stamp of the track's first estimate."""
+    contested: bool = False
+    """A robot's estimate disagreed with the track while it was tentative."""
 
 
 class BallTracker:
@@ -157,6 +162,7 @@ class BallTracker:
                 if not e.accepted:
                     self._explain_alone(track, e)
             else:
+                track.contested = True  # a robot disagrees with a tentative track
                 self._restart_from_pair(track, e)
             if not e.accepted and self._track is track:
                 self._reacquire(track, e)
@@ -262,7 +268,7 @@ class BallTracker:
         for f in self._partners(track, e, self.params.memory_ns):
             if f.m.robot == e.m.robot and others:
                 continue  # one robot alone may not overrule the others
-            self._restart_at(track, f)
+            self._restart_at(track, f).contested = True  # it overruled a robot
             return
 
     def _restart_at(self, track: _Track, f: _Entry) -> _Track:
@@ -297,14 +303,17 @@ class BallTracker:
             self._restart_at(track, track.entries[first]).confirmed = True
 
     def _confirm(self, track: _Track, e: _Entry) -> None:
-        """A tentative track is confirmed by an accepted estimate from a robot it has not
-        heard yet, or from its only robot when no other robot reports."""
+        """A tentative track is confirmed once it has accepted estimates of two robots (or
+        of its only robot, when no other robot reports); when a robot disagreed with it, only
+        once they span ``confirm_ns`` too (two robots that take the same box for the ball at
+        once, against the one that sees the ball, do not confirm it at once)."""
         if not e.accepted:
             return
-        if not track.confirmed and (e.m.robot not in track.robots or all(
-                x.m.robot == e.m.robot for x in track.entries)):
-            track.confirmed = True
         track.robots.add(e.m.robot)
+        if not track.confirmed and (len(track.robots) > 1 or all(
+                x.m.robot == e.m.robot for x in track.entries)) and (
+                not track.contested or e.m.stamp_ns - track.start_ns >= self.params.confirm_ns):
+            track.confirmed = True
 
     def _new_track(self, e: _Entry, entries: list[_Entry]) -> _Track:
         """A tentative track anchored at ``e`` (a new segment of the record)."""
@@ -313,7 +322,8 @@ class BallTracker:
         if self.record:
             self._nodes.append(FilterNode(e.m.stamp_ns, initial, initial, self._segment))
         return _Track(e.m.stamp_ns, initial, entries, robots={e.m.robot},
-                      anchor_accepted_ns=e.m.stamp_ns, anchor_robot=e.m.robot)
+                      anchor_accepted_ns=e.m.stamp_ns, anchor_robot=e.m.robot,
+                      start_ns=e.m.stamp_ns)
 
     def _prune(self, track: _Track, now_ns: int) -> None:
         """Fold entries older than memory_ns into the anchor."""

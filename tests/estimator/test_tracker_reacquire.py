@@ -188,3 +188,20 @@ def test_a_box_two_robots_take_for_the_ball_at_once_does_not_displace_it() -> No
     steps = feed(BallTracker(), seen, frames=20, seed=4)
     assert not any(a for t, robot, a, _ in steps if robot != "robot3" and t >= 0.5)
     assert max(off(state, roll(t)) for t, _, _, state in steps[3:]) < 0.05
+
+
+def test_two_robots_taking_a_box_for_the_ball_at_the_start_never_confirm_it() -> None:
+    # the ball is kicked at t = 0; robot3 sees it first, robots 1 and 2 each take the same
+    # box for it at their first image (38 ms apart), then see the ball
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot != "robot3" and t < 0.06 else kicked(t)
+
+    runs = {ns: feed(BallTracker(TrackerParams(confirm_ns=ns)), seen, frames=6)
+            for ns in (40 * MS, 0)}
+    for confirm_ns, boxed in ((40 * MS, False), (0, True)):
+        on_box = [s for _, _, _, s in runs[confirm_ns]
+                  if s is not None and s.confirmed and off(s, BOX) < 1]
+        assert bool(on_box) is boxed
+    ball = [(t, s) for t, _, _, s in runs[40 * MS] if t > 0.14]
+    assert ball and all(s is not None and s.confirmed and off(s, kicked(t)) < 0.05
+                        for t, s in ball)

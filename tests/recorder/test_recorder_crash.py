@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+from collections.abc import Callable
 from io import BytesIO
 from pathlib import Path
 from typing import Any
@@ -140,39 +141,10 @@ def test_ctrl_c_never_replaces_an_earlier_partial_or_follows_a_planted_link(
         assert log.info.robots == ("robot1",)  # the only robot with an image
 
 
-def test_a_full_disk_is_one_line_naming_the_log(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+def test_a_full_disk_is_one_line_naming_the_log(tmp_path: Path,
+                                                full_disk: Callable[[int], None],
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    import errno
-    import io
-    import os
-
-    from dsp.atomic import AtomicFile
-
-    class FullDisk(io.RawIOBase):
-        def __init__(self, inner: Any) -> None:
-            self.inner, self.room = inner, 50_000
-
-        def writable(self) -> bool:
-            return True
-
-        def seekable(self) -> bool:
-            return True
-
-        def seek(self, offset: int, whence: int = 0) -> int:
-            return int(self.inner.seek(offset, whence))
-
-        def write(self, b: Any) -> int:
-            if len(b) > self.room:
-                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-            self.room -= len(b)
-            return int(self.inner.write(b))
-
-        def close(self) -> None:
-            self.inner.close()
-            super().close()
-
-    real = AtomicFile.stream
-    monkeypatch.setattr(AtomicFile, "stream", lambda self: FullDisk(real(self)))
+    full_disk(50_000)
     out = tmp_path / "scenario4.mcap"
     code = record_main([str(out), "--frames", "2", "--face-px", "256", "--no-progress"])
     out_text, err = capsys.readouterr()

@@ -3,18 +3,16 @@ is one line, results are strict JSON, and names from the log cannot drive the te
 
 from __future__ import annotations
 
-import errno
-import io
 import json
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
 from synthetic import write_log
 
-from dsp.atomic import AtomicFile
 from replay.cli import format_summary
 from replay.cli import main as replay_main
 from replay.results import ResultsWriter
@@ -85,31 +83,10 @@ def test_an_output_that_is_a_folder_is_one_line_and_leaves_nothing(
     assert [p.name for p in tmp_path.iterdir()] == ["r.json"] and not any(folder.iterdir())
 
 
-class _FullDisk(io.RawIOBase):
-    """A file that takes ``room`` bytes, then fails as a full disk does."""
-
-    def __init__(self, inner: Any, room: int) -> None:
-        self.inner, self.room = inner, room
-
-    def writable(self) -> bool:
-        return True
-
-    def write(self, b: Any) -> int:
-        if len(b) > self.room:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        self.room -= len(b)
-        return int(self.inner.write(b))
-
-    def close(self) -> None:
-        self.inner.close()
-        super().close()
-
-
 def test_a_full_disk_is_one_line_naming_the_results_file(
-        log: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        log: Path, tmp_path: Path, full_disk: Callable[[int], None],
         capsys: pytest.CaptureFixture[str]) -> None:
-    real = AtomicFile.stream
-    monkeypatch.setattr(AtomicFile, "stream", lambda self: _FullDisk(real(self), 100))
+    full_disk(100)
     out = tmp_path / "r.json"
     code, stdout, err = run([log, "--out", out], capsys)
     assert code == 1 and stdout == ""

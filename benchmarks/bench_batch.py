@@ -93,42 +93,39 @@ def _modes(workers: int, ray_address: str | None) -> dict[str, tuple[list[str], 
     return modes
 
 
-def bench_eval(tmp: Path, count: int, workers: int, repeat: int, ray_address: str | None,
-               renderer: str) -> tuple[dict[str, list[float]], str, Path]:
+def _bench(tmp: Path, kind: str, label: str, args: list[str], workers: int, repeat: int,
+           ray_address: str | None) -> tuple[dict[str, list[float]], str]:
+    """``python -m <args> --out-dir DIR -q <mode flags>`` in each mode, ``repeat`` times
+    interleaved; the times per mode and whether every run wrote the same bytes."""
     modes = _modes(workers, ray_address)
     times: dict[str, list[float]] = {m: [] for m in modes}
     outputs: dict[str, dict[str, bytes]] = {}
     for r in range(repeat):
         for mode, (flags, env) in modes.items():
-            out = tmp / f"eval-{r}-{_slug(mode)}"
+            out = tmp / f"{kind}-{r}-{_slug(mode)}"
             load = _load()
-            wall = _run([sys.executable, "-m", "replay.evaluate_cli", "--suite", "random",
-                         "--count", str(count), "--out-dir", str(out), "--renderer", renderer,
-                         "-q", *flags], env, "eval" if flags == ["--workers", "1"] else "")
+            wall = _run([sys.executable, "-m", *args, "--out-dir", str(out), "-q", *flags], env,
+                        kind if flags == ["--workers", "1"] else "")
             times[mode].append(wall)
-            outputs[f"{mode} #{r}"] = _files(out, "*")  # the logs, the tables
-            print(f"  dsp-eval {mode}: {wall:.1f} s (load {load} -> {_load()})", flush=True)
-    logs = tmp / f"eval-0-{_slug('--workers 1')}"
-    return times, _compare(outputs), logs
+            outputs[f"{mode} #{r}"] = _files(out, "*")
+            print(f"  {label} {mode}: {wall:.1f} s (load {load} -> {_load()})", flush=True)
+    return times, _compare(outputs)
+
+
+def bench_eval(tmp: Path, count: int, workers: int, repeat: int, ray_address: str | None,
+               renderer: str) -> tuple[dict[str, list[float]], str, Path]:
+    """dsp-eval --suite random in each mode (its logs and tables compared)."""
+    times, check = _bench(tmp, "eval", "dsp-eval", [
+        "replay.evaluate_cli", "--suite", "random", "--count", str(count),
+        "--renderer", renderer], workers, repeat, ray_address)
+    return times, check, tmp / f"eval-0-{_slug('--workers 1')}"
 
 
 def bench_replay(tmp: Path, logs: Path, workers: int, repeat: int,
                  ray_address: str | None) -> tuple[dict[str, list[float]], str]:
-    modes = _modes(workers, ray_address)
-    times: dict[str, list[float]] = {m: [] for m in modes}
-    outputs: dict[str, dict[str, bytes]] = {}
-    for r in range(repeat):
-        for mode, (flags, env) in modes.items():
-            out = tmp / f"replay-{r}-{_slug(mode)}"
-            load = _load()
-            wall = _run([sys.executable, "-m", "replay.cli", str(logs), "--out-dir", str(out),
-                         "--out-mcap", "-q", *flags], env,
-                        "replay" if flags == ["--workers", "1"] else "")
-            times[mode].append(wall)
-            outputs[f"{mode} #{r}"] = _files(out, "*")
-            print(f"  dsp-replay batch {mode}: {wall:.1f} s (load {load} -> {_load()})",
-                  flush=True)
-    return times, _compare(outputs)
+    """A dsp-replay batch of ``logs`` in each mode."""
+    return _bench(tmp, "replay", "dsp-replay batch", ["replay.cli", str(logs), "--out-mcap"],
+                  workers, repeat, ray_address)
 
 
 def _per_task(run: Callable[[int], None], tasks: int) -> tuple[float, float, float]:

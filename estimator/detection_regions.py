@@ -20,8 +20,10 @@ The rows are tested cheaply first when the caller can say which difference of tw
 channels every pixel in its colour range exceeds (:class:`ChannelGap`, e.g. red - blue >=
 37 for the orange ball): one saturating subtraction of two byte-shifted views of the rows
 (no copy of the pixels), a per-row sum to find the rows that hold candidates, and the exact
-colour test on the candidates alone. The hits are exactly those of the exact test on the
-rows; the shortcut only skips the colour conversion of pixels that cannot pass it.
+colour test on the candidates alone, or, when they all lie within one tile's span (the
+usual frame: one ball), on their box, which is thresholded anyway (a box with no pixel
+in the colour range is dropped). The blobs found are exactly those of the exact test on
+the rows; the shortcut only skips the colour conversion of pixels that cannot pass it.
 
 When the hits or the boxes cover much of the image the caller thresholds the whole image
 instead (the same results, just no faster).
@@ -107,70 +109,102 @@ def _nonzero_rows(rows: npt.NDArray[np.uint8], stride: int, width: int) -> Pixel
     """The non-zero entries of an n x (width * k) byte array whose row i is image row
     ``stride * i`` and whose entry j lies in image column ``j // k``."""
     # row sums in float32 (faster than int32): bytes >= 0 sum to 0 only when all are 0
-    hot = np.flatnonzero(cv2.reduce(rows, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32F))
+    hot = cv2.reduce(rows, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32F).ravel().nonzero()[0]
     if len(hot) == 0:
         return hot, hot
-    ji = cv2.findNonZero(rows[hot]).reshape(-1, 2)  # (j, i): entry j of hot row i
-    return stride * hot[ji[:, 1]], ji[:, 0] // (rows.shape[1] // width)
+    ji = cv2.findNonZero(rows[hot]).reshape(-1, 2).T  # (j, i): entry j of hot row i
+    return (stride * hot)[ji[1]], ji[0] // (rows.shape[1] // width)
+
+
+def _gap_views(image: npt.NDArray[np.uint8], stride: int, gap: ChannelGap
+               ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8], int]:
+    """Views of the sampled rows whose channel 0 is ``gap.plus`` and ``gap.minus`` of each
+    pixel (no copy), and how many pixels of each row they cover: all of them when every
+    sampled row is followed by another row of the same buffer (the last pixel's channels
+    1 and 2 then read up to 2 bytes of it), else all but the last."""
+    height, width = image.shape[:2]
+    n = (height - 1) // stride + 1
+    pitch = 3 * width
+    if image.flags.c_contiguous and stride * (n - 1) + 1 < height:
+        shape, steps = (n, width, 3), (stride * pitch, 3, 1)
+        return (np.ndarray(shape, np.uint8, image, gap.plus, steps),
+                np.ndarray(shape, np.uint8, image, gap.minus, steps), width)
+    flat = image[::stride].reshape(n, pitch)  # a view: each row's bytes are contiguous
+    span = 3 * (width - 1)  # shifted views of pixels 0 .. width - 2
+    return (flat[:, gap.plus:gap.plus + span].reshape(n, width - 1, 3),
+            flat[:, gap.minus:gap.minus + span].reshape(n, width - 1, 3), width - 1)
 
 
 def _gap_candidates(image: npt.NDArray[np.uint8], stride: int, gap: ChannelGap) -> Pixels:
-    """The pixels of the sampled rows that pass ``gap``."""
+    """The pixels of the sampled rows that pass ``gap``, row by row, left to right."""
     width = image.shape[1]
-    sampled = image[::stride]
-    n = sampled.shape[0]
-    flat = sampled.reshape(n, 3 * width)  # a view: each row's bytes are contiguous
-    span = 3 * (width - 1)  # shifted views of pixels 0 .. width - 2, channel 0 = plus/minus
-    plus = flat[:, gap.plus:gap.plus + span].reshape(n, width - 1, 3)
-    minus = flat[:, gap.minus:gap.minus + span].reshape(n, width - 1, 3)
+    plus, minus, covered = _gap_views(image, stride, gap)
+    n = plus.shape[0]
     diff = np.asarray(cv2.subtract(plus, minus), np.uint8)  # channel 0: plus - minus, >= 0
-    # channel 0 > 0 where plus - minus >= min_gap; channels 1 and 2 (other pixels' bytes) 0
+    # channel 0 > 0 where plus - minus >= min_gap; channels 1 and 2 (other bytes) 0
     cv2.subtract(diff, (gap.min_gap - 1, 255, 255, 0), dst=diff)  # type: ignore[call-overload]
-    ys, xs = _nonzero_rows(diff.reshape(n, span), stride, width - 1)
+    ys, xs = _nonzero_rows(diff.reshape(n, 3 * covered), stride, covered)
+    if covered == width:
+        return ys, xs
     # the last column, which the shifted views do not reach
-    last = sampled[:, width - 1].astype(np.int16)
+    last = image[::stride, width - 1].astype(np.int16)
     tail = np.flatnonzero(last[:, gap.plus] - last[:, gap.minus] >= gap.min_gap)
-    return (np.concatenate((ys, stride * tail)),
-            np.concatenate((xs, np.full(len(tail), width - 1, np.intp))))
+    if len(tail) == 0:
+        return ys, xs
+    order = np.argsort(np.concatenate((ys, stride * tail)), kind="stable")
+    return (np.concatenate((ys, stride * tail))[order],
+            np.concatenate((xs, np.full(len(tail), width - 1, np.intp)))[order])
 
 
 def _hits(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int,
-          gap: ChannelGap | None) -> Pixels:
-    """The pixels of the sampled rows that pass the colour test."""
+          gap: ChannelGap | None) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], bool]:
+    """The pixels of the sampled rows that may pass the colour test, row by row, and
+    whether they were tested (False: they passed ``gap`` and are not tested yet)."""
     width = image.shape[1]
     if gap is not None and width > 1:
         ys, xs = _gap_candidates(image, stride, gap)
         if len(ys) <= MAX_CANDIDATES:
-            if len(ys) == 0:
-                return ys, xs
-            passed = threshold(image[ys, xs][:, None], None)[:, 0]
-            keep = np.flatnonzero(passed)
-            return ys[keep], xs[keep]
+            return ys, xs, False
     mask = threshold(image[::stride], None)
-    return _nonzero_rows(mask, stride, width)
+    return (*_nonzero_rows(mask, stride, width), True)
+
+
+def _tested(image: npt.NDArray[np.uint8], threshold: Threshold, ys: npt.NDArray[np.intp],
+            xs: npt.NDArray[np.intp]) -> Pixels:
+    """The pixels (ys, xs) that pass the colour test."""
+    keep = np.flatnonzero(threshold(image[ys, xs][:, None], None)[:, 0])
+    return ys[keep], xs[keep]
 
 
 def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad: int,
            gap: ChannelGap | None) -> list[Box] | None:
-    """Boxes around the hits, one per tile of them (None: too many hits)."""
+    """Boxes around the hits, one per tile of them (None: too many hits). Candidates that
+    all lie within one tile's span make one box untested: its threshold tests them."""
     height, width = image.shape[:2]
-    ys, xs = _hits(image, threshold, stride, gap)
-    if len(ys) == 0:
-        return []
-    if len(ys) > MAX_HITS:
-        return None
+    ys, xs, tested = _hits(image, threshold, stride, gap)
     tile = TILE_ROWS * stride
-    spans: list[Box] = [(int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max()))]
-    if spans[0][2] - spans[0][0] >= tile or spans[0][3] - spans[0][1] >= tile:
-        # not all within one tile's span (the usual frame: one ball): per tile
-        key = (ys // tile) * (width // tile + 1) + xs // tile
-        order = np.argsort(key, kind="stable")
-        key, ys, xs = key[order], ys[order], xs[order]
-        starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
-        spans = list(zip(np.minimum.reduceat(xs, starts).tolist(),
-                         np.minimum.reduceat(ys, starts).tolist(),
-                         np.maximum.reduceat(xs, starts).tolist(),
-                         np.maximum.reduceat(ys, starts).tolist(), strict=True))
+    while True:
+        if len(ys) == 0:
+            return []
+        # ys ascend: the hits' rows span ys[0] .. ys[-1]
+        spans: list[Box] = [(int(xs.min()), int(ys[0]), int(xs.max()), int(ys[-1]))]
+        if spans[0][2] - spans[0][0] < tile and spans[0][3] - spans[0][1] < tile:
+            break  # the usual frame: one ball
+        if tested:
+            if len(ys) > MAX_HITS:
+                return None
+            # per tile
+            key = (ys // tile) * (width // tile + 1) + xs // tile
+            order = np.argsort(key, kind="stable")
+            key, ys, xs = key[order], ys[order], xs[order]
+            starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+            spans = list(zip(np.minimum.reduceat(xs, starts).tolist(),
+                             np.minimum.reduceat(ys, starts).tolist(),
+                             np.maximum.reduceat(xs, starts).tolist(),
+                             np.maximum.reduceat(ys, starts).tolist(), strict=True))
+            break
+        ys, xs = _tested(image, threshold, ys, xs)
+        tested = True
     # the blob may reach into the rows between samples (and bulge sideways there): the
     # hits' bounding box grown by a sample spacing less one, then by pad
     grow = stride - 1 + pad
@@ -179,12 +213,13 @@ def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad:
 
 
 def _grow(box: Box, mask: npt.NDArray[np.uint8], band: int, width: int,
-          height: int) -> Box:
-    """The box grown on each inner side whose ``band`` outermost pixels hold mask pixels."""
+          height: int) -> Box | None:
+    """The box grown on each inner side whose ``band`` outermost pixels hold mask pixels
+    (None: the mask is empty)."""
     x0, y0, x1, y1 = box
     bx, by, bw, bh = cv2.boundingRect(mask)  # of the mask's pixels; 0 x 0: none
     if bw == 0:
-        return box
+        return None
     step = 4 * band
     if x0 > 0 and bx < band:
         x0 = max(x0 - step, 0)
@@ -215,6 +250,8 @@ def search_regions(image: npt.NDArray[np.uint8], threshold: Threshold, *, stride
         x0, y0, x1, y1 = box
         mask = threshold(image[y0:y1, x0:x1], (x0, y0))
         grown = _grow(box, mask, band, width, height)
+        if grown is None:  # candidates that failed the colour test
+            continue
         if grown == box:
             done.append(Region(x0, y0, x1, y1, mask))
             continue

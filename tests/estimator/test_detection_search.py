@@ -27,6 +27,7 @@ from estimator.detection import (
     detect_ball,
     detect_blobs,
 )
+from estimator.detection_regions import search_regions
 from estimator.errors import DetectionError
 
 GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
@@ -89,11 +90,12 @@ def test_random_scenes_give_the_whole_images_blobs(seed: int) -> None:
         _same_as_whole_image(image, p)
 
 
+@pytest.mark.parametrize("size", [121, 122])
 @pytest.mark.parametrize("radius", [2.0, 2.5, 3.0])
-def test_a_tiny_ball_at_the_image_edge_is_found(radius: float) -> None:
+def test_a_tiny_ball_at_the_image_edge_is_found(radius: float, size: int) -> None:
     # every phase of the sampling grid (and sub-pixel offsets), along each border and in
-    # the corners, as close to the border as draw_disc can draw
-    size = 121
+    # the corners, as close to the border as draw_disc can draw; 121 rows: the last row is
+    # sampled, 122: it is not (the channel test then reads whole rows, see below)
     edge = math.ceil(radius) + 1.0
     phases = (0.0, 1.0, 2.0, 0.5, 1.3, 2.7)
     found = listed = 0
@@ -149,12 +151,14 @@ def test_search_stride_must_be_positive() -> None:
         DetectionParams(search_stride_px=0)
 
 
-def test_every_blob_with_a_pixel_on_a_sampled_row_is_found() -> None:
+@pytest.mark.parametrize("width", [61, 62])
+def test_every_blob_with_a_pixel_on_a_sampled_row_is_found(width: int) -> None:
     # the colour is tested on every third row in full: a blob of one pixel is found where
-    # it lies on such a row, in any column (the first and the last included: the fast
-    # channel test reaches the last column separately), and only there
+    # it lies on such a row, in any column, and only there. The fast channel test reads
+    # each row through views shifted by up to 2 bytes: with 62 rows every sampled row has
+    # a row after it and the views reach its last pixel (and 2 bytes of the next row);
+    # with 61 the last row is sampled, and the last column is tested separately
     params = DetectionParams(open_kernel_px=1, min_area_px=0.0)
-    width = 61
     for x, y in itertools.product((0, 1, 2, 3, 4, 5, 30, width - 2, width - 1), range(12)):
         image = field_image(width)
         image[y, x] = ORANGE_BGR
@@ -162,6 +166,37 @@ def test_every_blob_with_a_pixel_on_a_sampled_row_is_found() -> None:
         assert len(whole) == 1
         blobs = detect_blobs(image, params)
         assert _as_tuples(blobs) == (_as_tuples(whole) if y % 3 == 0 else []), (x, y)
+
+
+def test_candidates_in_the_last_column_keep_the_rows_in_order() -> None:
+    # 61 rows: the last column is tested apart from the rest and its candidates merged in
+    # row order; two pixels within one tile's span, the later row found first
+    params = DetectionParams(open_kernel_px=1, min_area_px=0.0)
+    image = field_image(61)
+    image[3, 60] = ORANGE_BGR
+    image[21, 50] = ORANGE_BGR
+    assert len(_same_as_whole_image(image, params)) == 2
+
+
+def test_candidates_that_fail_the_colour_test_leave_no_region() -> None:
+    # a small red patch passes the cheap channel test (red - blue) but not the hue range:
+    # its box is thresholded, found empty and dropped, so nothing is opened or traced there
+    params = DetectionParams()
+    image = field_image(240)
+    cv2.circle(image, (100, 100), 5, (20, 20, 200), -1)
+    gap = _channel_gap(params.hsv_lower, params.hsv_upper)
+
+    def threshold(pixels: npt.NDArray[np.uint8], origin: tuple[int, int] | None
+                  ) -> npt.NDArray[np.uint8]:
+        return _threshold(pixels, params, origin, image.shape)
+
+    assert search_regions(image, threshold, stride=3, band=7, gap=gap) == []
+    draw_disc(image, 150.0, 60.0, 4.0)
+    regions = search_regions(image, threshold, stride=3, band=7, gap=gap)
+    assert regions is not None
+    assert len(regions) == 1
+    assert regions[0].mask.any()
+    assert len(_same_as_whole_image(image, params)) == 1
 
 
 def test_a_ball_among_many_channel_gap_candidates_is_found() -> None:

@@ -254,34 +254,39 @@ def _weights(
     blob: npt.NDArray[np.uint8],
     subpixel: bool,
 ) -> npt.NDArray[np.float64]:
-    """Per-pixel ball coverage in [0, 1] of one blob (binary, or edge-weighted)."""
-    binary: npt.NDArray[np.float64] = np.divide(blob, 255.0)  # 0 or 1 exactly
+    """Per-pixel ball coverage in [0, 1] of one blob (binary, or edge-weighted). ``blob``
+    holds 0 and 1, so it and the masks made from it read as booleans without a copy."""
+    binary = blob.astype(np.float64)
     if not subpixel:
         return binary
     core = cv2.erode(blob, _CROSS3)  # pixels whose 4 neighbours are ball: weight 1
     region = cv2.dilate(blob, _ELLIPSE5)  # blob + 2 px: every partly covered pixel
-    ring = cv2.subtract(cv2.dilate(blob, _ELLIPSE9), region)  # the local background
-    if cv2.countNonZero(ring) == 0:
-        return binary
-    has_core = cv2.countNonZero(core) > 0
+    ring = cv2.dilate(blob, _ELLIPSE9)
+    cv2.subtract(ring, region, dst=ring)  # the local background
     pixels = image_roi.reshape(-1, 3)
-    inside = ((core if has_core else blob) > 0).reshape(-1)
-    c_b = _median_bgr(pixels.compress(inside, axis=0))  # ball colour
-    c_g = _median_bgr(pixels.compress(ring.reshape(-1) > 0, axis=0))  # background colour
+    background = pixels.compress(ring.reshape(-1).view(np.bool_), axis=0)
+    if len(background) == 0:
+        return binary
+    interior = pixels.compress(core.reshape(-1).view(np.bool_), axis=0)
+    has_core = len(interior) > 0
+    if not has_core:
+        interior = pixels.compress(blob.reshape(-1).view(np.bool_), axis=0)
+    c_b = _median_bgr(interior)  # ball colour
+    c_g = _median_bgr(background)  # background colour
     delta = c_b - c_g
     norm2 = float(np.dot(delta, delta))
     if norm2 < 30.0**2:  # ball and background too alike to unmix: binary moments
         return binary
-    band = (cv2.subtract(region, core) if has_core else region).reshape(-1) > 0
+    if has_core:
+        cv2.subtract(region, core, dst=region)
+    band = region.reshape(-1).view(np.bool_)
     p = pixels.compress(band, axis=0) - c_g
     w = p @ delta / norm2  # coverage: position on the blend line, clipped to [0, 1]
     np.minimum(np.maximum(w, 0.0, out=w), 1.0, out=w)
     r = p - w[:, None] * delta
-    off_line = np.sqrt((r * r).sum(axis=1)) > 0.25 * math.sqrt(norm2)  # not a blend
-    weights = binary.reshape(-1)  # a view
+    off_line = np.sqrt(np.einsum("ij,ij->i", r, r)) > 0.25 * math.sqrt(norm2)  # not a blend
+    weights = binary.reshape(-1)  # a view; the core's pixels are already 1
     np.copyto(w, weights.compress(band), where=off_line)  # off the line: binary
-    if has_core:
-        weights[inside] = 1.0
     weights[band] = w
     return binary
 
@@ -314,12 +319,14 @@ def _measure(contour: npt.NDArray[np.int32], image_bgr: npt.NDArray[np.uint8],
     x0, y0 = max(x - _PAD, 0), max(y - _PAD, 0)
     x1, y1 = min(x + w + _PAD, width), min(y + h + _PAD, height)
     # The blob: its opened outline filled (holes closed), grown back by the OPEN's
-    # kernel, intersected with the threshold mask plus the filled outline.
+    # kernel, intersected with the threshold mask plus the filled outline; 0 and 1.
     filled = np.zeros((y1 - y0, x1 - x0), np.uint8)
-    cv2.drawContours(filled, [contour], 0, 255, thickness=-1, offset=(-x0, -y0))
-    grown = cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1 else filled
+    cv2.drawContours(filled, [contour], 0, 1, thickness=-1, offset=(-x0, -y0))
+    blob = np.asarray(cv2.dilate(filled, _CROSS3) if params.open_kernel_px > 1
+                      else filled.copy(), np.uint8)
     mask = region.mask[y0 - region.y0:y1 - region.y0, x0 - region.x0:x1 - region.x0]
-    blob = np.asarray(cv2.bitwise_or(cv2.bitwise_and(grown, mask), filled), dtype=np.uint8)
+    cv2.bitwise_and(blob, mask, dst=blob)  # 0/1 and 0/255: 0/1
+    cv2.bitwise_or(blob, filled, dst=blob)
     moments = cv2.moments(_weights(image_bgr[y0:y1, x0:x1], blob, params.subpixel))
     m00 = float(moments["m00"])
     if m00 <= 0.0:

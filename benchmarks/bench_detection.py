@@ -10,7 +10,9 @@ of detect_ball looking for a magenta ball, a colour not in the frames (the coars
 alone: the rows are tested, nothing is found, no chain runs), of ``frame.copy()``
 (touching every byte once), and of summing every third row (``cv2.sumElems(frame[::3])``:
 reading the rows the search tests, its memory floor), and the ratios to the copy. One
-run, side by side: the machine's load moves all figures together.
+run, side by side: each pass over the frames (the synthetic frame: 20 calls) runs one
+function, and the functions' passes take turns, so the machine's load moves all figures
+together.
 
 Run: python benchmarks/bench_detection.py [--repeat 10]
 """
@@ -51,15 +53,21 @@ def make_frame(size: int = 1080) -> npt.NDArray[np.uint8]:
     return frame
 
 
-def median_ms(fn: Callable[[npt.NDArray[np.uint8]], object],
-              frames: list[npt.NDArray[np.uint8]], repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        for frame in frames:
-            t0 = time.perf_counter()
-            fn(frame)
-            times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
+def medians_ms(fns: dict[str, Callable[[npt.NDArray[np.uint8]], object]],
+               frames: list[npt.NDArray[np.uint8]], repeat: int) -> dict[str, float]:
+    """Median ms per frame of each function, their passes over the frames interleaved (each
+    pass starts with the next function in turn), so that a change in the machine's load
+    falls on all of them alike."""
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    names = list(fns)
+    for k in range(repeat):
+        for name in names[k % len(names):] + names[:k % len(names)]:
+            fn, out = fns[name], times[name]
+            for frame in frames:
+                t0 = time.perf_counter()
+                fn(frame)
+                out.append(time.perf_counter() - t0)
+    return {name: 1e3 * statistics.median(t) for name, t in times.items()}
 
 
 def recorded_frames() -> list[npt.NDArray[np.uint8]]:
@@ -82,11 +90,12 @@ def row(name: str, frames: list[npt.NDArray[np.uint8]], params: DetectionParams,
     for frame in frames[:5]:  # warm up (and the cached colour tests)
         detect_ball(frame, params)
         detect_ball(frame, absent)
-    fast = median_ms(lambda f: detect_ball(f, params), frames, repeat)
-    ref = median_ms(lambda f: detect_ball(f, whole), frames, repeat)
-    search = median_ms(lambda f: detect_ball(f, absent), frames, repeat)
-    copy = median_ms(lambda f: f.copy(), frames, repeat)
-    rows = median_ms(lambda f: cv2.sumElems(f[::3]), frames, repeat)
+    ms = medians_ms({"fast": lambda f: detect_ball(f, params),
+                     "ref": lambda f: detect_ball(f, whole),
+                     "search": lambda f: detect_ball(f, absent),
+                     "copy": lambda f: f.copy(),
+                     "rows": lambda f: cv2.sumElems(f[::3])}, frames, repeat)
+    fast, ref, search, copy, rows = (ms[k] for k in ("fast", "ref", "search", "copy", "rows"))
     return (f"{name:28s} detect_ball {fast:6.3f} ms ({fast / copy:4.1f}x)   whole image "
             f"{ref:6.3f} ms ({ref / copy:5.1f}x)   search alone (magenta) {search:6.3f} ms "
             f"({search / copy:3.1f}x)   frame.copy() {copy:6.3f} ms   every third row read "
@@ -96,7 +105,7 @@ def row(name: str, frames: list[npt.NDArray[np.uint8]], params: DetectionParams,
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=10,
-                        help="passes over the recorded frames (the synthetic frame: 20x)")
+                        help="passes of each function over the frames")
     args = parser.parse_args()
     frame = make_frame()
     params = DetectionParams(ignore_radius_px=100.0)
@@ -106,7 +115,7 @@ def main() -> None:
     print(f"median ms per 1080x1080 frame, one run; cv2 threads {cv2.getNumThreads()}")
     print(row(f"recorded ({len(recorded)} frames, cold)", recorded, DetectionParams(),
               args.repeat))
-    print(row("synthetic (1 frame, cached)", [frame], params, 20 * args.repeat))
+    print(row("synthetic (1 frame, cached)", [frame] * 20, params, args.repeat))
 
 
 if __name__ == "__main__":

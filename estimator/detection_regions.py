@@ -151,9 +151,9 @@ def _gap_candidates(image: npt.NDArray[np.uint8], stride: int, gap: ChannelGap) 
     tail = np.flatnonzero(last[:, gap.plus] - last[:, gap.minus] >= gap.min_gap)
     if len(tail) == 0:
         return ys, xs
-    order = np.argsort(np.concatenate((ys, stride * tail)), kind="stable")
-    return (np.concatenate((ys, stride * tail))[order],
-            np.concatenate((xs, np.full(len(tail), width - 1, np.intp)))[order])
+    all_ys = np.concatenate((ys, stride * tail))
+    order = np.argsort(all_ys, kind="stable")  # in row order
+    return all_ys[order], np.concatenate((xs, np.full(len(tail), width - 1, np.intp)))[order]
 
 
 def _hits(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int,
@@ -176,6 +176,14 @@ def _tested(image: npt.NDArray[np.uint8], threshold: Threshold, ys: npt.NDArray[
     return ys[keep], xs[keep]
 
 
+def _span(ys: npt.NDArray[np.intp], xs: npt.NDArray[np.intp], tile: int) -> Box | None:
+    """(x0, y0, x1, y1), inclusive, of pixels whose rows ascend, when they fit within one
+    tile's span (None: they do not)."""
+    x0, x1 = int(xs.min()), int(xs.max())
+    y0, y1 = int(ys[0]), int(ys[-1])
+    return (x0, y0, x1, y1) if x1 - x0 < tile and y1 - y0 < tile else None
+
+
 def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad: int,
            gap: ChannelGap | None) -> list[Box] | None:
     """Boxes around the hits, one per tile of them (None: too many hits). Candidates that
@@ -183,28 +191,25 @@ def _seeds(image: npt.NDArray[np.uint8], threshold: Threshold, stride: int, pad:
     height, width = image.shape[:2]
     ys, xs, tested = _hits(image, threshold, stride, gap)
     tile = TILE_ROWS * stride
-    while True:
-        if len(ys) == 0:
-            return []
-        # ys ascend: the hits' rows span ys[0] .. ys[-1]
-        spans: list[Box] = [(int(xs.min()), int(ys[0]), int(xs.max()), int(ys[-1]))]
-        if spans[0][2] - spans[0][0] < tile and spans[0][3] - spans[0][1] < tile:
-            break  # the usual frame: one ball
-        if tested:
-            if len(ys) > MAX_HITS:
-                return None
-            # per tile
-            key = (ys // tile) * (width // tile + 1) + xs // tile
-            order = np.argsort(key, kind="stable")
-            key, ys, xs = key[order], ys[order], xs[order]
-            starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
-            spans = list(zip(np.minimum.reduceat(xs, starts).tolist(),
-                             np.minimum.reduceat(ys, starts).tolist(),
-                             np.maximum.reduceat(xs, starts).tolist(),
-                             np.maximum.reduceat(ys, starts).tolist(), strict=True))
-            break
+    one = _span(ys, xs, tile) if len(ys) else None
+    if one is None and len(ys) and not tested:  # spread out: test them one by one
         ys, xs = _tested(image, threshold, ys, xs)
-        tested = True
+        one = _span(ys, xs, tile) if len(ys) else None
+    if len(ys) == 0:
+        return []
+    if one is not None:  # the usual frame: one ball
+        spans = [one]
+    elif len(ys) > MAX_HITS:
+        return None
+    else:  # per tile
+        key = (ys // tile) * (width // tile + 1) + xs // tile
+        order = np.argsort(key, kind="stable")
+        key, ys, xs = key[order], ys[order], xs[order]
+        starts = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+        spans = list(zip(np.minimum.reduceat(xs, starts).tolist(),
+                         np.minimum.reduceat(ys, starts).tolist(),
+                         np.maximum.reduceat(xs, starts).tolist(),
+                         np.maximum.reduceat(ys, starts).tolist(), strict=True))
     # the blob may reach into the rows between samples (and bulge sideways there): the
     # hits' bounding box grown by a sample spacing less one, then by pad
     grow = stride - 1 + pad

@@ -99,6 +99,34 @@ def test_a_bounce_is_followed_within_two_frames() -> None:
     assert error(state, bounce, t)[1] < 0.3
 
 
+def kicked_back(t: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """+x at 4 m/s, then kicked straight back at t = 0.5 s (just after robot1's estimate at
+    0.5 s) to -8 m/s: a change of velocity of 12 m/s."""
+    if t <= 0.5:
+        return (4.0 * t, 0.0), (4.0, 0.0)
+    return (2.0 - 8.0 * (t - 0.5), 0.0), (-8.0, 0.0)
+
+
+def test_a_corroborated_kick_inflates_the_velocity_variance_by_kick_sigma_squared() -> None:
+    """Guards the kick's inflation ``P_v + kick_sigma^2 I``: at the default kick_sigma of
+    6 m/s a kick of 12 m/s is 2 sigma and both estimates after it pass the gate; with
+    ``P_v + kick_sigma I`` (a variance of 6) it would be 4.9 sigma and both stay rejected.
+    Re-acquisition and lone kicks are off, so only the corroborated kick can follow it."""
+    params = TrackerParams(friction_per_s=0.0, reacquire_count=1_000, lone_kick_ns=0)
+    assert params.kick_sigma_m_s == 6.0
+    tracker = BallTracker(params)
+    steps = feed(tracker, kicked_back, frames=16)
+    after = [s for s in steps if s[0] > 0.5]
+    assert [(round(t * 1e3), robot) for t, robot, _, _ in after[:2]] == [
+        (517, "robot2"), (534, "robot3")]
+    assert not after[0][2]  # nothing corroborates the first estimate after the kick yet
+    assert after[1][2]  # the second does: a kick explains both
+    assert tracker.accepted_at(517 * MS) == ("robot2",)
+    for t, _, accepted, state in after[1:]:
+        pos, vel = error(state, kicked_back, t)
+        assert accepted and pos < 0.01 and vel < 0.5, (t, pos, vel)
+
+
 def test_a_false_blob_one_metre_off_never_pulls_the_track() -> None:
     def distractor(robot: str, t: float) -> tuple[float, float] | None:
         (x, y), _ = straight(t)

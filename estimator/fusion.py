@@ -22,8 +22,8 @@ at ``min_visibility``): a partly hidden ball's centroid is pulled towards its vi
 residuals, its slope for the range growth, the centroid's pixel noise for the bearing):
 covariances close to the real errors, so ``robust``'s n-sigma test and the tracker's gate
 reject what does not belong. Any object with ``covariance(estimate)`` (:class:`Noise`) will do.
-All methods are deterministic: no randomness, ties broken by input order, and the
-``robots`` of a result are listed in input order.
+All methods are deterministic: no randomness, ties broken by input order (``nearest``'s
+by robot name first), and the ``robots`` of a result are listed in input order.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ from estimator.errors import EstimatorError, FusionError, UnknownFusionError
 __all__ = [
     "FUSION_METHODS",
     "RANGE_SIGMA_COEFFICIENTS",
+    "RANGE_TIE_M",
     "CalibratedNoise",
     "Covariance",
     "FusedEstimate",
@@ -59,6 +60,10 @@ __all__ = [
 
 Covariance = tuple[tuple[float, float], tuple[float, float]]
 """A 2 x 2 covariance [m^2] as a tuple of rows."""
+
+RANGE_TIE_M = 1e-9
+"""``nearest``: ranges within this of the smallest tie [m]. A nanometre: far below any
+range noise, far above the rounding of one range computed in two frames (1e-15 m)."""
 
 Matrix = npt.NDArray[np.float64]
 
@@ -283,8 +288,11 @@ class MeanFusion:
 
 @dataclass(frozen=True)
 class NearestFusion:
-    """The estimate with the smallest ``range_m`` (first one on ties), its covariance
-    from the noise model."""
+    """The estimate with the smallest ``range_m``, its covariance from the noise model.
+
+    Ranges within :data:`RANGE_TIE_M` of the smallest are a tie, won by the robot whose name
+    sorts first (then by the first given): the same scene in any frame (rotated, shifted)
+    picks the same robot, where comparing the floats alone would let rounding decide."""
 
     noise: Noise = field(default_factory=NoiseModel)
 
@@ -295,7 +303,9 @@ class NearestFusion:
     def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
         if not estimates:
             return None
-        best = min(estimates, key=lambda e: e.range_m)  # min keeps the first on ties
+        first = min(estimates, key=lambda e: e.range_m)
+        tied = [e for e in estimates if e.range_m - first.range_m <= RANGE_TIE_M]
+        best = min(tied or [first], key=lambda e: e.robot)  # min keeps the first on ties
         return _fused(np.array([best.x_m, best.y_m]), self.noise.covariance(best), [best.robot])
 
 

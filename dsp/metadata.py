@@ -9,6 +9,7 @@ be read raises :class:`MetadataError`, never a silent fallback.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from collections.abc import Callable, Mapping
@@ -118,6 +119,21 @@ class RecordingMetadata:
     """Stationary std of the log gain (an OU process, time constant 1 s)."""
     ball_odometry: bool | None = None
     """True when the log has the ball's true velocity on /ground_truth/ball/odometry."""
+    # --- the venue's trouble and lobs: written only when not the default (older logs and
+    # recordings without them read as the defaults) -------------------------------------
+    ball_colour: str = "orange"
+    """The ball's colour: "orange", "yellow" or "white"."""
+    ball_pattern: str = "plain"
+    """"plain" (one colour), "panels" (a football's pentagons and hexagons) or "bands"."""
+    people: int = 0
+    """Figures in shirts of the ball's colour beside the field (``scene["scenery"]``)."""
+    covers: int = 0
+    """Robots dressed in a skirt of the ball's colour."""
+    light_pools: int = 0
+    """Lamps lighting the field unevenly (0: the even light)."""
+    lob_fraction: float = 0.0
+    """Share of the kicks that are lobs (1 for the lobs scenario; ``scene["flight"]`` then
+    holds the ball's physics in the air)."""
 
     _FIELDS: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
         "rate_hz": _float, "pose_rate_hz": _float, "pose_noise_m": _float,
@@ -129,19 +145,27 @@ class RecordingMetadata:
         "yaw_bias_deg": _float, "pose_bias_tau_s": _float, "exposure_ms": _float,
         "image_noise": _float, "gain_jitter": _float, "ball_odometry": _bool,
     }
+    _DEFAULTED: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
+        "ball_colour": _str, "ball_pattern": _str, "people": _int, "covers": _int,
+        "light_pools": _int, "lob_fraction": _float,
+    }
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object written as ``params["recording"]`` (optional keys only when set)."""
         out = {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
         out.update({k: parse("", k, v) for k, parse in self._OPTIONAL.items()
                     if (v := getattr(self, k)) is not None})
+        defaults = {f.name: f.default for f in dataclasses.fields(self)}
+        out.update({k: parse("", k, v) for k, parse in self._DEFAULTED.items()
+                    if (v := getattr(self, k)) != defaults[k]})
         return out
 
     @classmethod
     def from_json(cls, obj: Mapping[str, Any], record: str = "recording") -> RecordingMetadata:
         """Parse ``params["recording"]``; raises :class:`MetadataError` naming what is wrong."""
         values = {k: parse(record, k, _get(record, obj, k)) for k, parse in cls._FIELDS.items()}
-        values.update({k: parse(record, k, obj[k]) for k, parse in cls._OPTIONAL.items()
+        values.update({k: parse(record, k, obj[k])
+                       for k, parse in (*cls._OPTIONAL.items(), *cls._DEFAULTED.items())
                        if k in obj})
         return cls(**values)
 

@@ -21,36 +21,13 @@ d(0) in front of the robot.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-from estimator.calibration_models import PAPER_CALIBRATION, Calibration
+from estimator.calibration.models import PAPER_CALIBRATION, Calibration
 from estimator.constants import PAPER_CENTRE_PX
+from estimator.estimates import BallEstimate
 from estimator.geometry import RobotPose
 
-__all__ = ["BallEstimate", "ball_visibility", "estimate_ball"]
-
-
-@dataclass(frozen=True)
-class BallEstimate:
-    """One robot's estimate of the ball: range and bearing from the robot, field position."""
-
-    robot: str
-    robot_x_m: float
-    robot_y_m: float
-    range_m: float
-    """Horizontal range from the robot's centre to the ball's centre [m]."""
-    bearing_rad: float
-    """Bearing of the ball in the ROBOT frame [rad]: 0 forward, +pi/2 left."""
-    x_m: float
-    y_m: float
-    visibility: float = 1.0
-    """How much of the ball the blob shows: detected area / the area a whole ball at this
-    range would have (:func:`ball_visibility`), 1 when unknown. A partly hidden ball's
-    centroid is biased, so fusion trusts it less."""
-    r_px: float | None = None
-    """Pixel radius of the centroid from the image centre (eq. 3), None when unknown: the
-    calibrated noise model (:class:`estimator.fusion.CalibratedNoise`) takes the
-    calibration's slope there."""
+__all__ = ["ball_visibility", "estimate_ball"]
 
 
 def ball_visibility(area_px: float, expected_area_px: float) -> float:

@@ -41,6 +41,7 @@ from dsp.checks import check_int, check_number
 from dsp.cli import check_suffix, progress_bar
 from dsp.errors import UsageError
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
+from estimator.constants import NS_PER_S
 from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.field import field_spec
 from recorder.omni import DEFAULT_FACE_PX
@@ -60,7 +61,6 @@ __all__ = [
 ]
 
 IMAGE_FORMATS = ("png", "jpeg")
-_NS = 1_000_000_000
 MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 86_400.0
 """The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
@@ -231,13 +231,13 @@ def _plan(path: Path, options: RecordOptions) -> Plan:
         frames = max(1, round(duration * rate))
     pose_rate = options.pose_rate_hz or sc.default_pose_rate_hz
     if pose_rate is None:  # twice the camera rate, as the logs before match play
-        tick_ns, per_frame = max(1, round(_NS / rate / 2)), 2
+        tick_ns, per_frame = max(1, round(NS_PER_S / rate / 2)), 2
     else:
         per_frame = round(pose_rate / rate)
         if per_frame < 1 or abs(per_frame * rate - pose_rate) > 1e-6 * pose_rate:
             raise UsageError(f"the pose rate {pose_rate:g} Hz must be a whole multiple of the "
                              f"camera rate {rate:g} Hz")
-        tick_ns = max(1, round(_NS / pose_rate))
+        tick_ns = max(1, round(NS_PER_S / pose_rate))
     robots = [tr.name for tr in sc.robots]
     phase = options.camera_phase or ("random" if sc.play is not None else "sync")
     phases = dict.fromkeys(robots, 0)
@@ -295,7 +295,7 @@ def log_metadata(
     camera model and the recorder (renderer, physics, package versions). ``plan``: the
     resolved timing (default: poses at twice ``rate_hz``, cameras in sync)."""
     if plan is None:
-        plan = Plan(sc, rate_hz, frames, max(1, round(_NS / rate_hz / 2)), 2,
+        plan = Plan(sc, rate_hz, frames, max(1, round(NS_PER_S / rate_hz / 2)), 2,
                     {tr.name: 0 for tr in sc.robots})
     scene = sc.params()
     field_name = scene.pop("field")

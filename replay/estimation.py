@@ -13,7 +13,7 @@ A frame without a ball is not a skipped frame: NO_DETECTION still carries the po
 
 :meth:`FrameEstimator.step` fuses one step's frames: a window fusion of their estimates, or
 (``track``) the ball tracker fed with each estimate at its own stamp, with its calibrated
-covariance (:class:`~estimator.fusion.CalibratedNoise`), and read at the step's stamp, with
+covariance (:class:`~estimator.noise.CalibratedNoise`), and read at the step's stamp, with
 the ball's velocity. The tracker makes a step at every image stamp
 (:meth:`FrameEstimator.step_window_ns`). Offline (``smooth``), the steps are held back and
 leave with the RTS smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
@@ -38,9 +38,10 @@ from estimator import camera as cam
 from estimator import corrected, detection, fusion, paper
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.errors import EstimatorError
+from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covariance_rows
 from estimator.geometry import RobotPose
-from estimator.tracker import BallTracker, Measurement
-from estimator.tracker_smoother import SmoothedTrack
+from estimator.noise import CalibratedNoise, Noise
+from estimator.tracking import BallTracker, Measurement, SmoothedTrack
 from replay.results import FrameResult, FrameStatus, RobotEstimate, StepResult
 from replay.sink import Sink, SinkBase
 from replay.sync import PoseMatch
@@ -193,7 +194,7 @@ class FrameEstimator:
         self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
-        self.noise: fusion.Noise = fusion.CalibratedNoise(
+        self.noise: Noise = CalibratedNoise(
             calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
         self.tracker: BallTracker | None = None
         if fusion_method == "track":
@@ -237,13 +238,6 @@ class FrameEstimator:
             return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate)
 
-    def fuse(self, estimates: Sequence[RobotEstimate]) -> fusion.FusedEstimate | None:
-        """The robots' estimates of one step, fused by the window fusion (the tracker's
-        one-shot form for ``track``); None when there are none."""
-        if not estimates:
-            return None
-        return self.fusion.fuse([_ball(e) for e in estimates])
-
     def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
         """The sinks the runner feeds: these, or (smoothing) one that passes frames on and
         holds the steps back until :meth:`flush`."""
@@ -263,12 +257,12 @@ class FrameEstimator:
         if g is None:
             return step
         x, p = g
-        fused = fusion.FusedEstimate(float(x[0]), float(x[1]), _covariance(p[:2, :2]),
+        fused = FusedEstimate(float(x[0]), float(x[1]), covariance_rows(p[:2, :2]),
                                      step.fused.robots)
         err = None if step.truth is None else math.hypot(fused.x_m - step.truth[0],
                                                          fused.y_m - step.truth[1])
         return replace(step, fused=fused, error_m=err, velocity_m_s=(float(x[2]), float(x[3])),
-                       velocity_covariance=_covariance(p[2:, 2:]))
+                       velocity_covariance=covariance_rows(p[2:, 2:]))
 
     def step_window_ns(self, window_ns: int) -> int:
         """The window that groups frames into steps: the fusion window, or 1 ns for the
@@ -293,7 +287,7 @@ class FrameEstimator:
                           velocity_covariance=velocity_cov, truth_velocity_m_s=truth_velocity)
 
     def _track(self, tracker: BallTracker, stamp_ns: int, frames: tuple[FrameResult, ...]) -> (
-        tuple[fusion.FusedEstimate | None, tuple[float, float] | None, fusion.Covariance | None]
+        tuple[FusedEstimate | None, tuple[float, float] | None, Covariance | None]
     ):
         """Each frame's estimate into the tracker at its own stamp; the track at stamp_ns."""
         for f in frames:
@@ -301,23 +295,19 @@ class FrameEstimator:
                 continue
             sigma = self.noise.covariance(_ball(f.estimate, f.r_px))
             tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m, f.estimate.y_m,
-                                       _covariance(sigma)))
+                                       covariance_rows(sigma)))
         state = tracker.state_at(stamp_ns)
         if state is None or not state.confirmed:  # a tentative track may be a false blob
             return None, None, None
-        fused = fusion.FusedEstimate(state.x_m, state.y_m, state.position_covariance,
+        fused = FusedEstimate(state.x_m, state.y_m, state.position_covariance,
                                      tracker.accepted_at(stamp_ns))
         return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
 
 
-def _ball(e: RobotEstimate, r_px: float | None = None) -> corrected.BallEstimate:
-    return corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
+def _ball(e: RobotEstimate, r_px: float | None = None) -> BallEstimate:
+    return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
                                   range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m,
                                   y_m=e.y_m, visibility=e.visibility, r_px=r_px)
-
-
-def _covariance(m: np.ndarray) -> fusion.Covariance:
-    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
 
 
 class _Deferred(SinkBase):

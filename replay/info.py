@@ -17,10 +17,10 @@ from typing import Any
 
 from dsp import contract
 from dsp import metadata as meta
+from estimator.constants import NS_PER_S
 from replay.catalogue import Catalogue, build_catalogue, read_all_blocks
 from replay.errors import InputNotFoundError, NotMcapError, shown
 from replay.mcap_records import MAGIC, Limits
-from replay.options import NS
 
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
 
@@ -88,7 +88,7 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
     blocks = cat.blocks
     start = min((b.start_ns for b in blocks), default=None)
     end = max((b.end_ns for b in blocks), default=None)
-    duration = None if start is None or end is None else (end - start) / NS
+    duration = None if start is None or end is None else (end - start) / NS_PER_S
     counts = cat.counts or {}
     topics = []
     for cid, ch in sorted(cat.channels.items(), key=lambda kv: kv[1].topic):
@@ -106,8 +106,8 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
     problems = [*cat.problems, *(d.reason for d in cat.damage)] if check else []
     return LogSummary(
         path=str(cat.path), bytes=cat.size, profile=cat.scan.profile,
-        start_s=None if start is None else start / NS,
-        end_s=None if end is None else end / NS, duration_s=duration,
+        start_s=None if start is None else start / NS_PER_S,
+        end_s=None if end is None else end / NS_PER_S, duration_s=duration,
         messages=sum(counts.values()) if cat.counts is not None else None,
         topics=topics, robots=robots, scenario=scenario, cameras=cameras, renderer=renderer,
         chunks=len(chunks),

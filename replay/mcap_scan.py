@@ -21,6 +21,7 @@ from typing import IO, Any
 
 from mcap.records import Channel, Schema
 
+from estimator.constants import NS_PER_S
 from replay.errors import CorruptLogError, TruncatedLogError
 from replay.mcap_records import (
     MAGIC,
@@ -34,7 +35,6 @@ from replay.mcap_records import (
     parse_metadata,
     parse_schema,
 )
-from replay.options import NS
 
 __all__ = ["Block", "Damage", "DataScan", "scan_data"]
 
@@ -74,8 +74,8 @@ class Damage:
     def to_dict(self) -> dict[str, Any]:
         """A results file's ``log.recovered.lost`` entry."""
         return {"offset": self.offset, "bytes": self.length, "reason": self.reason,
-                "start_s": None if self.start_ns is None else self.start_ns / NS,
-                "end_s": None if self.end_ns is None else self.end_ns / NS,
+                "start_s": None if self.start_ns is None else self.start_ns / NS_PER_S,
+                "end_s": None if self.end_ns is None else self.end_ns / NS_PER_S,
                 "messages": self.messages}
 
 

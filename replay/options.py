@@ -19,20 +19,20 @@ from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
 from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
+from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
 from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
-__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "NS", "ReplayOptions", "RerunTarget",
+__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
            "Timing"]
 
 METHODS = ("paper", "corrected")
 DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
 """Paper mode fuses as the paper does (eq. 20-21); the corrected estimator tracks the ball
-(:mod:`estimator.tracker`): a fused position and velocity at every image stamp, robust to
+(:mod:`estimator.tracking.tracker`): a fused position and velocity at every image stamp, robust to
 unsynchronised cameras and a moving ball (window fusions stay available)."""
 NOISE_MODELS = ("cambada", "calibrated")
 """The window fusions' covariance models (``--noise``); the tracker's is "calibrated"."""
-NS = 1_000_000_000
 MAX_WINDOW_S = 60.0
 """The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their
 poses, so the look-ahead stays bounded."""
@@ -96,8 +96,8 @@ class ReplayOptions:
     recover: bool = False
     noise: str = "cambada"
     """The window fusions' per-estimate covariance: "cambada" (the fixed range law,
-    :class:`~estimator.fusion.NoiseModel`) or "calibrated" (from the calibration,
-    :class:`~estimator.fusion.CalibratedNoise`, as the tracker always uses)."""
+    :class:`~estimator.noise.NoiseModel`) or "calibrated" (from the calibration,
+    :class:`~estimator.noise.CalibratedNoise`, as the tracker always uses)."""
     smooth: bool = False
     """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
     (``track`` fusion only); steps reach the sinks once the log is read."""
@@ -178,11 +178,11 @@ class ReplayOptions:
 
     def timing(self) -> Timing:
         return Timing(
-            tolerance_ns=round(self.pose_tolerance_s * NS),
-            window_ns=max(1, round(self.window_s * NS)),
-            start_ns=None if self.start_s is None else round(self.start_s * NS),
-            end_ns=None if self.end_s is None else round(self.end_s * NS),
-            clock_ns=None if self.clock_hz is None else max(1, round(NS / self.clock_hz)),
+            tolerance_ns=round(self.pose_tolerance_s * NS_PER_S),
+            window_ns=max(1, round(self.window_s * NS_PER_S)),
+            start_ns=None if self.start_s is None else round(self.start_s * NS_PER_S),
+            end_ns=None if self.end_s is None else round(self.end_s * NS_PER_S),
+            clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
         )
 
     def limits(self) -> Limits:

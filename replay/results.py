@@ -133,7 +133,7 @@ class StepResult:
     step: int
     stamp_ns: int
     frames: tuple[FrameResult, ...]
-    fused: Any = None  # estimator.fusion.FusedEstimate | None
+    fused: Any = None  # estimator.estimates.FusedEstimate | None
     truth: tuple[float, float] | None = None
     error_m: float | None = None
     velocity_m_s: tuple[float, float] | None = None

@@ -9,7 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from dsp.errors import UsageError
-from replay.options import NS, ReplayOptions
+from estimator.constants import NS_PER_S
+from replay.options import ReplayOptions
 from replay.reader import LogInfo
 
 __all__ = ["check_selected", "check_selection"]
@@ -18,7 +19,8 @@ __all__ = ["check_selected", "check_selection"]
 def _span(info: LogInfo) -> str:
     if info.start_ns is None or info.end_ns is None:
         return ""
-    return f" (its messages run from {info.start_ns / NS:.3f} to {info.end_ns / NS:.3f} s)"
+    start, end = info.start_ns / NS_PER_S, info.end_ns / NS_PER_S
+    return f" (its messages run from {start:.3f} to {end:.3f} s)"
 
 
 def check_selection(path: Path, info: LogInfo, options: ReplayOptions) -> None:

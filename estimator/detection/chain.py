@@ -28,7 +28,7 @@ Search. The chain runs only where the colour is: the threshold is first tested o
 ``search_stride_px``-th row (after a cheaper test, a gap between two colour channels that
 every pixel in the HSV range shows, picks the few pixels worth converting), and
 thresholding, OPEN, outlines and moments run in boxes around the hits, grown until each
-holds whole blobs with an empty margin (:mod:`estimator.detection_regions`). The numbers
+holds whole blobs with an empty margin (:mod:`estimator.detection.regions`). The numbers
 are those of the whole image, for every blob with a pixel on a sampled row (any blob at
 least ``search_stride_px`` rows tall, so any anti-aliased ball of radius >= 2 px at the
 default 3); ``search_stride_px=1`` processes the whole image.
@@ -52,7 +52,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from estimator.detection_regions import ChannelGap, Region, search_regions
+from estimator.detection.regions import ChannelGap, Region, search_regions
 from estimator.errors import DetectionError
 
 __all__ = ["Detection", "DetectionParams", "detect_ball", "detect_blobs"]

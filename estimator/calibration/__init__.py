@@ -4,23 +4,23 @@ A calibration maps the pixel radius r [px] of the ball's centroid (its distance 
 image centre) to the horizontal range d [m] from the robot's centre to the ball's centre.
 This module gathers the three parts under one name:
 
-- :mod:`estimator.calibration_models`: the :class:`Calibration` protocol and its models
+- :mod:`estimator.calibration.models`: the :class:`Calibration` protocol and its models
   (linear as the paper's eq. 4, lookup table, NuBot's mirror, from a camera model);
-- :mod:`estimator.calibration_fit`: least-squares fits and :func:`fit_all` to compare them;
-- :mod:`estimator.calibration_json`: the ``dsp-calibration`` JSON form, written and read.
+- :mod:`estimator.calibration.fit`: least-squares fits and :func:`fit_all` to compare them;
+- :mod:`estimator.calibration.json_form`: the ``dsp-calibration`` JSON form, written and read.
 """
 
 from __future__ import annotations
 
-from estimator.calibration_fit import FitResult, fit_all, fit_linear, fit_lookup, fit_mirror
-from estimator.calibration_json import (
+from estimator.calibration.fit import FitResult, fit_all, fit_linear, fit_lookup, fit_mirror
+from estimator.calibration.json_form import (
     CALIBRATION_FORMAT,
     CALIBRATION_FORMAT_VERSION,
     calibration_from_dict,
     calibration_from_json,
     calibration_to_json,
 )
-from estimator.calibration_models import (
+from estimator.calibration.models import (
     CALIBRATION_MODELS,
     PAPER_CALIBRATION,
     Calibration,

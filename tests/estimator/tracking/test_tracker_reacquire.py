@@ -9,9 +9,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from estimator.tracker import BallTracker, Measurement, TrackerParams, TrackState
-from estimator.tracker_clutter import ClutterMap
-from estimator.tracker_reacquire import chi_square_tail, cv_fit
+from estimator.tracking import BallTracker, Measurement, TrackerParams, TrackState
+from estimator.tracking.clutter import ClutterMap
+from estimator.tracking.reacquire import chi_square_tail, cv_fit
 
 MS = 1_000_000
 SIGMA = 0.014

@@ -8,8 +8,8 @@ image centre) to the horizontal range d [m] from the robot's centre to the ball'
 - :class:`MirrorCalibration` ``d = a tan(b r)``, NuBot's catadioptric mirror;
 - :class:`CameraCalibration`, from a camera model with the ball-height correction.
 
-Fitting them to samples is :mod:`estimator.calibration_fit`, their JSON form
-:mod:`estimator.calibration_json`; :mod:`estimator.calibration` gathers all three.
+Fitting them to samples is :mod:`estimator.calibration.fit`, their JSON form
+:mod:`estimator.calibration.json_form`; :mod:`estimator.calibration` gathers all three.
 """
 
 from __future__ import annotations

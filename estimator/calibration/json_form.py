@@ -10,8 +10,8 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
-from estimator.calibration_fit import FitResult
-from estimator.calibration_models import (
+from estimator.calibration.fit import FitResult
+from estimator.calibration.models import (
     CALIBRATION_MODELS,
     Calibration,
     CameraCalibration,

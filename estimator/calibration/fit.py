@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from estimator.calibration_models import (
+from estimator.calibration.models import (
     Calibration,
     LinearCalibration,
     LookupCalibration,

@@ -1,6 +1,6 @@
 """The fixed-interval (Rauch-Tung-Striebel) smoother over a recorded track, for offline use.
 
-The causal tracker (:mod:`estimator.tracker`) estimates the ball at t from what was seen
+The causal tracker (:mod:`estimator.tracking.tracker`) estimates the ball at t from what was seen
 up to t. Offline, every estimate of a log is known, and the RTS smoother (Rauch, Tung &
 Striebel, AIAA J. 3(8), 1965; Bar-Shalom et al. 2001, sec. 8.6) runs backwards over the
 filter's record: with x_f(k), P_f(k) the filtered state at node k and x_p(k+1), P_p(k+1)
@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimator.tracker_model import Gaussian, predict, transition
+from estimator.constants import NS_PER_S
+from estimator.tracking.model import Gaussian, predict, transition
 
 __all__ = ["FilterNode", "SmoothedTrack", "rts_smooth"]
 
-NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ def rts_smooth(nodes: Sequence[FilterNode], friction_per_s: float) -> list[Gauss
         x_f, p_f = nodes[k].posterior
         x_p, p_p = nodes[k + 1].prior
         x_next, p_next = smoothed[-1]
-        f = transition((nodes[k + 1].stamp_ns - nodes[k].stamp_ns) / NS, friction_per_s)
+        f = transition((nodes[k + 1].stamp_ns - nodes[k].stamp_ns) / NS_PER_S, friction_per_s)
         c = np.linalg.solve(p_p, f @ p_f).T  # P_f F^T P_p^-1 (P_f, P_p symmetric)
         p_s = p_f + c @ (p_next - p_p) @ c.T
         smoothed.append((x_f + c @ (x_next - x_p), 0.5 * (p_s + p_s.T)))
@@ -86,7 +86,7 @@ class SmoothedTrack:
         if i < 0:
             return None
         x, p = self._states[i]
-        x_t, _ = predict((x, p), (stamp_ns - self._stamps[i]) / NS, q=0.0,
+        x_t, _ = predict((x, p), (stamp_ns - self._stamps[i]) / NS_PER_S, q=0.0,
                          friction_per_s=self.friction_per_s)
-        f = transition((stamp_ns - self._stamps[i]) / NS, self.friction_per_s)
+        f = transition((stamp_ns - self._stamps[i]) / NS_PER_S, self.friction_per_s)
         return x_t, f @ p @ f.T

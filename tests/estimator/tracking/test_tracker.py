@@ -9,18 +9,13 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from estimator.calibration_models import MirrorCalibration
-from estimator.corrected import BallEstimate
+from estimator.calibration.models import MirrorCalibration
 from estimator.errors import FusionError
-from estimator.fusion import (
-    CalibratedNoise,
-    NoiseModel,
-    RobustFusion,
-    WeightedFusion,
-    get_fusion,
-)
-from estimator.tracker import BallTracker, Measurement, TrackerParams, TrackState
-from estimator.tracker_model import predict, transition
+from estimator.estimates import BallEstimate
+from estimator.fusion import RobustFusion, WeightedFusion, get_fusion
+from estimator.noise import CalibratedNoise, NoiseModel
+from estimator.tracking import BallTracker, Measurement, TrackerParams, TrackState
+from estimator.tracking.model import predict, transition
 
 MS = 1_000_000
 SIGMA = 0.003  # measurement noise [m]

@@ -1,20 +1,16 @@
-"""The tracker's parameters, its input and its output (:mod:`estimator.tracker`)."""
+"""The tracker's parameters (:mod:`estimator.tracking.tracker`), units in the names."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
+from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
-from estimator.fusion import Covariance
-from estimator.tracker_model import Gaussian, Matrix
 
-__all__ = ["GATE_CHI2_999", "NS", "Measurement", "TrackState", "TrackerParams", "covariance",
-           "track_state"]
+__all__ = ["GATE_CHI2_999", "TrackerParams"]
 
 GATE_CHI2_999 = 13.815510557964274
 """chi-square quantile, 2 degrees of freedom, 0.999: -2 ln(0.001)."""
-NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -37,7 +33,7 @@ class TrackerParams:
     """Fastest ball: bounds how far two estimates that corroborate each other may lie."""
     manoeuvre_ns: int = 150_000_000
     """How long a rejected estimate waits to be corroborated [ns]."""
-    lost_after_ns: int = NS
+    lost_after_ns: int = NS_PER_S
     """A track without an accepted estimate for this long is lost [ns]."""
     memory_ns: int = 300_000_000
     """How far back late estimates are re-inserted [ns] (>= manoeuvre_ns)."""
@@ -66,44 +62,3 @@ class TrackerParams:
                 "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2, "
                 "lone_kick_ns >= 0, confirm_ns >= 0"
             )
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """One robot's estimate of the ball's position at its stamp, with its covariance."""
-
-    stamp_ns: int
-    robot: str
-    x_m: float
-    y_m: float
-    covariance: Covariance
-    """R [m^2], 2 x 2, symmetric positive definite."""
-
-
-@dataclass(frozen=True)
-class TrackState:
-    """The track at one stamp: position [m], velocity [m/s] and their covariances."""
-
-    stamp_ns: int
-    x_m: float
-    y_m: float
-    vx_m_s: float
-    vy_m_s: float
-    position_covariance: Covariance
-    velocity_covariance: Covariance
-    confirmed: bool
-    """False while the track rests on one estimate (or on one robot's alone)."""
-
-    @property
-    def speed_m_s(self) -> float:
-        return math.hypot(self.vx_m_s, self.vy_m_s)
-
-
-def covariance(m: Matrix) -> Covariance:
-    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
-
-
-def track_state(stamp_ns: int, g: Gaussian, confirmed: bool) -> TrackState:
-    x, p = g
-    return TrackState(stamp_ns, float(x[0]), float(x[1]), float(x[2]), float(x[3]),
-                      covariance(p[:2, :2]), covariance(p[2:, 2:]), confirmed)

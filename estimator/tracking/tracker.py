@@ -1,9 +1,9 @@
 """The ball tracker: robots' estimates at their own stamps -> the ball's position and velocity.
 
 A Kalman filter over ``x = [p_x, p_y, v_x, v_y]`` (the model and its equations:
-:mod:`estimator.tracker_model`), fed one robot estimate at a time, each at its own stamp
-[integer ns] with its own 2 x 2 covariance R (a :class:`~estimator.fusion.Noise` model, by
-default :class:`~estimator.fusion.CalibratedNoise`). Cameras need not be synchronised: the
+:mod:`estimator.tracking.model`), fed one robot estimate at a time, each at its own stamp
+[integer ns] with its own 2 x 2 covariance R (a :class:`~estimator.noise.Noise` model, by
+default :class:`~estimator.noise.CalibratedNoise`). Cameras need not be synchronised: the
 filter predicts to each stamp, so a moving ball is not smeared over a fusion window.
 
 - **Gate.** An estimate whose Mahalanobis distance ``d^2 = nu^T S^-1 nu`` exceeds ``gate``
@@ -17,7 +17,7 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   robot sees the ball, nothing corroborates: a lone rejected estimate explains a kick by
   itself when the last accepted one is at most ``lone_kick_ns`` old, a ball at most
   ``max_speed`` fast could have gone there, and it does not fall where rejected estimates
-  keep falling (a still false blob: :class:`~estimator.tracker_clutter.ClutterMap`).
+  keep falling (a still false blob: :class:`~estimator.tracking.clutter.ClutterMap`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
   velocity 0 with sigma ``kick_sigma``), confirmed once it has accepted estimates from two
@@ -26,7 +26,7 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   each other start the track afresh from them.
 - **Re-acquisition**: rejected estimates of the last ``reacquire_ns`` that agree on one
   ball at constant velocity restart the track (confirmed) when the track heard nothing since
-  they began, or more robots support them (:mod:`estimator.tracker_reacquire`); never, while
+  they began, or more robots support them (:mod:`estimator.tracking.reacquire`); never, while
   the track moves, from where rejected estimates keep falling (clutter: a still false blob
   that two robots report at once).
 - **Loss**: after ``lost_after_ns`` without an accepted estimate the track is lost
@@ -35,7 +35,7 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   after each, so an estimate stamped before the newest is inserted in stamp order and the
   track re-run from there. Causal: a state at t uses only estimates received so far.
 - **Offline**: with ``record=True`` the filter's states are kept and :meth:`BallTracker.smoothed`
-  runs the RTS smoother over them (:mod:`estimator.tracker_smoother`).
+  runs the RTS smoother over them (:mod:`estimator.tracking.smoother`).
 
 Deterministic: no randomness; estimates with equal stamps are processed in arrival order.
 """
@@ -49,31 +49,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from estimator.corrected import BallEstimate
+from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
-from estimator.fusion import CalibratedNoise, FusedEstimate, Noise
-from estimator.tracker_clutter import ClutterMap
-from estimator.tracker_model import Gaussian, Matrix, innovation, predict, update
-from estimator.tracker_reacquire import STILL_M_S, Candidate, reachable, reacquire_from
-from estimator.tracker_smoother import FilterNode, SmoothedTrack
-from estimator.tracker_types import (
-    GATE_CHI2_999,
-    NS,
-    Measurement,
-    TrackerParams,
-    TrackState,
-)
-from estimator.tracker_types import covariance as _cov
-from estimator.tracker_types import track_state as _state
+from estimator.estimates import BallEstimate, FusedEstimate, covariance_rows
+from estimator.noise import CalibratedNoise, Noise
+from estimator.tracking.clutter import ClutterMap
+from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
+from estimator.tracking.params import TrackerParams
+from estimator.tracking.reacquire import STILL_M_S, Candidate, reachable, reacquire_from
+from estimator.tracking.smoother import FilterNode, SmoothedTrack
+from estimator.tracking.state import Measurement, TrackState, track_state
 
-__all__ = [
-    "GATE_CHI2_999",
-    "BallTracker",
-    "Measurement",
-    "TrackFusion",
-    "TrackState",
-    "TrackerParams",
-]
+__all__ = ["BallTracker", "TrackFusion"]
 
 
 @dataclass(eq=False)
@@ -191,7 +178,7 @@ class BallTracker:
             x, p = state
             if e.kick:  # an impulse of unknown size just before this estimate
                 p = p + np.diag([0.0, 0.0, 1.0, 1.0]) * prm.kick_sigma_m_s**2
-            prior = predict((x, p), (e.m.stamp_ns - t_prev) / NS,
+            prior = predict((x, p), (e.m.stamp_ns - t_prev) / NS_PER_S,
                             q=prm.accel_noise_m2_s3, friction_per_s=prm.friction_per_s)
             _, _, d2 = innovation(prior, e.z, e.r)
             e.accepted = d2 <= prm.gate
@@ -249,7 +236,7 @@ class BallTracker:
         last = track.entries[j]
         assert last.state is not None
         x, p = last.state
-        reach = prm.max_speed_m_s * (e.m.stamp_ns - last.m.stamp_ns) / NS
+        reach = prm.max_speed_m_s * (e.m.stamp_ns - last.m.stamp_ns) / NS_PER_S
         dz = e.z - x[:2]
         if float(dz @ np.linalg.solve(p[:2, :2] + e.r + reach**2 * np.eye(2), dz)) > prm.gate:
             return  # farther than a ball could have gone
@@ -285,7 +272,7 @@ class BallTracker:
 
     def _reacquire(self, track: _Track, e: _Entry) -> None:
         """Restart from rejected estimates that agree on another path, when
-        :func:`~estimator.tracker_reacquire.reacquire_from` says so (a bounce the gate
+        :func:`~estimator.tracking.reacquire.reacquire_from` says so (a bounce the gate
         missed, or a track started on a false blob)."""
         prm = self.params
         i = track.entries.index(e)
@@ -380,9 +367,9 @@ class BallTracker:
                 t_prev, state = e.m.stamp_ns, e.state
                 break
         prm = self.params
-        g = predict(state, (stamp_ns - t_prev) / NS, q=prm.accel_noise_m2_s3,
+        g = predict(state, (stamp_ns - t_prev) / NS_PER_S, q=prm.accel_noise_m2_s3,
                     friction_per_s=prm.friction_per_s)
-        return _state(stamp_ns, g, track.confirmed)
+        return track_state(stamp_ns, g, track.confirmed)
 
     def accepted_at(self, stamp_ns: int) -> tuple[str, ...]:
         """Robots whose estimates stamped ``stamp_ns`` the track accepted, in arrival order."""
@@ -414,7 +401,7 @@ class TrackFusion:
         tracker = BallTracker(self.params)
         for e in estimates:
             tracker.update(Measurement(0, e.robot, e.x_m, e.y_m,
-                                       _cov(self.noise.covariance(e))))
+                                       covariance_rows(self.noise.covariance(e))))
         state = tracker.state_at(0)
         if state is None:  # pragma: no cover - a track at stamp 0 always exists
             return None

@@ -1,4 +1,4 @@
-"""The coarse-to-fine search (estimator.detection_regions) gives the whole image's results.
+"""The coarse-to-fine search (estimator.detection.regions) gives the whole image's results.
 
 Every comparison is against ``search_stride_px=1`` (the whole image thresholded, opened and
 traced, the reference path): the same blobs in the same order, every field equal, outlines
@@ -19,7 +19,7 @@ import numpy.typing as npt
 import pytest
 from test_estimator_detection import GREEN_BGR, ORANGE_BGR, draw_disc, field_image
 
-from estimator.detection import (
+from estimator.detection.chain import (
     Detection,
     DetectionParams,
     _channel_gap,
@@ -27,10 +27,10 @@ from estimator.detection import (
     detect_ball,
     detect_blobs,
 )
-from estimator.detection_regions import search_regions
+from estimator.detection.regions import search_regions
 from estimator.errors import DetectionError
 
-GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
+GOLDEN = Path(__file__).resolve().parents[3] / "logs" / "golden"
 
 
 def _as_tuples(blobs: list[Detection]) -> list[tuple[Any, ...]]:

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimator.tracker_model import Matrix
+from estimator.constants import NS_PER_S
+from estimator.tracking.model import Matrix
 
 __all__ = ["Candidate", "Point", "chi_square_tail", "cv_fit", "reachable", "reacquire_from"]
 
@@ -43,7 +44,6 @@ STILL_M_S = 0.2
 """A track slower than this is still [m/s]."""
 MOVING_M_S = 0.5
 """Estimates whose fitted speed exceeds this are moving [m/s]."""
-NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -96,7 +96,7 @@ def cv_fit(points: Sequence[Point], *, max_speed_m_s: float,
 
 def reachable(a: Candidate, b: Candidate, *, max_speed_m_s: float, gate: float) -> bool:
     """Could one ball at a free velocity (|v| <= max_speed) give both estimates?"""
-    dt = abs(b.stamp_ns - a.stamp_ns) / NS
+    dt = abs(b.stamp_ns - a.stamp_ns) / NS_PER_S
     c = a.r + b.r + (max_speed_m_s * dt) ** 2 * np.eye(2)
     dz = b.z - a.z
     return float(dz @ np.linalg.solve(c, dz)) <= gate
@@ -124,7 +124,7 @@ def reacquire_from(history: Sequence[Candidate], *, track_speed_m_s: float, wind
         if f.accepted or not all(reachable(f, history[j], max_speed_m_s=max_speed_m_s,
                                            gate=gate) for j in agree):
             continue
-        fit = cv_fit([(history[j].stamp_ns / NS, history[j].z, history[j].r)
+        fit = cv_fit([(history[j].stamp_ns / NS_PER_S, history[j].z, history[j].r)
                       for j in [i, *agree]], max_speed_m_s=max_speed_m_s)
         if fit is not None:
             agree, v = [i, *agree], fit

@@ -24,7 +24,7 @@ symmetric positive definite)::
     d^2 = nu^T S^-1 nu                                            Mahalanobis distance
 
 d^2 is chi-square with 2 degrees of freedom when the model holds; the gate compares it with
-a quantile. Pure numpy, no state: the tracker (:mod:`estimator.tracker`) keeps the state.
+a quantile. Pure numpy, no state: the tracker (:mod:`estimator.tracking.tracker`) keeps the state.
 """
 
 from __future__ import annotations

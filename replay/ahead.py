@@ -22,9 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from replay.decode import DEFAULT_MAX_PIXELS, decode_image
 from replay.estimation import Detected, detect
-from replay.reader import ImageMessage
+from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image
 
 __all__ = ["Ahead", "Decoded", "decode_and_detect"]
 

@@ -25,8 +25,8 @@ from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
+from replay.log import describe as describe_recovery
 from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
-from replay.recovery import describe as describe_recovery
 from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
 from replay.stats import ReplaySummary

@@ -11,10 +11,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from dsp.errors import InputError
+from dsp.text import printable
 
 __all__ = [
     "CorruptLogError",
-    "EstimatorUnavailableError",
     "ImageDecodeError",
     "InputNotFoundError",
     "MissingPosesError",
@@ -25,13 +25,6 @@ __all__ = [
     "SchemaError",
     "TruncatedLogError",
 ]
-
-
-def shown(text: str, limit: int = 120) -> str:
-    """``text`` from a log made safe for a terminal: control characters escaped, cut to
-    ``limit`` characters."""
-    out = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in text)
-    return out if len(out) <= limit else out[:limit] + "..."
 
 
 class ReplayError(InputError):
@@ -100,7 +93,7 @@ class SchemaError(ReplayError):
     """The schema of a topic replay reads is missing or does not parse."""
 
     def __init__(self, path: Path | str, what: str, detail: str) -> None:
-        super().__init__(f"{path}: unusable schema for {what}: {shown(detail)}")
+        super().__init__(f"{path}: unusable schema for {what}: {printable(detail, limit=120)}")
 
 
 class NoFramesError(ReplayError):
@@ -108,10 +101,3 @@ class NoFramesError(ReplayError):
 
     def __init__(self, path: Path | str, detail: str) -> None:
         super().__init__(f"{path}: no frames replayed: {detail}")
-
-
-class EstimatorUnavailableError(ReplayError):
-    """A part of ``estimator/`` the chosen options need is not importable."""
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(f"estimator unavailable: {detail}")

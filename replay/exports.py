@@ -188,7 +188,7 @@ class PlotSink(ReplayTrace):
 
 def open_exports(stack: Any, info: Any, options: Any) -> list[SinkBase]:
     """The CSV and figure sinks ``options`` (:class:`~replay.options.ReplayOptions`) ask for,
-    entered in ``stack``; ``info`` is the log's :class:`~replay.reader.LogInfo`."""
+    entered in ``stack``; ``info`` is the log's :class:`~replay.log.reader.LogInfo`."""
     from dsp.field import DEFAULT_FIELD, FIELDS
 
     sinks: list[SinkBase] = []

@@ -1,6 +1,6 @@
 """What a log holds, like ``ros2 bag info`` / ``mcap info``, and whether it is intact.
 
-:func:`log_info` reads the catalogue (:mod:`replay.catalogue`) of any MCAP file, whatever its
+:func:`log_info` reads the catalogue (:mod:`replay.log.catalogue`) of any MCAP file, whatever its
 topics, and returns a :class:`LogSummary`: duration, start and end, topics with their types,
 counts and rates, the robots, scenario, cameras and renderer from the metadata, chunks and
 compression. ``check=True`` reads every chunk too: chunk and data CRCs, the summary's CRC and
@@ -17,13 +17,17 @@ from typing import Any
 
 from dsp import contract
 from dsp import metadata as meta
+from dsp.text import printable
 from estimator.constants import NS_PER_S
-from replay.catalogue import Catalogue, build_catalogue, read_all_blocks
-from replay.errors import InputNotFoundError, NotMcapError, shown
-from replay.mcap_records import MAGIC, Limits
+from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
 
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
 
+
+
+def _shown(text: object, limit: int = 120) -> str:
+    """A name from the log for a terminal: escaped, cut to ``limit`` characters."""
+    return printable(text, limit=limit)
 
 @dataclass(frozen=True)
 class TopicInfo:
@@ -71,13 +75,9 @@ def log_info(path: Path | str, *, check: bool = False, limits: Limits | None = N
     instead of raising. Raises :class:`~replay.errors.ReplayError` for a file that is not
     MCAP, and (without ``check``) for a damaged one."""
     path = Path(path)
-    if not path.is_file():
-        raise InputNotFoundError(path)
-    size = path.stat().st_size
+    size = check_mcap_file(path)
     limits = limits or Limits()
     with path.open("rb") as f:
-        if f.read(len(MAGIC)) != MAGIC:
-            raise NotMcapError(path)
         cat = build_catalogue(f, path, size, limits, recover=check, read_chunks=check)
         if cat.counts is None:
             read_all_blocks(f, cat, limits, recover=False, validate_crcs=True)
@@ -95,10 +95,10 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         schema = cat.schemas.get(ch.schema_id)
         n = counts.get(cid) if cat.counts is not None else None
         rate = n / duration if n is not None and duration else None
-        topics.append(TopicInfo(shown(ch.topic), shown(schema.name) if schema else "",
+        topics.append(TopicInfo(_shown(ch.topic), _shown(schema.name) if schema else "",
                                 n, None if rate is None else round(rate, 3)))
     names = {ch.topic for ch in cat.channels.values()}
-    robots = [shown(r) for r in contract.robot_names_in(names, contract.IMAGE_TOPIC)]
+    robots = [_shown(r) for r in contract.robot_names_in(names, contract.IMAGE_TOPIC)]
     scenario, cameras, renderer = _metadata(cat)
     chunks = cat.scan.chunks
     summary = "none" if cat.summary is None else (
@@ -114,8 +114,8 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         compression=dict(Counter(c.compression or "none" for c in chunks)),
         chunk_bytes=sum(c.data_length for c in chunks),
         uncompressed_bytes=sum(c.uncompressed_size for c in chunks),
-        metadata=sorted(shown(n) for n in cat.metadata), summary=summary, checked=check,
-        problems=[shown(p, 300) for p in problems],
+        metadata=sorted(_shown(n) for n in cat.metadata), summary=summary, checked=check,
+        problems=[_shown(p, limit=300) for p in problems],
     )
 
 
@@ -127,18 +127,18 @@ def _metadata(cat: Catalogue) -> tuple[dict[str, Any] | None, dict[str, str], st
     if contract.SCENARIO_METADATA in records:
         try:
             s = meta.ScenarioMetadata.from_metadata(records[contract.SCENARIO_METADATA])
-            scenario = {"name": shown(s.name), "seed": s.seed, "field": s.field_name}
+            scenario = {"name": _shown(s.name), "seed": s.seed, "field": s.field_name}
         except meta.MetadataError as err:
-            scenario = {"error": shown(str(err), 200)}
+            scenario = {"error": _shown(str(err), limit=200)}
     cameras: dict[str, str] = {}
     try:
         cams = meta.CamerasMetadata.from_metadata(records.get(contract.CAMERAS_METADATA, {}))
-        cameras = {shown(c.robot): shown(str(c.model.get("model", "?"))) for c in cams.cameras}
+        cameras = {_shown(c.robot): _shown(str(c.model.get("model", "?"))) for c in cams.cameras}
     except meta.MetadataError as err:
-        cameras = {"error": shown(str(err), 200)}
+        cameras = {"error": _shown(str(err), limit=200)}
     renderer = None
     if contract.RECORDER_METADATA in records:
-        renderer = shown(records[contract.RECORDER_METADATA].get("renderer", "?"))
+        renderer = _shown(records[contract.RECORDER_METADATA].get("renderer", "?"))
     return scenario, cameras, renderer
 
 

@@ -21,7 +21,7 @@ from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
 from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
-from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
+from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
 __all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
            "Timing"]

@@ -29,8 +29,8 @@ import rerun as rr
 from dsp.atomic import AtomicFile
 from dsp.errors import UsageError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
+from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
-from replay.reader import LogInfo
 from replay.rerun_blueprint import blueprint, scenario_kind
 from replay.rerun_live import (
     Liveness,

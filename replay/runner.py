@@ -33,8 +33,8 @@ from estimator.errors import EstimatorError
 from replay.ahead import Ahead, decode_and_detect
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
 from replay.estimation import FrameEstimator
+from replay.log import ImageMessage, LogReader, PoseMessage, TruthMessage
 from replay.options import ReplayOptions, Timing
-from replay.reader import ImageMessage, LogReader, PoseMessage, TruthMessage
 from replay.results import (
     FrameResult,
     FrameStatus,

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from dsp.errors import UsageError
 from estimator.constants import NS_PER_S
+from replay.log import LogInfo
 from replay.options import ReplayOptions
-from replay.reader import LogInfo
 
 __all__ = ["check_selected", "check_selection"]
 

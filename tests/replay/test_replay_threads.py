@@ -16,7 +16,7 @@ from replay import ReplayOptions, replay
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cli import main
 from replay.estimation import Detected
-from replay.reader import ImageMessage
+from replay.log import ImageMessage
 from replay.results import FrameStatus
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -46,8 +46,7 @@ def _same_as_whole_image(image: npt.NDArray[np.uint8], params: DetectionParams) 
 
 
 def _golden_frames() -> list[npt.NDArray[np.uint8]]:
-    from replay.decode import decode_image
-    from replay.reader import ImageMessage, LogReader
+    from replay.log import ImageMessage, LogReader, decode_image
 
     frames = []
     for log in sorted(GOLDEN.glob("*.mcap")):

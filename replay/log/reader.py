@@ -4,8 +4,8 @@
 (:class:`ImageMessage`, :class:`PoseMessage`, :class:`TruthMessage`) one at a time, so memory
 stays flat however long the log is.
 
-Checks (:mod:`replay.catalogue`): the data section is scanned record by record with every
-length bounded (:class:`~replay.mcap_records.Limits`); chunk, data and summary CRCs are
+Checks (:mod:`replay.log.catalogue`): the data section is scanned record by record with every
+length bounded (:class:`~replay.log.mcap_records.Limits`); chunk, data and summary CRCs are
 verified; the summary must agree with the data (chunk and metadata index entries, channels,
 statistics). Any valid MCAP layout reads the same: chunked or not, any compression, with or
 without indexes, statistics, summary offsets or repeated channels and schemas; metadata is
@@ -35,37 +35,28 @@ from mcap_ros2.decoder import DecoderFactory
 
 from dsp import contract
 from dsp import metadata as meta
-from replay.catalogue import (
+from dsp.text import printable
+from replay.errors import (
+    CorruptLogError,
+    MissingPosesError,
+    NoImageTopicsError,
+    SchemaError,
+)
+from replay.log.catalogue import (
     Catalogue,
     build_catalogue,
     check_definition,
+    check_mcap_file,
     load_block,
     read_all_blocks,
 )
-from replay.errors import (
-    CorruptLogError,
-    InputNotFoundError,
-    MissingPosesError,
-    NoImageTopicsError,
-    NotMcapError,
-    SchemaError,
-    shown,
-)
-from replay.mcap_records import MAGIC, Limits, Malformed
-from replay.mcap_scan import Block
-from replay.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage, convert
-from replay.recovery import RecoveryLoss
-from replay.schemas import definition_mismatch
+from replay.log.mcap_records import Limits, Malformed
+from replay.log.mcap_scan import Block
+from replay.log.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage, convert
+from replay.log.recovery import RecoveryLoss
+from replay.log.schemas import definition_mismatch
 
-__all__ = [
-    "ImageMessage",
-    "Limits",
-    "LogInfo",
-    "LogReader",
-    "PoseMessage",
-    "RecoveryLoss",
-    "TruthMessage",
-]
+__all__ = ["LogInfo", "LogReader"]
 
 GT_ODOMETRY = contract.GT_BALL_ODOMETRY_TOPIC
 
@@ -93,16 +84,6 @@ class LogInfo:
     """The ``dsp.recorder`` record, parsed; None when the log has none."""
     warnings: tuple[str, ...] = ()
     """What the replay falls back to (a robot without camera metadata), for the user."""
-
-
-def _check_file(path: Path) -> int:
-    if not path.is_file():
-        raise InputNotFoundError(path)
-    with path.open("rb") as f:
-        head = f.read(len(MAGIC))
-    if head != MAGIC:
-        raise NotMcapError(path)
-    return path.stat().st_size
 
 
 class LogReader:
@@ -150,7 +131,7 @@ class LogReader:
 
     # --- opening ---------------------------------------------------------------------------
     def __enter__(self) -> LogReader:
-        size = _check_file(self.path)
+        size = check_mcap_file(self.path)
         self._file = self.path.open("rb")
         try:
             self.catalogue = build_catalogue(self._file, self.path, size, self.limits,
@@ -235,7 +216,7 @@ class LogReader:
 
     def _decoder(self, channel: Channel) -> Callable[[bytes], Any]:
         schema = self.catalogue.schemas.get(channel.schema_id)
-        what = f"topic {shown(channel.topic)}"
+        what = f"topic {printable(channel.topic, limit=120)}"
         if schema is None:
             raise SchemaError(self.path, what, f"schema {channel.schema_id} is not in the log")
         if schema.encoding == "ros2msg":
@@ -248,7 +229,7 @@ class LogReader:
             raise SchemaError(self.path, what, f"{type(err).__name__}: {err}") from err
         if decoder is None:
             raise SchemaError(self.path, what, "no decoder for message encoding "
-                              f"{shown(channel.message_encoding)!r}")
+                              f"{printable(channel.message_encoding, limit=120)!r}")
         return decoder
 
     def _parse_metadata(self) -> tuple[meta.ScenarioMetadata | None,
@@ -272,7 +253,7 @@ class LogReader:
         """A log written by dsp-record names every robot's camera (missing: an error); for
         another writer's log, say loudly that the paper's calibration stands in."""
         have = cameras.by_robot()
-        missing = [shown(r) for r in robots if r not in have]
+        missing = [printable(r, limit=120) for r in robots if r not in have]
         if not missing:
             return ()
         if recorder is not None:

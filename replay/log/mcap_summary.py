@@ -1,5 +1,5 @@
 """An MCAP file's footer and summary section, CRC-checked, and what they say compared with
-the data section as scanned (:mod:`replay.mcap_scan`).
+the data section as scanned (:mod:`replay.log.mcap_scan`).
 
 The summary repeats what the data holds (schemas, channels, one index entry per chunk and
 per metadata record, message counts and times). A summary that disagrees with the data is
@@ -17,7 +17,7 @@ from typing import IO
 
 from mcap.records import Channel, Schema
 
-from replay.mcap_records import (
+from replay.log.mcap_records import (
     MAGIC,
     ChunkIndex,
     Footer,
@@ -33,7 +33,7 @@ from replay.mcap_records import (
     parse_schema,
     parse_statistics,
 )
-from replay.mcap_scan import DataScan
+from replay.log.mcap_scan import DataScan
 
 __all__ = ["FOOTER_BYTES", "Summary", "compare", "read_footer", "read_summary"]
 

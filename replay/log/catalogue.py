@@ -2,7 +2,7 @@
 compared with it, and (when asked, or when only the chunks name the channels) every chunk
 decompressed and CRC-checked.
 
-:func:`build_catalogue` is shared by the reader (:mod:`replay.reader`) and ``dsp-info``.
+:func:`build_catalogue` is shared by the reader (:mod:`replay.log.reader`) and ``dsp-info``.
 Strict: any damage raises a :class:`~replay.errors.ReplayError` naming the file and byte.
 ``recover=True``: damage is collected (:attr:`Catalogue.damage`, :attr:`Catalogue.problems`)
 and the readable rest is catalogued.
@@ -16,8 +16,9 @@ from typing import IO
 
 from mcap.records import Channel, Message, Schema
 
-from replay.errors import CorruptLogError, TruncatedLogError
-from replay.mcap_records import (
+from replay.errors import CorruptLogError, InputNotFoundError, NotMcapError, TruncatedLogError
+from replay.log.mcap_records import (
+    MAGIC,
     ChunkHeader,
     Footer,
     Limits,
@@ -26,10 +27,29 @@ from replay.mcap_records import (
     decompress,
     parse_message,
 )
-from replay.mcap_scan import Block, Damage, DataScan, scan_data
-from replay.mcap_summary import Summary, compare, read_footer, read_summary
+from replay.log.mcap_scan import Block, Damage, DataScan, scan_data
+from replay.log.mcap_summary import Summary, compare, read_footer, read_summary
 
-__all__ = ["Catalogue", "build_catalogue", "check_definition", "load_block", "read_all_blocks"]
+__all__ = [
+    "Catalogue",
+    "build_catalogue",
+    "check_definition",
+    "check_mcap_file",
+    "load_block",
+    "read_all_blocks",
+]
+
+
+def check_mcap_file(path: Path) -> int:
+    """The size of the MCAP file at ``path``; raises :class:`InputNotFoundError` when it is
+    not a file and :class:`NotMcapError` when it does not start with the MCAP magic."""
+    if not path.is_file():
+        raise InputNotFoundError(path)
+    with path.open("rb") as f:
+        head = f.read(len(MAGIC))
+    if head != MAGIC:
+        raise NotMcapError(path)
+    return path.stat().st_size
 
 
 @dataclass

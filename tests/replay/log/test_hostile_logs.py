@@ -27,7 +27,6 @@ from mcap.writer import CompressionType
 
 from dsp.errors import DspError, UsageError
 from replay.cli import main
-from replay.decode import decode_image, image_size
 from replay.errors import (
     CorruptLogError,
     NoFramesError,
@@ -35,9 +34,8 @@ from replay.errors import (
     SchemaError,
     TruncatedLogError,
 )
-from replay.messages import ImageMessage, PoseMessage
+from replay.log import ImageMessage, LogReader, PoseMessage, decode_image, image_size
 from replay.options import ReplayOptions
-from replay.reader import LogReader
 from replay.runner import replay
 from replay.sync import DelayLine, History
 
@@ -262,7 +260,7 @@ def test_float64_redeclared_float32_is_refused(tmp_path: Path) -> None:
 
 
 def test_rosbag2_style_definitions_are_accepted() -> None:
-    from replay.schemas import definition_mismatch
+    from replay.log.schemas import definition_mismatch
 
     text = ("# A Pose with reference coordinate frame and timestamp\nstd_msgs/Header header\n"
             "Pose pose\n" + "=" * 80 + "\nMSG: geometry_msgs/Pose\n# comment\n"

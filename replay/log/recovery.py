@@ -7,7 +7,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
-from replay.mcap_scan import Damage
+from replay.log.mcap_scan import Damage
 
 __all__ = ["RecoveryLoss", "describe"]
 

@@ -10,9 +10,8 @@ from mcap_ros2.writer import Writer
 from synthetic import write_log
 
 from dsp import contract
-from replay.decode import decode_image
 from replay.errors import InputNotFoundError, NoImageTopicsError, NotMcapError, TruncatedLogError
-from replay.reader import ImageMessage, LogReader, PoseMessage
+from replay.log import ImageMessage, LogReader, PoseMessage, decode_image
 
 
 def _write_ties(path: Path) -> list[tuple[str, int, float]]:

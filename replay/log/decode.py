@@ -21,7 +21,7 @@ from collections.abc import Iterator
 import cv2
 import numpy as np
 
-from replay.messages import ImageMessage
+from replay.log.messages import ImageMessage
 
 __all__ = ["DEFAULT_MAX_PIXELS", "decode_image", "image_size"]
 

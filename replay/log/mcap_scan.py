@@ -3,8 +3,8 @@ there is, and the data section's CRC.
 
 The scan reads record headers and the small records (schemas, channels, metadata, chunk
 headers) and streams over chunk data without keeping it, so memory stays flat. It is the
-ground truth the summary is checked against (:mod:`replay.mcap_summary`) and what the reader
-streams from (:mod:`replay.reader`).
+ground truth the summary is checked against (:mod:`replay.log.mcap_summary`) and what the reader
+streams from (:mod:`replay.log.reader`).
 
 Strict (the default): the first damaged record raises :class:`~replay.errors.CorruptLogError`
 or :class:`~replay.errors.TruncatedLogError` naming the byte offset. ``recover=True``: damage
@@ -23,7 +23,7 @@ from mcap.records import Channel, Schema
 
 from estimator.constants import NS_PER_S
 from replay.errors import CorruptLogError, TruncatedLogError
-from replay.mcap_records import (
+from replay.log.mcap_records import (
     MAGIC,
     ChunkHeader,
     Limits,

@@ -28,7 +28,7 @@ import time
 from collections.abc import Callable, Sequence
 from importlib import metadata
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Protocol
 
 from dsp.contract import RENDERERS
 from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError, UsageError
@@ -39,6 +39,7 @@ __all__ = [
     "LINE_INTERVAL_S",
     "RENDERERS",
     "LineProgress",
+    "Progress",
     "add_common_arguments",
     "check_suffix",
     "echo",
@@ -50,8 +51,6 @@ __all__ = [
 
 DISTRIBUTION = "dual-sight"
 """The installed distribution whose version ``--version`` prints."""
-
-"""pybullet renderers: auto = EGL when it loads, else TinyRenderer (env DSP_RENDERER overrides)."""
 
 
 def version() -> str:
@@ -134,6 +133,19 @@ def echo(args: argparse.Namespace, text: str) -> None:
         print(printable(text, lines=True))
 
 
+class Progress(Protocol):
+    """What a command does with its progress: a tqdm bar, :class:`LineProgress` or a
+    disabled bar, used as a context manager."""
+
+    def update(self, n: int = 1) -> None: ...
+
+    def set_postfix_str(self, text: str, refresh: bool = True) -> None: ...
+
+    def __enter__(self) -> Progress: ...
+
+    def __exit__(self, *exc: object) -> None: ...
+
+
 LINE_INTERVAL_S = 10.0
 """How often a progress line is printed when stderr is not a terminal."""
 
@@ -180,7 +192,7 @@ class LineProgress:
 
 
 def progress_bar(total: int | None, desc: str, enabled: bool | None, *,
-                 unit: str = "it") -> Any:
+                 unit: str = "it") -> Progress:
     """Progress on stderr as :func:`progress_enabled` decided: a tqdm bar (True), plain
     lines (None, :class:`LineProgress`) or nothing (False); use it as a context manager.
 
@@ -191,8 +203,9 @@ def progress_bar(total: int | None, desc: str, enabled: bool | None, *,
         return LineProgress(total, desc, unit=unit)
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, unit=unit, disable=not enabled, leave=False,
-                file=sys.stderr, dynamic_ncols=True)
+    bar: Progress = tqdm(total=total, desc=desc, unit=unit, disable=not enabled,
+                         leave=False, file=sys.stderr, dynamic_ncols=True)
+    return bar
 
 
 def _fail(prog: str, message: str) -> None:

@@ -44,7 +44,7 @@ from replay.batch_summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError
 from replay.options import ReplayOptions
 from replay.parallel import Outcome, Workers, map_tasks
-from replay.results import FrameResult, StepResult
+from replay.records import FrameResult, StepResult
 from replay.runner import replay
 from replay.sink import SinkBase
 from replay.stats import ErrorStats

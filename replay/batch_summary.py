@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from replay.results import normalise
+from replay.sinks.results_json import normalise
 
 __all__ = ["FORMAT", "BatchSummary", "ErrorSums", "LogRow"]
 

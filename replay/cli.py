@@ -25,10 +25,9 @@ from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
 from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
-from replay.log import describe as describe_recovery
 from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
-from replay.rerun_live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.runner import replay
+from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.stats import ReplaySummary
 
 __all__ = ["build_parser", "format_summary", "main"]
@@ -168,8 +167,8 @@ def format_summary(s: ReplaySummary) -> str:
         lines.append("skipped frames: " + ", ".join(f"{k} {v}" for k, v in s.skipped.items()))
     if s.undecodable_messages:
         lines.append(f"undecodable messages: {s.undecodable_messages}")
-    if s.recovered is not None:
-        lines.extend(describe_recovery(s.recovered))
+    if s.loss is not None:
+        lines.extend(s.loss.describe())
     for out in s.outputs:
         lines.append(f"wrote {out}")
     return "\n".join(lines)
@@ -177,7 +176,7 @@ def format_summary(s: ReplaySummary) -> str:
 
 def _serve(args: argparse.Namespace) -> int:
     """``--serve``: start the server, say where to look, replay into it, serve until Ctrl-C."""
-    from replay.rerun_live import ViewerServer
+    from replay.sinks.rerun.live import ViewerServer
 
     options_from_args(args)  # bad options are refused before a server starts
     server = ViewerServer(

@@ -1,9 +1,9 @@
 """Per-frame estimation: the estimator parts chosen by the options, applied to one image.
 
-:class:`FrameEstimator` is built once per replay from the options and the log's camera
-metadata; :meth:`FrameEstimator.estimate` turns one decoded image (and a way to look up the
-robot's pose at its stamp) into a :class:`FrameOutcome` whose :class:`FrameStatus` says how
-far the image got:
+:class:`FrameEstimator` is built once per replay from the options and the robots' cameras
+(:mod:`replay.cameras`); :meth:`FrameEstimator.estimate` turns one decoded image (and a way
+to look up the robot's pose at its stamp) into a :class:`FrameOutcome` whose
+:class:`~replay.records.FrameStatus` says how far the image got:
 
     image --detect--> blob --pose at stamp--> pose --locate--> field estimate
     (BAD_IMAGE)     (DETECT_ERROR,          (NO_POSE)        (OUT_OF_RANGE)      OK
@@ -17,40 +17,33 @@ covariance (:class:`~estimator.noise.CalibratedNoise`), and read at the step's s
 the ball's velocity. The tracker makes a step at every image stamp
 (:meth:`FrameEstimator.step_window_ns`). Offline (``smooth``), the steps are held back and
 leave with the RTS smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
-:meth:`FrameEstimator.flush`).
+:meth:`FrameEstimator.flush`, :mod:`replay.smoothing`).
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
-from dsp import contract
-from dsp.errors import CalibrationError
-from estimator import calibration as cal
-from estimator import camera as cam
-from estimator import corrected, detection, fusion, paper
-from estimator.constants import PAPER_CENTRE_PX
+from estimator import corrected, fusion, paper
+from estimator.detection import Detection, detect_ball
 from estimator.errors import EstimatorError
 from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covariance_rows
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
-from estimator.tracking import BallTracker, Measurement, SmoothedTrack
-from replay.results import FrameResult, FrameStatus, RobotEstimate, StepResult
-from replay.sink import Sink, SinkBase
+from estimator.tracking import BallTracker, Measurement
+from replay.cameras import DEFAULT_CENTRE_PX, Cameras, cameras_for
+from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
+from replay.sink import Sink
+from replay.smoothing import SmoothedSteps
 from replay.sync import PoseMatch
 
-__all__ = ["DEFAULT_CENTRE_PX", "Detected", "FrameEstimator", "FrameOutcome", "FrameStatus",
-           "detect"]
-
-DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
-"""The image centre of a robot whose log names no camera: the paper's."""
+__all__ = ["Detected", "FrameEstimator", "FrameOutcome", "Locator", "detect"]
 
 
 @dataclass(frozen=True)
@@ -58,7 +51,7 @@ class FrameOutcome:
     """What the estimator made of one image."""
 
     status: FrameStatus
-    detection: detection.Detection | None = None
+    detection: Detection | None = None
     r_px: float | None = None
     """Pixel radius of the blob from the image centre (eq. 3)."""
     pose: PoseMatch | None = None
@@ -71,7 +64,7 @@ class Detected:
 
     status: FrameStatus | None
     """BAD_IMAGE or DETECT_ERROR when detection could not run; None when it ran."""
-    detection: detection.Detection | None = None
+    detection: Detection | None = None
 
 
 def detect(image: np.ndarray | None) -> Detected:
@@ -79,7 +72,7 @@ def detect(image: np.ndarray | None) -> Detected:
     if image is None:
         return Detected(FrameStatus.BAD_IMAGE)
     try:
-        return Detected(None, detection.detect_ball(image))
+        return Detected(None, detect_ball(image))
     except EstimatorError:
         return Detected(FrameStatus.DETECT_ERROR)
 
@@ -87,35 +80,16 @@ def detect(image: np.ndarray | None) -> Detected:
 class Locator(Protocol):
     """Turns a robot's blob and pose into its field estimate (paper or corrected mode)."""
 
-    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate: ...
-
-
-@dataclass(frozen=True)
-class _Cameras:
-    """Per robot: image centre, camera model (when the log names one) and calibration."""
-
-    centres: Mapping[str, tuple[float, float]]
-    models: Mapping[str, cam.CameraModel]
-    calibrations: Mapping[str, cal.Calibration]
-    fit_rms_m: float = 0.0
-    """The calibration file's fit residual RMS [m] when it records one (0: a camera model)."""
-
-    def visibility(self, robot: str, det: detection.Detection, range_m: float) -> float:
-        """How much of the ball the blob shows, when the log names the camera model."""
-        model = self.models.get(robot)
-        if model is None:
-            return 1.0
-        expected = cam.ball_image_area_px(model, range_m)
-        return corrected.ball_visibility(float(det.area_px), expected)
+    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate: ...
 
 
 @dataclass(frozen=True)
 class PaperLocator:
     """Eq. 3-14 exactly, the paper's calibration folded in."""
 
-    cameras: _Cameras
+    cameras: Cameras
 
-    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate:
+    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
         x, y = paper.locate_ball(float(det.cx_px), float(det.cy_px), pose.x_m, pose.y_m,
                                  pose.yaw_rad, centre_px=self.cameras.centres[robot])
         dx, dy = x - pose.x_m, y - pose.y_m
@@ -130,9 +104,9 @@ class PaperLocator:
 class CorrectedLocator:
     """The corrected estimator: calibration on the range, yaw from the full quaternion."""
 
-    cameras: _Cameras
+    cameras: Cameras
 
-    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate:
+    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
         e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
                                     self.cameras.calibrations[robot],
                                     centre_px=self.cameras.centres[robot], robot=robot)
@@ -140,58 +114,14 @@ class CorrectedLocator:
                              pose.yaw_rad, self.cameras.visibility(robot, det, e.range_m))
 
 
-def _cameras(robots: Sequence[str], metadata: Mapping[str, Mapping[str, Any]], source: str,
-             calibration_file: Path | None) -> _Cameras:
-    """Each robot's camera from the log's metadata (the paper's when it names none), and the
-    calibration file, when given, for every robot."""
-    centres: dict[str, tuple[float, float]] = {}
-    models: dict[str, cam.CameraModel] = {}
-    calibrations: dict[str, cal.Calibration] = {}
-    for robot in robots:
-        centres[robot] = DEFAULT_CENTRE_PX
-        calibrations[robot] = cal.PAPER_CALIBRATION
-        if robot in metadata:
-            try:
-                model = cam.camera_from_dict(dict(metadata[robot]))
-            except (ValueError, TypeError, EstimatorError) as err:
-                raise CalibrationError(
-                    f"{source} metadata {contract.CAMERAS_METADATA}[{robot}]", str(err)
-                ) from err
-            centres[robot] = (float(model.centre_px[0]), float(model.centre_px[1]))
-            calibrations[robot] = cal.CameraCalibration(model)
-            models[robot] = model
-    fit_rms_m = 0.0
-    if calibration_file is not None:
-        model_from_file, fit_rms_m = _read_calibration(Path(calibration_file))
-        calibrations = dict.fromkeys(robots, model_from_file)
-    return _Cameras(centres, models, calibrations, fit_rms_m)
-
-
-def _read_calibration(path: Path) -> tuple[cal.Calibration, float]:
-    """The calibration in ``path`` and its fit's residual RMS [m] (0 when not recorded)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
-    try:
-        model = cal.calibration_from_json(text)
-        fit = json.loads(text).get("fit") or {}
-        rms = float(fit.get("rms_m", 0.0)) if isinstance(fit, dict) else 0.0
-    except (ValueError, TypeError, KeyError, EstimatorError) as err:
-        raise CalibrationError(path, str(err)) from err
-    if not (math.isfinite(rms) and rms >= 0.0):
-        raise CalibrationError(path, f"fit rms_m = {rms} must be a finite number >= 0")
-    return model, rms
-
-
 class FrameEstimator:
     """The estimator as the options choose it: detection, the method's locator, the fusion."""
 
     def __init__(self, *, method: str, fusion_method: str, robots: Sequence[str],
-                 camera_metadata: Mapping[str, Mapping[str, Any]], source: str,
+                 camera_metadata: Mapping[str, Mapping[str, object]], source: str,
                  calibration_file: Path | None = None, smooth: bool = False,
                  noise: str = "cambada") -> None:
-        self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
+        self.cameras = cameras_for(robots, camera_metadata, source, calibration_file)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
         self.noise: Noise = CalibratedNoise(
@@ -203,7 +133,7 @@ class FrameEstimator:
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
             self.fusion = fusion.get_fusion(
                 fusion_method, noise=self.noise if noise == "calibrated" else None)
-        self._deferred: _Deferred | None = None
+        self._deferred: SmoothedSteps | None = None
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
@@ -243,26 +173,13 @@ class FrameEstimator:
         holds the steps back until :meth:`flush`."""
         if self.tracker is None or not self.tracker.record:
             return list(sinks)
-        self._deferred = _Deferred(self, list(sinks))
+        self._deferred = SmoothedSteps(self.tracker, list(sinks))
         return [self._deferred]
 
     def flush(self) -> None:
         """Once the log is read: the held-back steps, smoothed, to the sinks."""
         if self._deferred is not None:
             self._deferred.flush()
-
-    def smoothed_step(self, step: StepResult, smooth: SmoothedTrack) -> StepResult:
-        """``step`` with the smoothed track in place of the causal one (where there was one)."""
-        g = None if step.fused is None else smooth.state_at(step.stamp_ns)
-        if g is None:
-            return step
-        x, p = g
-        fused = FusedEstimate(float(x[0]), float(x[1]), covariance_rows(p[:2, :2]),
-                                     step.fused.robots)
-        err = None if step.truth is None else math.hypot(fused.x_m - step.truth[0],
-                                                         fused.y_m - step.truth[1])
-        return replace(step, fused=fused, error_m=err, velocity_m_s=(float(x[2]), float(x[3])),
-                       velocity_covariance=covariance_rows(p[2:, 2:]))
 
     def step_window_ns(self, window_ns: int) -> int:
         """The window that groups frames into steps: the fusion window, or 1 ns for the
@@ -300,39 +217,11 @@ class FrameEstimator:
         if state is None or not state.confirmed:  # a tentative track may be a false blob
             return None, None, None
         fused = FusedEstimate(state.x_m, state.y_m, state.position_covariance,
-                                     tracker.accepted_at(stamp_ns))
+                              tracker.accepted_at(stamp_ns))
         return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
 
 
 def _ball(e: RobotEstimate, r_px: float | None = None) -> BallEstimate:
     return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
-                                  range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m,
-                                  y_m=e.y_m, visibility=e.visibility, r_px=r_px)
-
-
-class _Deferred(SinkBase):
-    """Sinks behind the offline smoother: frames pass at once, steps wait for the whole
-    log (:meth:`flush`), then go on with the smoothed track (the ``--smooth`` option)."""
-
-    def __init__(self, estimator: FrameEstimator, sinks: list[Sink]) -> None:
-        self.estimator = estimator
-        self.sinks = sinks
-        self._steps: list[StepResult] = []
-
-    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
-        for sink in self.sinks:
-            sink.frame(result, image_bgr)
-
-    def step(self, result: StepResult) -> None:
-        self._steps.append(result)
-
-    def flush(self) -> None:
-        tracker = self.estimator.tracker
-        assert tracker is not None
-        tracker.finish()
-        smooth = tracker.smoothed()
-        for step in self._steps:
-            smoothed = self.estimator.smoothed_step(step, smooth)
-            for sink in self.sinks:
-                sink.step(smoothed)
-        self._steps.clear()
+                        range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
+                        visibility=e.visibility, r_px=r_px)

@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 
-from replay.results import DECIMALS
 from replay.scenes import (
     CONFIGS,
     Config,
@@ -35,6 +34,7 @@ from replay.scenes import (
     run_scene,
     serial_map,
 )
+from replay.sinks.results_json import DECIMALS
 
 __all__ = [
     "CONFIGS",

@@ -41,8 +41,8 @@ from dsp.metadata import MetadataError, ScenarioMetadata
 from estimator.fusion import FUSION_METHODS
 from replay.evaluate import rounded_doc
 from replay.options import ReplayOptions
-from replay.results import ResultsCollector
 from replay.runner import replay
+from replay.sinks import ResultsCollector
 
 __all__ = [
     "CAPTURE_ERROR_M",

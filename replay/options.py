@@ -108,9 +108,9 @@ class ReplayOptions:
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
-    """The estimates as CSV (:mod:`replay.exports`)."""
+    """The estimates as CSV (:mod:`replay.sinks.csv_export`)."""
     plot: Path | None = None
-    """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
+    """A figure of the replay, .png or .svg (:mod:`replay.sinks.figure`)."""
     force: bool = False
     rerun: RerunTarget | None = None
     threads: int | None = None

@@ -24,25 +24,21 @@ import sys
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from dsp.cli import Progress
 from dsp.errors import UsageError
 from estimator.errors import EstimatorError
 from replay.ahead import Ahead, decode_and_detect
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
 from replay.estimation import FrameEstimator
-from replay.log import ImageMessage, LogReader, PoseMessage, TruthMessage
+from replay.log import ImageMessage, LogReader, PoseMessage, RecoveryLoss, TruthMessage
 from replay.options import ReplayOptions, Timing
-from replay.results import (
-    FrameResult,
-    FrameStatus,
-    ResultsHeader,
-    ResultsWriter,
-)
+from replay.records import FrameResult, FrameStatus
 from replay.selection import check_selected, check_selection
 from replay.sink import Sink
+from replay.sinks.outputs import OutputContext, open_outputs
 from replay.stats import ReplayStats, ReplaySummary
 from replay.sync import (
     DelayLine,
@@ -107,38 +103,16 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         if p is not None))
 
 
-def _open_outputs(stack: contextlib.ExitStack, reader: LogReader, options: ReplayOptions,
-                  estimator: FrameEstimator, stats: ReplayStats) -> list[Sink]:
+def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
+                  options: ReplayOptions, estimator: FrameEstimator,
+                  stats: ReplayStats) -> list[Sink]:
     """The sinks the options ask for, each entered in ``stack``."""
-    info = reader.info
-    digest = file_digest(reader.path)
-    sinks: list[Sink] = []
-    if options.out is not None:
-        header = ResultsHeader(file=reader.path.name, sha256=digest, robots=info.robots,
-                               options=options.results_view())
-        sinks.append(stack.enter_context(
-            ResultsWriter(Path(options.out), header=header, stats=stats, force=options.force)))
-    if options.out_mcap is not None:
-        from replay.mcap_sink import McapSink
-
-        sinks.append(stack.enter_context(McapSink(Path(options.out_mcap), force=options.force)))
-    if options.out_csv is not None or options.plot is not None:
-        from replay.exports import open_exports
-
-        sinks.extend(open_exports(stack, info, options))
-    if options.rerun is not None:
-        from replay.rerun_sink import RerunSink
-
-        sinks.append(stack.enter_context(RerunSink(
-            options.rerun, info=info, digest=digest, options=options,
-            centres=estimator.centres)))
-    return sinks
+    return open_outputs(stack, options, OutputContext(
+        reader.info, reader.path.name, file_digest(reader.path), stats, estimator.centres))
 
 
-def _recovered(reader: LogReader) -> dict[str, Any] | None:
-    if not reader.recover:
-        return None
-    return reader.loss.to_dict()
+def _recovered(reader: LogReader) -> RecoveryLoss | None:
+    return reader.loss if reader.recover else None
 
 
 def _warn(reader: LogReader, options: ReplayOptions) -> None:
@@ -169,7 +143,7 @@ def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
 
 
 @contextlib.contextmanager
-def _progress(options: ReplayOptions, reader: LogReader) -> Iterator[Any]:
+def _progress(options: ReplayOptions, reader: LogReader) -> Iterator[Progress | None]:
     """Progress over the log's messages (``progress`` None: a bar on a terminal, plain
     lines otherwise; :func:`dsp.cli.progress_bar`), or None when there is none."""
     if options.progress is False:
@@ -205,7 +179,7 @@ class _Stream:
         self.steps = 0
         self.next_tick: int | None = None
 
-    def run(self, bar: Any) -> None:
+    def run(self, bar: Progress | None) -> None:
         t = self.timing
         for msg in self.reader.messages(start_ns=t.read_from_ns):
             if bar is not None:

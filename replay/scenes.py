@@ -23,8 +23,8 @@ from typing import Any
 
 from estimator.fusion import FUSION_METHODS
 from replay.options import ReplayOptions
-from replay.results import ResultsCollector
 from replay.runner import replay
+from replay.sinks import ResultsCollector
 
 __all__ = [
     "CONFIGS",

@@ -21,7 +21,7 @@ from replay.log.decode import DEFAULT_MAX_PIXELS, decode_image, image_size
 from replay.log.mcap_records import DEFAULT_MAX_CHUNK_BYTES, DEFAULT_MAX_MESSAGE_BYTES, Limits
 from replay.log.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage
 from replay.log.reader import LogInfo, LogReader
-from replay.log.recovery import RecoveryLoss, describe
+from replay.log.recovery import RecoveryLoss
 
 __all__ = [
     "DEFAULT_MAX_CHUNK_BYTES",
@@ -39,7 +39,6 @@ __all__ = [
     "build_catalogue",
     "check_mcap_file",
     "decode_image",
-    "describe",
     "image_size",
     "read_all_blocks",
 ]

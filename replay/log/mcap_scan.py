@@ -17,10 +17,11 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
 from mcap.records import Channel, Schema
 
+from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from replay.errors import CorruptLogError, TruncatedLogError
 from replay.log.mcap_records import (
@@ -71,7 +72,7 @@ class Damage:
     chunks: int = 0
     """Chunks lost in it (whole or in part)."""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         """A results file's ``log.recovered.lost`` entry."""
         return {"offset": self.offset, "bytes": self.length, "reason": self.reason,
                 "start_s": None if self.start_ns is None else self.start_ns / NS_PER_S,

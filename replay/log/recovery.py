@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
 
+from dsp.jsonio import Json
+from estimator.constants import NS_PER_S
 from replay.log.mcap_scan import Damage
 
-__all__ = ["RecoveryLoss", "describe"]
+__all__ = ["RecoveryLoss"]
 
 
 @dataclass
@@ -63,7 +64,7 @@ class RecoveryLoss:
             readable_end_ns=readable_end_ns,
         )
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         """The results file's ``log.recovered``."""
         return {"truncated": self.truncated, "lost_bytes": self.lost_bytes,
                 "file_bytes": self.file_bytes, "bad_chunks": self.bad_chunks,
@@ -71,30 +72,25 @@ class RecoveryLoss:
                 "lost": [s.to_dict() for s in self.spans], "problems": list(self.problems)}
 
     def describe(self) -> list[str]:
-        """Lines for a terminal (see :func:`describe`)."""
-        return describe(self.to_dict())
+        """Lines for a terminal: nothing lost, or each lost stretch with the sim times it
+        held."""
+        if self.nothing_lost:
+            return ["recovered: nothing lost (the log is intact)"]
+        lost = self.lost_messages
+        lines = [f"recovered: lost {self.lost_bytes} of {self.file_bytes} bytes "
+                 f"in {len(self.spans)} stretch(es): {self.bad_chunks} chunk(s), "
+                 f"{'an unknown number of' if lost is None else lost} message(s)"
+                 f"{'; the log is cut short' if self.truncated else ''}"]
+        for d in self.spans:
+            lines.append(f"  bytes {d.offset}..{d.offset + d.length}: {_time_range(d)}: "
+                         f"{d.reason}")
+        lines.extend(f"  problem: {p}" for p in self.problems)
+        return lines
 
 
-def describe(recovered: dict[str, Any]) -> list[str]:
-    """A results file's ``log.recovered`` for a terminal: nothing lost, or each lost stretch
-    with the sim times it held."""
-    spans, problems = recovered.get("lost", []), recovered.get("problems", [])
-    if not spans and not problems:
-        return ["recovered: nothing lost (the log is intact)"]
-    lost = recovered.get("lost_messages")
-    lines = [f"recovered: lost {recovered['lost_bytes']} of {recovered['file_bytes']} bytes "
-             f"in {len(spans)} stretch(es): {recovered['bad_chunks']} chunk(s), "
-             f"{'an unknown number of' if lost is None else lost} message(s)"
-             f"{'; the log is cut short' if recovered['truncated'] else ''}"]
-    for s in spans:
-        lines.append(f"  bytes {s['offset']}..{s['offset'] + s['bytes']}: {_time_range(s)}: "
-                     f"{s['reason']}")
-    lines.extend(f"  problem: {p}" for p in problems)
-    return lines
-
-
-def _time_range(s: dict[str, Any]) -> str:
-    start, end = s.get("start_s"), s.get("end_s")
+def _time_range(d: Damage) -> str:
+    start = None if d.start_ns is None else d.start_ns / NS_PER_S
+    end = None if d.end_ns is None else d.end_ns / NS_PER_S
     if start is not None and end is not None and end >= start:
         return f"sim time {start:.3f}..{end:.3f} s lost"
     if start is not None:

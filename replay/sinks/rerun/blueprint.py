@@ -20,7 +20,7 @@ from collections.abc import Sequence
 import rerun.blueprint as rrb
 
 from dsp.field import FieldSpec
-from replay.style import FIELD_BACKGROUND
+from replay.sinks.style import FIELD_BACKGROUND
 
 __all__ = ["KINDS", "blueprint", "scenario_kind"]
 

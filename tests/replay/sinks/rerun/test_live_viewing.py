@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 
 from replay.options import ReplayOptions, RerunTarget
-from replay.rerun_live import ViewerServer, grpc_address, reachable
-from replay.results import FrameResult
+from replay.records import FrameResult
 from replay.runner import replay
 from replay.sink import SinkBase
+from replay.sinks.rerun.live import ViewerServer, grpc_address, reachable
 
-ROLLING = Path(__file__).resolve().parents[2] / "logs" / "golden" / "rolling.mcap"
+ROLLING = Path(__file__).resolve().parents[4] / "logs" / "golden" / "rolling.mcap"
 
 
 def _run(*args: str, env: dict[str, str] | None = None) -> tuple[subprocess.CompletedProcess[str],

@@ -3,8 +3,8 @@
 Uses its own :class:`rerun.RecordingStream` (never the global one) whose recording id is
 derived from the log's SHA-256 and the options, so the same replay is the same recording.
 The entity paths and timelines are listed in ``docs/viewer.md`` (:data:`ENTITY_PATHS`,
-checked against a saved .rrd by the tests); the layout is :mod:`replay.rerun_blueprint`,
-the colours and sizes :mod:`replay.style`; live viewing is :mod:`replay.rerun_live`.
+checked against a saved .rrd by the tests); the layout is :mod:`replay.sinks.rerun.blueprint`,
+the colours and sizes :mod:`replay.sinks.style`; live viewing is :mod:`replay.sinks.rerun.live`.
 
 A series in a plot is broken where there is no value (a frame without an estimate or
 without ground truth): the sink logs a :class:`rerun.Clear` there, which Rerun draws as a
@@ -21,18 +21,22 @@ import uuid
 from collections import deque
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
 
 from dsp.atomic import AtomicFile
 from dsp.errors import UsageError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
+from estimator.constants import NS_PER_S
+from estimator.estimates import Covariance
 from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
-from replay.rerun_blueprint import blueprint, scenario_kind
-from replay.rerun_live import (
+from replay.records import FrameResult, StepResult
+from replay.sink import SinkBase
+from replay.sinks.rerun.blueprint import blueprint, scenario_kind
+from replay.sinks.rerun.live import (
     Liveness,
     ViewerUnavailableError,
     check_display,
@@ -40,9 +44,7 @@ from replay.rerun_live import (
     grpc_address,
     reachable,
 )
-from replay.results import FrameResult, StepResult
-from replay.sink import SinkBase
-from replay.style import (
+from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
     FIELD_LINE_COLOUR,
@@ -81,7 +83,7 @@ TRAIL_S = 3.0
 _BALL_Z = BALL_RADIUS_M
 
 
-def recording_id(digest: str, options: dict[str, Any]) -> str:
+def recording_id(digest: str, options: Mapping[str, object]) -> str:
     """A UUID derived from the log's hash and the options (same input -> same recording)."""
     text = json.dumps({"sha256": digest, "options": options}, sort_keys=True, default=str)
     return str(uuid.UUID(bytes=hashlib.sha256(text.encode()).digest()[:16], version=4))
@@ -92,7 +94,7 @@ def field_lines(spec: FieldSpec) -> list[list[tuple[float, float]]]:
     return polylines(spec)
 
 
-def _ellipse(x: float, y: float, cov: Any, k: float = 2.0, n: int = 48) -> np.ndarray:
+def _ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
     c = np.asarray(cov, dtype=np.float64)
     vals, vecs = np.linalg.eigh(0.5 * (c + c.T))
     vals = np.sqrt(np.clip(vals, 0.0, None)) * k
@@ -132,7 +134,7 @@ class RerunSink(SinkBase):
         self._trail: deque[tuple[int, float, float]] = deque()
         self._open(force=options.force)
 
-    def blueprint(self) -> Any:
+    def blueprint(self) -> rrb.Blueprint:
         return blueprint(self.info.robots, self.field, self.kind)
 
     def _open(self, *, force: bool) -> None:
@@ -229,8 +231,8 @@ class RerunSink(SinkBase):
             rec.log(f"{cam}/detection/centroid",
                     rr.Points2D([(cx, cy)], labels=[f"({cx:.1f}, {cy:.1f})"],
                                 colors=[BALL_COLOUR], radii=5.0, show_labels=True))
-            outline = getattr(det, "outline_px", None)
-            if outline is not None and len(outline) >= 3:
+            outline = det.outline_px
+            if len(outline) >= 3:
                 pts = np.asarray(outline, dtype=np.float32).reshape(-1, 2)
                 rec.log(f"{cam}/detection/outline",
                         rr.LineStrips2D([np.vstack([pts, pts[:1]])], colors=[OUTLINE_COLOUR],
@@ -305,19 +307,18 @@ class RerunSink(SinkBase):
 
     def _track(self, result: StepResult) -> None:
         """The tracker's trail, velocity arrow and speed, when the step carries a velocity."""
-        velocity = getattr(result, "velocity_m_s", None)
-        truth_velocity = getattr(result, "truth_velocity_m_s", None)
+        velocity, truth_velocity = result.velocity_m_s, result.truth_velocity_m_s
         if truth_velocity is not None:
             self._scalar("/plots/speed/truth", math.hypot(*truth_velocity))
         fused = result.fused
         if velocity is None or fused is None:
-            if velocity is None and getattr(result, "velocity_covariance", None) is None:
+            if velocity is None and result.velocity_covariance is None:
                 return
             self.rec.log("/field/track", rr.Clear(recursive=True))
             self._scalar("/plots/speed/track", None)
             return
         self._trail.append((result.stamp_ns, fused.x_m, fused.y_m))
-        while self._trail and result.stamp_ns - self._trail[0][0] > TRAIL_S * 1e9:
+        while self._trail and result.stamp_ns - self._trail[0][0] > TRAIL_S * NS_PER_S:
             self._trail.popleft()
         self.rec.log("/field/track/trail",
                      rr.LineStrips3D([[(x, y, 0.03) for _, x, y in self._trail]],

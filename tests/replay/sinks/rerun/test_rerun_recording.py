@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 
 from replay.options import ReplayOptions, RerunTarget
-from replay.rerun_sink import ENTITY_PATHS, TIMELINES
 from replay.runner import replay
+from replay.sinks.rerun.sink import ENTITY_PATHS, TIMELINES
 
 chunk = pytest.importorskip("rerun.chunk")
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[4]
 DOC = (ROOT / "docs" / "viewer.md").read_text()
 ROBOTS = ("robot1", "robot2", "robot3")
 

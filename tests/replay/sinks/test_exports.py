@@ -14,11 +14,11 @@ import pytest
 from dsp.cli import LineProgress
 from dsp.errors import UsageError
 from replay.cli import main as replay_main
-from replay.exports import CSV_COLUMNS
 from replay.options import ReplayOptions
 from replay.runner import replay
+from replay.sinks.csv_export import CSV_COLUMNS
 
-GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
+GOLDEN = Path(__file__).resolve().parents[3] / "logs" / "golden"
 
 
 @pytest.fixture(scope="module")

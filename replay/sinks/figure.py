@@ -9,20 +9,24 @@ robots' footprints where they first stood. Drawn with matplotlib (:mod:`dsp.plot
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from dsp.field import polylines
 from dsp.plotting import figure
-from replay.exports import ReplayTrace
-from replay.style import (
+from replay.sinks.style import (
     FUSED_COLOUR,
     ROBOT_FOOTPRINT_M,
     footprint,
     hex_colour,
     robot_colour,
 )
+from replay.sinks.trace import ReplayTrace
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = ["replay_figure"]
 
@@ -30,7 +34,7 @@ _TRUTH_DARK = "#8a7a00"
 """The truth's yellow is for the grass of the viewer; on paper a darker olive reads."""
 
 
-def _errors(ax: Any, trace: ReplayTrace) -> None:
+def _errors(ax: Axes, trace: ReplayTrace) -> None:
     for i, robot in enumerate(trace.robots):
         rows = np.array(trace.frames.get(robot) or np.empty((0, 4)), dtype=float).reshape(-1, 4)
         ax.plot(rows[:, 0], rows[:, 1], "-o", ms=2.5, lw=1.0, label=robot,
@@ -46,7 +50,7 @@ def _errors(ax: Any, trace: ReplayTrace) -> None:
     ax.set_title("error over time", fontsize="medium")
 
 
-def _field(ax: Any, trace: ReplayTrace) -> None:
+def _field(ax: Axes, trace: ReplayTrace) -> None:
     spec = trace.field
     for line in polylines(spec):
         xy = np.array(line)
@@ -83,7 +87,7 @@ def _field(ax: Any, trace: ReplayTrace) -> None:
     ax.set_title(f"top-down ({spec.name} field)", fontsize="medium")
 
 
-def replay_figure(trace: ReplayTrace) -> Any:
+def replay_figure(trace: ReplayTrace) -> Figure:
     """The figure of a replay (a :class:`matplotlib.figure.Figure`)."""
     fig, (left, right) = figure(11.0, 4.4, ncols=2, width_ratios=[1.0, 1.35])
     _errors(left, trace)

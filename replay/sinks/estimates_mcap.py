@@ -16,14 +16,14 @@ renamed on success.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
+from mcap.records import Schema
 from mcap_ros2.writer import Writer
 
 from dsp import contract
 from dsp.atomic import AtomicFile
-from replay.results import FrameResult, StepResult
+from replay.records import FrameResult, StepResult
 from replay.sink import SinkBase
 
 __all__ = ["BALL_FRAME", "FUSED_TOPIC", "ODOMETRY_TOPIC", "ROBOT_TOPIC", "McapSink"]
@@ -42,7 +42,7 @@ class McapSink(SinkBase):
         self._out = AtomicFile(path, force=force)
         self._file = self._out.stream()
         self._writer = Writer(self._file)
-        self._schemas: dict[str, Any] = {}
+        self._schemas: dict[str, Schema] = {}
         for name in (contract.POINT_STAMPED, contract.POSE_WITH_COVARIANCE_STAMPED):
             self._schemas[name] = self._writer.register_msgdef(
                 name, contract.MESSAGE_DEFINITIONS[name]

@@ -24,7 +24,7 @@ from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, 
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS
-from replay.batch_cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
+from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
 from replay.runner import replay
 from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT

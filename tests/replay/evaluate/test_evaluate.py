@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import math
-import random
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from synthetic import B_M, write_log
+from fake_scenes import FakeRecorder
+from synthetic import B_M
 
 from replay.evaluate import (
     CONFIGS,
@@ -20,36 +19,6 @@ from replay.evaluate import (
     run_paper_suite,
     run_random_suite,
 )
-
-# docs/method.md: the paper's four scenarios (robot x, y, yaw; ball)
-PAPER_ROBOTS = {
-    "scenario1": {"robot1": (-8.5, 0.0, 0.0), "robot2": (-2.0, 1.0, 0.0),
-                  "robot3": (-2.0, -1.0, 0.0)},
-    "scenario4": {"robot1": (-8.5, 0.0, 0.0), "robot2": (-2.0, 3.0, -math.pi / 2),
-                  "robot3": (-5.0, -2.0, math.pi / 4)},
-}
-PAPER_ROBOTS["scenario2"] = PAPER_ROBOTS["scenario3"] = PAPER_ROBOTS["scenario1"]
-
-
-class FakeRecorder:
-    """Writes synthetic logs (the paper's ideal camera, no pybullet) and counts calls."""
-
-    def __init__(self) -> None:
-        self.calls: list[tuple[str, int]] = []
-
-    def __call__(self, path: Path, scenario: str, seed: int) -> None:
-        self.calls.append((scenario, seed))
-        if scenario == "random":
-            rng = random.Random(seed)
-            ball = (rng.uniform(-4, 4), rng.uniform(-3, 3))
-            robots = {f"robot{i}": (ball[0] + rng.uniform(-6, 6), ball[1] + rng.uniform(-5, 5),
-                                    rng.uniform(-math.pi, math.pi)) for i in (1, 2, 3)}
-            if seed % 2:  # odd seeds: only robot1 near enough for "dual sight"
-                robots["robot2"] = (ball[0] - 9.5, ball[1], 0.0)
-                robots["robot3"] = (ball[0], ball[1] - 9.8, math.pi / 2)
-        else:
-            robots, ball = PAPER_ROBOTS[scenario], PAPER_TRUTH[scenario]
-        write_log(path, robots=robots, ball=ball, duration_s=0.3, image_hz=10.0)
 
 
 def test_paper_suite_reproduces_table1_character(tmp_path: Path) -> None:
@@ -113,7 +82,7 @@ def test_random_suite_bands_and_dual_sight(tmp_path: Path) -> None:
 def test_cli_bad_input_is_one_line(tmp_path: Path, args: list[str], code: int,
                                    message: str) -> None:
     (tmp_path / "bad.json").write_text("not json")
-    done = subprocess.run([sys.executable, "-m", "replay.evaluate_cli", "--out-dir",
+    done = subprocess.run([sys.executable, "-m", "replay.evaluate.cli", "--out-dir",
                            str(tmp_path), *args], capture_output=True, text=True, timeout=120,
                           cwd=tmp_path)
     assert done.returncode == code  # usage 2, bad input 1 (dsp.errors)

@@ -14,7 +14,7 @@
 - Per log ``DIR/<stem>.json``: the same bytes as ``dsp-replay LOG --out X.json`` with the
   same options (the results file names the log by its file name only); with
   ``estimates_mcap`` also ``DIR/<stem>.estimates.mcap``.
-- ``DIR/batch-summary.{json,csv,md}`` (:mod:`replay.batch_summary`): one row per log in
+- ``DIR/batch-summary.{json,csv,md}`` (:mod:`replay.batch.summary`): one row per log in
   that order, and the totals. A log that fails is a row with its one-line error; the others
   still run; :func:`replay_batch` returns, and the command then exits 1.
 - Each log is one task of :func:`replay.parallel.map_tasks` (serial, process pool or Ray).
@@ -40,7 +40,7 @@ from dsp.atomic import atomic_output, check_distinct
 from dsp.cli import progress_bar
 from dsp.errors import DspError, InputError, OutputExistsError, UsageError
 from dsp.text import printable
-from replay.batch_summary import BatchSummary, ErrorSums, LogRow
+from replay.batch.summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError
 from replay.options import ReplayOptions
 from replay.parallel import Outcome, Workers, map_tasks

@@ -15,12 +15,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from fake_scenes import FakeRecorder
 from synthetic import write_log
-from test_evaluate import FakeRecorder
 
-import replay.batch
+import replay.batch.run
 import replay.cli
-import replay.evaluate_cli
+import replay.evaluate.cli
 from dsp.errors import EXIT_INPUT, EXIT_OUTPUT_EXISTS, EXIT_USAGE, DspError
 from replay.batch import LogTask, collect_logs, replay_log
 from replay.options import ReplayOptions
@@ -60,7 +60,7 @@ def _record_eval_logs(d: Path, count: int) -> None:
 
 def run_eval(d: Path, *flags: str) -> dict[str, bytes]:
     _record_eval_logs(d, 2)
-    assert replay.evaluate_cli.main(["--suite", "random", "--count", "2", "--out-dir", str(d),
+    assert replay.evaluate.cli.main(["--suite", "random", "--count", "2", "--out-dir", str(d),
                                      "-q", *flags]) == 0
     return files(d)
 
@@ -147,7 +147,7 @@ def test_ray_without_ray_says_how_to_install_it(
         capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     assert run_batch(logs, tmp_path / "out", "--ray") == EXIT_USAGE
-    assert replay.evaluate_cli.main(["--out-dir", str(tmp_path), "--ray"]) == EXIT_USAGE
+    assert replay.evaluate.cli.main(["--out-dir", str(tmp_path), "--ray"]) == EXIT_USAGE
     err = capsys.readouterr().err.splitlines()
     assert err == ["dsp-replay: error: --ray needs Ray: pip install 'dual-sight[ray]' "
                    "(or pip install -e '.[ray]')",
@@ -214,13 +214,13 @@ def test_ray_batch_and_eval_are_the_same_bytes_as_serial(
 def test_logs_may_follow_the_options_and_pool_workers_replay_on_one_thread(
         logs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     seen: list[int | None] = []
-    real = replay.batch.replay_log
+    real = replay.batch.run.replay_log
 
     def spy(task: LogTask) -> Any:
         seen.append(task.options.threads)
         return real(task)
 
-    monkeypatch.setattr(replay.batch, "map_tasks",
+    monkeypatch.setattr(replay.batch.run, "map_tasks",
                         lambda fn, tasks, workers, on_done: [
                             on_done(i, Outcome(spy(t), None)) for i, t in enumerate(tasks)])
     out = tmp_path / "out"

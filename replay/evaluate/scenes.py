@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from estimator.fusion import FUSION_METHODS
 from replay.options import ReplayOptions
@@ -38,6 +38,9 @@ __all__ = [
     "run_scene",
     "serial_map",
 ]
+
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -83,8 +86,9 @@ SceneMapper = Callable[[Callable[[SceneTask], Any], Sequence[SceneTask]], Iterab
 """map(run_scene, tasks): the results in task order (serial, a process pool, Ray)."""
 
 
-def serial_map(fn: Callable[[SceneTask], Any], tasks: Sequence[SceneTask]) -> list[Any]:
-    """The default :data:`SceneMapper`: one scene after the other, in this process."""
+def serial_map(fn: Callable[[T], R], tasks: Sequence[T]) -> list[R]:
+    """The default :data:`SceneMapper` (and the match suite's mapper): one task after the
+    other, in this process."""
     return [fn(task) for task in tasks]
 
 

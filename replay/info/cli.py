@@ -16,7 +16,7 @@ from pathlib import Path
 from dsp.cli import add_common_arguments, run_main
 from dsp.errors import EXIT_INPUT
 from replay.errors import CorruptLogError, ReplayError, TruncatedLogError
-from replay.info import format_info, log_info
+from replay.info.summary import format_info, log_info
 
 __all__ = ["build_parser", "main"]
 

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from replay.scenes import (
+from replay.evaluate.scenes import (
     CONFIGS,
     Config,
     Recorder,
@@ -40,7 +40,9 @@ __all__ = [
     "CONFIGS",
     "DISTANCE_BANDS_M",
     "PAPER_RMSE_M",
+    "PAPER_SCENARIOS",
     "PAPER_TABLE1",
+    "PAPER_TRUTH",
     "Config",
     "PaperSuite",
     "RandomScene",

@@ -1,4 +1,4 @@
-"""The Ray side of :func:`replay.parallel.map_tasks` (imported only for ``--ray``).
+"""The Ray side of :func:`replay.parallel.map_tasks` (Ray is imported only for ``--ray``).
 
 Ray's own conventions (checked against Ray 2.x's ``ray.init``): with ``RAY_ADDRESS`` set,
 ``ray.init()`` joins that cluster (``auto`` finds one started on this machine with ``ray
@@ -14,10 +14,10 @@ import logging
 import os
 from collections.abc import Callable, Sequence
 from types import ModuleType
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from dsp.errors import InputError
-from replay.parallel import (
+from replay.parallel.tasks import (
     RAY_MAX_RETRIES,
     Done,
     Outcome,
@@ -40,11 +40,11 @@ def import_ray() -> ModuleType:
         raise RayUnavailableError() from err
 
 
-def _init(ray: Any, workers: Workers) -> bool:
+def _init(ray: ModuleType, workers: Workers) -> bool:
     """Initialise Ray unless it already is; True when this call started it."""
     if ray.is_initialized():
         return False
-    quiet: dict[str, Any] = {"logging_level": logging.ERROR, "log_to_driver": False}
+    quiet: dict[str, object] = {"logging_level": logging.ERROR, "log_to_driver": False}
     address = os.environ.get("RAY_ADDRESS")
     try:
         if address:
@@ -65,7 +65,7 @@ def _one_line(err: BaseException) -> str:
 
 def map_ray(call: Callable[[Callable[[T], R], int, T], tuple[int, Outcome[R]]],
             fn: Callable[[T], R], args: Sequence[T], workers: Workers, *,
-            on_done: Done | None, fail_fast: bool) -> list[Outcome[R]]:
+            on_done: Done[R] | None, fail_fast: bool) -> list[Outcome[R]]:
     """Submit ``call(fn, i, arg)`` for every argument as a Ray task; outcomes in order."""
     ray = import_ray()
     started = _init(ray, workers)
@@ -79,10 +79,10 @@ def map_ray(call: Callable[[Callable[[T], R], int, T], tuple[int, Outcome[R]]],
             ray.shutdown()
 
 
-def _collect(ray: Any, refs: list[Any], on_done: Done | None,
-             fail_fast: bool) -> list[Outcome[Any]]:
+def _collect(ray: ModuleType, refs: list[object], on_done: Done[R] | None,
+             fail_fast: bool) -> list[Outcome[R]]:
     index = {ref: i for i, ref in enumerate(refs)}
-    results: list[Outcome[Any] | None] = [None] * len(refs)
+    results: list[Outcome[R] | None] = [None] * len(refs)
     pending = list(refs)
     try:
         while pending:
@@ -105,6 +105,6 @@ def _collect(ray: Any, refs: list[Any], on_done: Done | None,
     return [r for r in results if r is not None]
 
 
-def _cancel(ray: Any, refs: list[Any]) -> None:
+def _cancel(ray: ModuleType, refs: list[object]) -> None:
     for ref in refs:
         ray.cancel(ref, force=True)

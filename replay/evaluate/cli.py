@@ -28,22 +28,22 @@ from dsp.errors import CalibrationError, InputError, UsageError
 from dsp.jsonio import dumps as strict_json
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
-from replay.evaluate import (
-    PAPER_SCENARIOS,
-    paper_markdown,
-    random_markdown,
-    run_paper_suite,
-    run_random_suite,
-)
-from replay.evaluate_match import (
+from replay.evaluate.match import (
     MatchLogScore,
     MatchOptions,
     MatchTask,
     match_markdown,
     run_match_suite,
 )
+from replay.evaluate.scenes import SceneMapper, SceneTask
+from replay.evaluate.suites import (
+    PAPER_SCENARIOS,
+    paper_markdown,
+    random_markdown,
+    run_paper_suite,
+    run_random_suite,
+)
 from replay.parallel import Outcome, Workers, add_worker_arguments, map_tasks, workers_from_args
-from replay.scenes import SceneMapper, SceneTask
 
 __all__ = ["SimRecorder", "build_parser", "main"]
 

@@ -3,7 +3,7 @@
     dsp-replay LOG|FOLDER [LOG|FOLDER ...] --out-dir DIR [--out-mcap] [--workers N | --ray]
 
 :func:`is_batch` tells the two modes apart; :func:`run_batch` checks the combination of
-flags, calls :func:`replay.batch.replay_batch`, prints the summary table and exits 1 when a
+flags, calls :func:`replay.batch.run.replay_batch`, prints the summary table and exits 1 when a
 log failed (after all the others were replayed and the summary written).
 """
 
@@ -17,7 +17,7 @@ from pathlib import Path
 from dsp.cli import echo, progress_enabled
 from dsp.errors import InputError, UsageError
 from dsp.text import printable
-from replay.batch import SUMMARY_STEM, replay_batch, summary_paths
+from replay.batch.run import SUMMARY_STEM, replay_batch, summary_paths
 from replay.options import ReplayOptions
 from replay.parallel import add_worker_arguments, workers_from_args
 

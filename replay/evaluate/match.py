@@ -39,7 +39,8 @@ import numpy as np
 from dsp import contract
 from dsp.metadata import MetadataError, ScenarioMetadata
 from estimator.fusion import FUSION_METHODS
-from replay.evaluate import rounded_doc
+from replay.evaluate.scenes import serial_map
+from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
 from replay.runner import replay
 from replay.sinks import ResultsCollector
@@ -189,11 +190,6 @@ class MatchLogScore:
 TaskMapper = Callable[[Callable[[MatchTask], MatchLogScore], Sequence[MatchTask]],
                       Iterable[MatchLogScore]]
 """map(run_match_task, tasks): the results in task order (serially, a pool, Ray)."""
-
-
-def serial_map(fn: Callable[[MatchTask], MatchLogScore],
-               tasks: Sequence[MatchTask]) -> list[MatchLogScore]:
-    return [fn(task) for task in tasks]
 
 
 def _distractors(log: Path) -> list[tuple[float, float]]:

@@ -9,8 +9,8 @@ from typing import Any
 
 import pytest
 
-from replay import evaluate_cli
-from replay.evaluate_match import (
+from replay.evaluate import cli as evaluate_cli
+from replay.evaluate.match import (
     CLOCK_ROW,
     MATCH_FUSIONS,
     MatchOptions,

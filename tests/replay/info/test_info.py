@@ -12,7 +12,7 @@ import pytest
 from fuzzing import GOLDEN, m_summary, records, seed_log
 from mcap.writer import CompressionType
 
-from replay.info_cli import main
+from replay.info.cli import main
 
 
 def test_golden_log_at_a_glance(capsys: pytest.CaptureFixture[str]) -> None:

@@ -18,18 +18,12 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from dsp.atomic import atomic_output, check_distinct
-from dsp.checks import check_int, check_number
-from dsp.cli import (
-    add_common_arguments,
-    check_suffix,
-    echo,
-    progress_bar,
-    progress_enabled,
-    run_main,
-)
+from dsp.checks import check_int, check_number, check_suffix
+from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.jsonio import dumps as strict_json
 from dsp.plotting import FIGURE_SUFFIXES, save
+from dsp.progress import progress_bar
 from estimator.calibration import calibration_to_json
 from estimator.camera import make_camera
 from recorder.calibrate import PAPER_FIT, CalibrationRun, calibrate, distances_m

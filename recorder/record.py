@@ -37,9 +37,9 @@ import numpy as np
 from dsp import contract as c
 from dsp import metadata as meta
 from dsp.atomic import AtomicFile, check_output_path, partial_paths
-from dsp.checks import check_int, check_number
-from dsp.cli import check_suffix, progress_bar
+from dsp.checks import check_int, check_number, check_suffix
 from dsp.errors import UsageError
+from dsp.progress import progress_bar
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from estimator.constants import NS_PER_S
 from recorder.errors import RecorderError, UnknownScenarioError
@@ -119,7 +119,7 @@ class RecordOptions:
     renderer: str = "auto"
     force: bool = False
     progress: bool | None = False
-    """True a bar, False none, None plain lines (:func:`dsp.cli.progress_bar`)."""
+    """True a bar, False none, None plain lines (:func:`dsp.progress.progress_bar`)."""
     pose_rate_hz: float | None = None
     camera_phase: str | None = None
     pose_bias_m: float = 0.0

@@ -20,7 +20,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp import contract
-from dsp.cli import add_common_arguments, check_suffix, echo, progress_enabled, run_main
+from dsp.checks import check_suffix
+from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from estimator.fusion import FUSION_METHODS

@@ -118,7 +118,7 @@ class ReplayOptions:
     machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
-    plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
+    plain lines every few seconds when it is not (:func:`dsp.progress.progress_bar`)."""
     quiet: bool = False
     """Print no warnings (a log without camera metadata, skipped bad messages)."""
     max_chunk_mib: float = 128.0

@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dsp.cli import Progress
 from dsp.errors import UsageError
+from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from replay.ahead import Ahead, decode_and_detect
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
@@ -145,12 +145,10 @@ def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
 @contextlib.contextmanager
 def _progress(options: ReplayOptions, reader: LogReader) -> Iterator[Progress | None]:
     """Progress over the log's messages (``progress`` None: a bar on a terminal, plain
-    lines otherwise; :func:`dsp.cli.progress_bar`), or None when there is none."""
+    lines otherwise; :func:`dsp.progress.progress_bar`), or None when there is none."""
     if options.progress is False:
         yield None
         return
-    from dsp.cli import progress_bar
-
     show = True if options.progress is None and sys.stderr.isatty() else options.progress
     with progress_bar(reader.info.message_count, reader.path.name, show, unit="msg") as bar:
         yield bar

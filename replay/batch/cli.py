@@ -19,7 +19,7 @@ from dsp.errors import InputError, UsageError
 from dsp.text import printable
 from replay.batch.run import SUMMARY_STEM, replay_batch, summary_paths
 from replay.options import ReplayOptions
-from replay.parallel import add_worker_arguments, workers_from_args
+from replay.parallel.cli import add_worker_arguments, workers_from_args
 
 __all__ = ["OUT_MCAP_IN_DIR", "add_batch_arguments", "check_single", "is_batch", "run_batch"]
 

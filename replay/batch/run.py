@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from dsp.atomic import atomic_output, check_distinct
-from dsp.cli import progress_bar
 from dsp.errors import DspError, InputError, OutputExistsError, UsageError
+from dsp.progress import progress_bar
 from dsp.text import printable
 from replay.batch.summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError

@@ -23,9 +23,10 @@ from typing import Any
 
 from dsp.atomic import atomic_output, check_distinct
 from dsp.checks import check_int, check_number
-from dsp.cli import add_common_arguments, echo, progress_bar, progress_enabled, run_main
+from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
 from dsp.jsonio import dumps as strict_json
+from dsp.progress import progress_bar
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate.match import (
@@ -43,7 +44,8 @@ from replay.evaluate.suites import (
     run_paper_suite,
     run_random_suite,
 )
-from replay.parallel import Outcome, Workers, add_worker_arguments, map_tasks, workers_from_args
+from replay.parallel import Outcome, Workers, map_tasks
+from replay.parallel.cli import add_worker_arguments, workers_from_args
 
 __all__ = ["SimRecorder", "build_parser", "main"]
 

@@ -3,7 +3,8 @@
 - :mod:`replay.parallel.pool`: :func:`map_tasks`, serial, in a local process pool, or (through
   :mod:`replay.parallel.ray_tasks`) as Ray tasks;
 - :mod:`replay.parallel.tasks`: :class:`Workers`, :class:`Outcome`, :class:`TaskFailure`;
-- :mod:`replay.parallel.cli`: the ``--workers`` / ``--ray`` flags the commands share.
+- :mod:`replay.parallel.cli`: the ``--workers`` / ``--ray`` flags the commands share (imported
+  by the commands only).
 
 Used by batch replay (:mod:`replay.batch`) and the evaluation suites (:mod:`replay.evaluate`);
 it knows nothing of either.
@@ -11,7 +12,6 @@ it knows nothing of either.
 
 from __future__ import annotations
 
-from replay.parallel.cli import add_worker_arguments, workers_from_args
 from replay.parallel.pool import map_tasks
 from replay.parallel.tasks import (
     RAY_INSTALL_HINT,
@@ -32,8 +32,6 @@ __all__ = [
     "RayUnavailableError",
     "TaskFailure",
     "Workers",
-    "add_worker_arguments",
     "available_cores",
     "map_tasks",
-    "workers_from_args",
 ]

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from dsp.cli import LineProgress
 from dsp.errors import UsageError
+from dsp.progress import LineProgress
 from replay.cli import main as replay_main
 from replay.options import ReplayOptions
 from replay.runner import replay

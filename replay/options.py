@@ -13,12 +13,12 @@ from __future__ import annotations
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
 from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
+from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
 from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
@@ -205,7 +205,7 @@ class ReplayOptions:
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)
 
-    def results_view(self) -> dict[str, Any]:
+    def results_view(self) -> dict[str, Json]:
         """The options that shape the results (no output paths, no display switches)."""
         return {
             "method": self.method,
@@ -235,7 +235,7 @@ class ReplayOptions:
         except AttributeError:  # not on Linux
             return max(1, os.cpu_count() or 1)
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """All options as plain values (for hashing into a Rerun recording id); not the
         thread count, which changes nothing in the outputs."""
         d = asdict(self)

@@ -13,8 +13,8 @@ import io
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
+from dsp.jsonio import Json
 from replay.sinks.results_json import normalise
 
 __all__ = ["FORMAT", "BatchSummary", "ErrorSums", "LogRow"]
@@ -42,7 +42,7 @@ class ErrorSums:
                          self.estimates + other.estimates, self.errors + other.errors,
                          self.sum_sq_m2 + other.sum_sq_m2)
 
-    def to_dict(self, *, fused: bool = False) -> dict[str, Any]:
+    def to_dict(self, *, fused: bool = False) -> dict[str, Json]:
         if fused:
             return {"estimates": self.estimates, "errors": self.errors, "rmse_m": self.rmse_m}
         return {"frames": self.frames, "detections": self.detections,
@@ -69,7 +69,7 @@ class LogRow:
     def detections(self) -> int:
         return sum(r.detections for r in self.robots.values())
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         return {"log": self.log, "ok": self.ok, "error": self.error, "frames": self.frames,
                 "steps": self.steps, "fused_steps": self.fused.estimates,
                 "detections": self.detections,
@@ -80,7 +80,7 @@ class LogRow:
 @dataclass(frozen=True)
 class BatchSummary:
     rows: tuple[LogRow, ...]
-    options: dict[str, Any]
+    options: dict[str, Json]
     """The replay options that shape the results (``ReplayOptions.results_view``)."""
 
     @property

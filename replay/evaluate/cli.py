@@ -19,14 +19,15 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
 from dsp.atomic import atomic_output, check_distinct
 from dsp.checks import check_int, check_number
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
+from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
-from dsp.progress import progress_bar
+from dsp.progress import Progress, progress_bar
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate.match import (
@@ -48,6 +49,8 @@ from replay.parallel import Outcome, Workers, map_tasks
 from replay.parallel.cli import add_worker_arguments, workers_from_args
 
 __all__ = ["SimRecorder", "build_parser", "main"]
+
+S = TypeVar("S")
 
 PROG = "dsp-eval"
 MAX_COUNT = 100_000
@@ -126,22 +129,30 @@ def _check(args: argparse.Namespace) -> None:
             raise CalibrationError(args.calibration, str(err)) from err
 
 
-def _scene_mapper(workers: Workers, bar: Any) -> SceneMapper:
+@dataclass(frozen=True)
+class _SceneMapper:
     """map_scenes for the suites: scenes on ``workers``, the bar counting finished scenes;
     the first scene that fails stops the others and is raised."""
 
-    def done(i: int, outcome: Outcome[Any]) -> None:
-        bar.update(1)
+    workers: Workers
+    bar: Progress
 
-    def map_scenes(fn: Callable[[SceneTask], Any], tasks: Sequence[SceneTask]) -> list[Any]:
-        outcomes = map_tasks(fn, tasks, workers, on_done=done, fail_fast=True)
+    def _done(self, i: int, outcome: Outcome[S]) -> None:
+        self.bar.update(1)
+
+    def __call__(self, fn: Callable[[SceneTask[S]], S],
+                 tasks: Sequence[SceneTask[S]]) -> list[S]:
+        outcomes = map_tasks(fn, tasks, self.workers, on_done=self._done, fail_fast=True)
         return [o.unwrap() for o in outcomes]
 
-    return map_scenes
+
+def _scene_mapper(workers: Workers, bar: Progress) -> SceneMapper:
+    """map_scenes for the suites (:class:`_SceneMapper`)."""
+    return _SceneMapper(workers, bar)
 
 
 def _run_suite(args: argparse.Namespace,
-               workers: Workers) -> tuple[str, str, dict[str, Any]]:
+               workers: Workers) -> tuple[str, str, dict[str, Json]]:
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
     if args.suite == "match":
         return _run_match_suite(args, workers)
@@ -168,14 +179,14 @@ def _stem(args: argparse.Namespace) -> str:
 
 
 def _run_match_suite(args: argparse.Namespace,
-                     workers: Workers) -> tuple[str, str, dict[str, Any]]:
+                     workers: Workers) -> tuple[str, str, dict[str, Json]]:
     options = MatchOptions(camera=args.camera, duration_s=args.duration, rate_hz=args.rate,
                            face_px=args.face_px, distractors=args.distractors,
                            renderer=args.renderer, calibration=args.calibration)
     sync = args.count if args.sync_count is None else min(args.sync_count, args.count)
     with progress_bar(args.count + sync, PROG, progress_enabled(args), unit="log") as bar:
 
-        def done(i: int, outcome: Outcome[Any]) -> None:
+        def done(i: int, outcome: Outcome[MatchLogScore]) -> None:
             bar.update(1)
 
         def map_logs(fn: Callable[[MatchTask], MatchLogScore],

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from dsp import contract
+from dsp.jsonio import Json
 from dsp.metadata import MetadataError, ScenarioMetadata
 from estimator.fusion import FUSION_METHODS
 from replay.evaluate.scenes import serial_map
@@ -303,7 +304,7 @@ class MatchSuite:
     def sync_seeds(self) -> set[int]:
         return {log.seed for log in self.logs if log.phase == "sync"}
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         both = self.sync_seeds()
         doc = {
             "suite": "match", "count": self.count, "seed": self.seed,

@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 from estimator.fusion import FUSION_METHODS
 from replay.options import ReplayOptions
@@ -41,6 +41,8 @@ __all__ = [
 
 T = TypeVar("T")
 R = TypeVar("R")
+S = TypeVar("S")
+"""What a suite's scorer makes of one scene."""
 
 
 @dataclass(frozen=True)
@@ -65,10 +67,10 @@ Replays = Iterator[tuple[Config, dict[str, Any]]]
 
 
 @dataclass(frozen=True)
-class SceneTask:
+class SceneTask(Generic[S]):
     """One scene of a suite; :func:`run_scene` is a pure function of it."""
 
-    score: Callable[[SceneTask, Replays], Any]
+    score: Callable[[SceneTask[S], Replays], S]
     """The suite's :data:`SceneScorer` (a module-level function, so the task pickles)."""
     scenario: str
     """The scenario name the recorder is given."""
@@ -80,10 +82,15 @@ class SceneTask:
     configs: tuple[Config, ...] = CONFIGS
 
 
-SceneScorer = Callable[[SceneTask, Replays], Any]
+SceneScorer = Callable[[SceneTask[S], Replays], S]
 """Scores one scene from its replays; returns a small picklable record (no timings)."""
-SceneMapper = Callable[[Callable[[SceneTask], Any], Sequence[SceneTask]], Iterable[Any]]
-"""map(run_scene, tasks): the results in task order (serial, a process pool, Ray)."""
+
+
+class SceneMapper(Protocol):
+    """map(run_scene, tasks): the results in task order (serial, a process pool, Ray)."""
+
+    def __call__(self, fn: Callable[[SceneTask[S]], S],
+                 tasks: Sequence[SceneTask[S]]) -> Iterable[S]: ...
 
 
 def serial_map(fn: Callable[[T], R], tasks: Sequence[T]) -> list[R]:
@@ -100,7 +107,7 @@ def replay_results(log: Path, config: Config, calibration: Path | None) -> dict[
     return {"frames": collected.frames, "fused": collected.fused}
 
 
-def run_scene(task: SceneTask) -> Any:
+def run_scene(task: SceneTask[S]) -> S:
     """Record the scene's log when it is missing, replay it under each config, score it."""
     if not task.log.exists():
         task.record(task.log, task.scenario, task.seed)

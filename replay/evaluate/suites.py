@@ -17,13 +17,14 @@ Everything here is deterministic given the logs: the tables hold no timings.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from dsp.jsonio import Json
 from replay.evaluate.scenes import (
     CONFIGS,
     Config,
@@ -108,7 +109,7 @@ class PaperSuite:
                   if (r := self.rmse_m(lbl)) is not None and lbl.startswith("corrected/")]
         return min(ranked)[2] if ranked else ""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         return rounded_doc({
             "suite": "paper", "camera": self.camera, "calibration": self.calibration,
             "paper": {"table1": PAPER_TABLE1, "rmse_m": PAPER_RMSE_M},
@@ -124,20 +125,24 @@ class PaperSuite:
         })
 
 
-def rounded_doc(doc: dict[str, Any]) -> dict[str, Any]:
+def rounded_doc(doc: Mapping[str, object]) -> dict[str, Json]:
     """A table's document with its floats rounded (non-finite: None)."""
-    rounded: dict[str, Any] = _rounded(doc)
-    return rounded
+    return {k: _rounded(v) for k, v in doc.items()}
 
 
-def _rounded(obj: Any) -> Any:
+def _rounded(obj: object) -> Json:
     if isinstance(obj, float):
         return round(obj, DECIMALS) if math.isfinite(obj) else None
     if isinstance(obj, dict):
         return {k: _rounded(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_rounded(v) for v in obj]
-    return obj
+    if obj is None or isinstance(obj, (bool, int, str)):
+        return obj
+    item = getattr(obj, "item", None)
+    if item is not None:  # a numpy scalar: as the JSON writer would take it
+        return _rounded(item())
+    raise TypeError(f"cannot write {type(obj).__name__} to a table")
 
 
 def score_paper_scenario(name: str, results: dict[str, Any]) -> ScenarioScore:
@@ -153,7 +158,8 @@ def score_paper_scenario(name: str, results: dict[str, Any]) -> ScenarioScore:
         detections=sum(1 for f in frames if f.get("detection")), frames=len(frames))
 
 
-def score_paper_scene(task: SceneTask, replays: Replays) -> list[tuple[str, ScenarioScore]]:
+def score_paper_scene(task: SceneTask[list[tuple[str, ScenarioScore]]],
+                      replays: Replays) -> list[tuple[str, ScenarioScore]]:
     """A paper scenario's Table 1 row under each config: (config label, score)."""
     return [(config.label, score_paper_scenario(task.scenario, results))
             for config, results in replays]
@@ -256,7 +262,7 @@ class RandomSuite:
             }
         return out
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         return rounded_doc({
             "suite": "random", "camera": self.camera, "calibration": self.calibration,
             "count": self.count, "seed": self.seed,
@@ -276,7 +282,7 @@ class RandomScene:
     """(config label, error [m] of the scene's mean fused estimate), dual-sight scenes only."""
 
 
-def score_random_scene(task: SceneTask, replays: Replays) -> RandomScene:
+def score_random_scene(task: SceneTask[RandomScene], replays: Replays) -> RandomScene:
     dual_sight = False
     errors: list[tuple[float, float]] = []
     frames: list[tuple[float, bool]] = []

@@ -13,10 +13,10 @@ import json
 from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
 
 from dsp import contract
 from dsp import metadata as meta
+from dsp.jsonio import Json
 from dsp.text import printable
 from estimator.constants import NS_PER_S
 from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
@@ -50,7 +50,7 @@ class LogSummary:
     messages: int | None
     topics: list[TopicInfo]
     robots: list[str]
-    scenario: dict[str, Any] | None
+    scenario: dict[str, Json] | None
     cameras: dict[str, str]
     """robot -> camera model name"""
     renderer: str | None
@@ -119,11 +119,11 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
     )
 
 
-def _metadata(cat: Catalogue) -> tuple[dict[str, Any] | None, dict[str, str], str | None]:
+def _metadata(cat: Catalogue) -> tuple[dict[str, Json] | None, dict[str, str], str | None]:
     """Scenario (name, seed, field), cameras (robot -> model) and renderer; a record that
     does not parse is reported by name rather than failing the summary."""
     records = cat.metadata
-    scenario: dict[str, Any] | None = None
+    scenario: dict[str, Json] | None = None
     if contract.SCENARIO_METADATA in records:
         try:
             s = meta.ScenarioMetadata.from_metadata(records[contract.SCENARIO_METADATA])

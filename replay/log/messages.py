@@ -83,7 +83,7 @@ MAX_ABS_VALUE = 1e9
 """Positions (metres) and quaternion components beyond this are not a robot on a field."""
 
 
-def _finite(*values: Any) -> tuple[float, ...]:
+def _finite(*values: float) -> tuple[float, ...]:
     out = tuple(float(v) for v in values)
     if not all(math.isfinite(v) for v in out):
         raise BadMessage("non-finite value")

@@ -29,7 +29,6 @@ from estimator.tracking.model import Gaussian, predict, transition
 __all__ = ["FilterNode", "SmoothedTrack", "rts_smooth"]
 
 
-
 @dataclass(frozen=True)
 class FilterNode:
     """The filter at one estimate: its prior (the prediction to the stamp; the state itself

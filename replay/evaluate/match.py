@@ -337,7 +337,6 @@ def match_tasks(workdir: Path, options: MatchOptions, *, count: int, seed: int =
             for phase, n in (("random", count), ("sync", sync_count)) for i in range(n)]
 
 
-
 def run_match_suite(workdir: Path, options: MatchOptions, *, count: int, seed: int = 0,
                     sync_count: int | None = None, fusions: Sequence[str] = MATCH_FUSIONS,
                     map_tasks: TaskMapper = serial_map) -> MatchSuite:

@@ -24,7 +24,6 @@ from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
 
 
-
 def _shown(text: object, limit: int = 120) -> str:
     """A name from the log for a terminal: escaped, cut to ``limit`` characters."""
     return printable(text, limit=limit)

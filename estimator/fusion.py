@@ -9,8 +9,8 @@
   velocity; as a one-shot :class:`Fusion` it gates the estimates against each other.
 
 Each method takes its per-estimate covariances from a noise model (:mod:`estimator.noise`).
-All methods are deterministic: no randomness, ties broken by input order, and the
-``robots`` of a result are listed in input order.
+All methods are deterministic: no randomness, ties broken by input order (``nearest``'s
+by robot name first), and the ``robots`` of a result are listed in input order.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from estimator.tracking.tracker import TrackFusion
 
 __all__ = [
     "FUSION_METHODS",
+    "RANGE_TIE_M",
     "Fusion",
     "MeanFusion",
     "NearestFusion",
@@ -36,6 +37,10 @@ __all__ = [
     "WeightedFusion",
     "get_fusion",
 ]
+
+RANGE_TIE_M = 1e-9
+"""``nearest``: ranges within this of the smallest tie [m]. A nanometre: far below any
+range noise, far above the rounding of one range computed in two frames (1e-15 m)."""
 
 
 def _fused(position: Matrix, covariance: Matrix, robots: Sequence[str]) -> FusedEstimate:
@@ -88,8 +93,11 @@ class MeanFusion:
 
 @dataclass(frozen=True)
 class NearestFusion:
-    """The estimate with the smallest ``range_m`` (first one on ties), its covariance
-    from the noise model."""
+    """The estimate with the smallest ``range_m``, its covariance from the noise model.
+
+    Ranges within :data:`RANGE_TIE_M` of the smallest are a tie, won by the robot whose name
+    sorts first (then by the first given): the same scene in any frame (rotated, shifted)
+    picks the same robot, where comparing the floats alone would let rounding decide."""
 
     noise: Noise = field(default_factory=NoiseModel)
 
@@ -100,7 +108,9 @@ class NearestFusion:
     def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
         if not estimates:
             return None
-        best = min(estimates, key=lambda e: e.range_m)  # min keeps the first on ties
+        first = min(estimates, key=lambda e: e.range_m)
+        tied = [e for e in estimates if e.range_m - first.range_m <= RANGE_TIE_M]
+        best = min(tied or [first], key=lambda e: e.robot)  # min keeps the first on ties
         return _fused(np.array([best.x_m, best.y_m]), self.noise.covariance(best), [best.robot])
 
 

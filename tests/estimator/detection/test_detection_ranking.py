@@ -1,4 +1,5 @@
-"""Ranking between plausible blobs: the most ball-like shape wins, not the biggest one."""
+"""Ranking between plausible blobs: the most ball-like shape wins, not the biggest one; ties
+go to the larger blob, then top-to-bottom, left-to-right."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from estimator.detection import detect_ball, detect_blobs
+from estimator.detection import DetectionParams, detect_ball, detect_blobs
 
 ORANGE_BGR = (0, 110, 255)
 GREEN_BGR = (40, 140, 40)
@@ -52,3 +53,44 @@ def test_a_round_ball_beats_a_bigger_plausible_ellipse(disc_first: bool) -> None
     ball = detect_ball(image)
     assert ball is not None
     assert (ball.cx_px, ball.cy_px) == pytest.approx(disc, abs=0.05)
+
+
+def draw_square(image: npt.NDArray[np.uint8], corner: tuple[int, int], side: int) -> None:
+    cv2.rectangle(image, corner, (corner[0] + side - 1, corner[1] + side - 1), ORANGE_BGR, -1)
+
+
+def test_equally_ball_like_blobs_rank_the_larger_first() -> None:
+    """Guards the tie-break on area: two blobs with the very same shape score (without the
+    OPEN, squares of side 2^k + 1 have circularity exactly pi/4 and fill 1) rank the larger
+    first, even when the smaller one is above it and to its left."""
+    params = DetectionParams(open_kernel_px=1, max_fill_ratio=1.0)
+    image = field_image()
+    draw_square(image, (40, 40), 9)
+    draw_square(image, (150, 150), 17)
+    small, large = sorted(detect_blobs(image, params), key=lambda b: b.area_px)
+    assert (small.area_px, large.area_px) == (81.0, 289.0)
+    assert small.circularity == large.circularity  # the same shape score: a tie
+    assert detect_blobs(image, params) == [large, small]
+    assert detect_ball(image, params) == large
+
+
+@pytest.mark.parametrize(("first", "second"), [
+    ((200, 60), (80, 220)),  # the upper one is to the right: rows decide before columns
+    ((80, 150), (220, 150)),  # the same row: the left one first
+], ids=["upper-first", "left-first"])
+def test_identical_balls_rank_top_to_bottom_then_left_to_right(
+        first: tuple[int, int], second: tuple[int, int]) -> None:
+    """Guards the tie-break on position: two identical discs (the same score and area, a
+    full tie) rank top-to-bottom, then left-to-right, as the module docstring says, so the
+    ball chosen between them never depends on the order the blobs were found in."""
+    image = field_image()
+    draw_disc(image, second)
+    draw_disc(image, first)
+    blobs = detect_blobs(image)
+    assert len(blobs) == 2
+    assert blobs[0].area_px == blobs[1].area_px
+    assert blobs[0].circularity == blobs[1].circularity
+    assert [(b.cx_px, b.cy_px) for b in blobs] == [pytest.approx(first, abs=0.05),
+                                                   pytest.approx(second, abs=0.05)]
+    ball = detect_ball(image)
+    assert ball is not None and (ball.cx_px, ball.cy_px) == pytest.approx(first, abs=0.05)

@@ -15,7 +15,8 @@ from estimator.estimates import BallEstimate
 from estimator.fusion import RobustFusion, WeightedFusion, get_fusion
 from estimator.noise import CalibratedNoise, NoiseModel
 from estimator.tracking import BallTracker, Measurement, TrackerParams, TrackState
-from estimator.tracking.model import predict, transition
+from estimator.tracking.model import predict, process_noise, transition, update
+from estimator.tracking.smoother import FilterNode, rts_smooth
 
 MS = 1_000_000
 SIGMA = 0.003  # measurement noise [m]
@@ -92,6 +93,34 @@ def test_a_bounce_is_followed_within_two_frames() -> None:
     assert sum(not a for _, _, a, _ in after) <= 1
     t, _, _, state = after[-1]
     assert error(state, bounce, t)[1] < 0.3
+
+
+def kicked_back(t: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """+x at 4 m/s, then kicked straight back at t = 0.5 s (just after robot1's estimate at
+    0.5 s) to -8 m/s: a change of velocity of 12 m/s."""
+    if t <= 0.5:
+        return (4.0 * t, 0.0), (4.0, 0.0)
+    return (2.0 - 8.0 * (t - 0.5), 0.0), (-8.0, 0.0)
+
+
+def test_a_corroborated_kick_inflates_the_velocity_variance_by_kick_sigma_squared() -> None:
+    """Guards the kick's inflation ``P_v + kick_sigma^2 I``: at the default kick_sigma of
+    6 m/s a kick of 12 m/s is 2 sigma and both estimates after it pass the gate; with
+    ``P_v + kick_sigma I`` (a variance of 6) it would be 4.9 sigma and both stay rejected.
+    Re-acquisition and lone kicks are off, so only the corroborated kick can follow it."""
+    params = TrackerParams(friction_per_s=0.0, reacquire_count=1_000, lone_kick_ns=0)
+    assert params.kick_sigma_m_s == 6.0
+    tracker = BallTracker(params)
+    steps = feed(tracker, kicked_back, frames=16)
+    after = [s for s in steps if s[0] > 0.5]
+    assert [(round(t * 1e3), robot) for t, robot, _, _ in after[:2]] == [
+        (517, "robot2"), (534, "robot3")]
+    assert not after[0][2]  # nothing corroborates the first estimate after the kick yet
+    assert after[1][2]  # the second does: a kick explains both
+    assert tracker.accepted_at(517 * MS) == ("robot2",)
+    for t, _, accepted, state in after[1:]:
+        pos, vel = error(state, kicked_back, t)
+        assert accepted and pos < 0.01 and vel < 0.5, (t, pos, vel)
 
 
 def test_a_false_blob_one_metre_off_never_pulls_the_track() -> None:
@@ -301,3 +330,64 @@ def test_the_smoother_keeps_segments_apart_across_a_loss() -> None:
     assert early is not None and late is not None
     assert abs(early[0][0] - straight(0.2)[0][0]) < 0.01  # not pulled towards the new ball
     assert abs(late[0][0] - far[0]) < 0.01
+
+
+def _batch_posterior(x0: np.ndarray, p0: np.ndarray, stamps_ns: list[int],
+                     measured: dict[int, tuple[np.ndarray, np.ndarray]], beta: float,
+                     q: float) -> tuple[np.ndarray, np.ndarray]:
+    """The mean and covariance of all states (x_0, ..., x_(n-1)) stacked, given the
+    measurements ``measured[k] = (z_k, R_k)``: the joint Gaussian of x_0 ~ N(x0, p0),
+    x_k = F_k x_(k-1) + w_k (w_k ~ N(0, Q_k)) and z_k = H x_k + v_k (v_k ~ N(0, R_k)),
+    conditioned on every z at once (no filter, no smoother)."""
+    n = len(stamps_ns)
+    mean = [x0]
+    cov = np.zeros((4 * n, 4 * n))
+    cov[:4, :4] = p0
+    for k in range(1, n):
+        dt = (stamps_ns[k] - stamps_ns[k - 1]) / 1e9
+        f, now, before = transition(dt, beta), slice(4 * k, 4 * k + 4), slice(4 * k - 4, 4 * k)
+        mean.append(f @ mean[-1])
+        cov[now, :4 * k] = f @ cov[before, :4 * k]
+        cov[:4 * k, now] = cov[now, :4 * k].T
+        cov[now, now] = f @ cov[before, before] @ f.T + process_noise(dt, q)
+    m = np.concatenate(mean)
+    g = np.zeros((2 * len(measured), 4 * n))
+    r_all = np.zeros((2 * len(measured), 2 * len(measured)))
+    for i, (k, (_, r)) in enumerate(sorted(measured.items())):
+        g[2 * i:2 * i + 2, 4 * k:4 * k + 2] = np.eye(2)
+        r_all[2 * i:2 * i + 2, 2 * i:2 * i + 2] = r
+    z = np.concatenate([z for _, (z, _) in sorted(measured.items())])
+    gain = cov @ g.T @ np.linalg.inv(g @ cov @ g.T + r_all)
+    return m + gain @ (z - g @ m), cov - gain @ g @ cov
+
+
+def test_the_smoother_is_the_batch_posterior_of_the_whole_record() -> None:
+    """Guards the smoother's gain ``C = P_f F^T P_p^-1`` (the transpose matters: F is not
+    symmetric): on a record of four nodes (correlated prior, rolling friction, unequal
+    steps and noises, one estimate rejected), the RTS smoother's (x, P) at every node equal
+    the textbook posterior of that state given every accepted measurement, from
+    conditioning the joint Gaussian of all states at once (:func:`_batch_posterior`)."""
+    beta, q = 0.5, 2.0
+    a = np.random.default_rng(7).normal(size=(4, 4))
+    x0, p0 = np.array([0.3, -0.2, 2.0, 1.0]), a @ a.T + 0.1 * np.eye(4)
+    stamps_ns = [0, 40 * MS, 90 * MS, 170 * MS]
+    measured = {0: (np.array([0.35, -0.15]), np.array([[0.02, 0.005], [0.005, 0.01]])),
+                1: (np.array([0.4, 0.1]), np.diag([0.01, 0.03])),
+                3: (np.array([0.6, 0.3]), np.array([[0.015, -0.004], [-0.004, 0.02]]))}
+    # the filter's record; the estimate at 90 ms was rejected: its posterior is its prior
+    nodes, state = [], (x0, p0)
+    for k, t_ns in enumerate(stamps_ns):
+        prior = state if k == 0 else predict(state, (t_ns - stamps_ns[k - 1]) / 1e9, q=q,
+                                             friction_per_s=beta)
+        state = update(prior, *measured[k]) if k in measured else prior
+        nodes.append(FilterNode(t_ns, prior, state, 0))
+    post_mean, post_cov = _batch_posterior(x0, p0, stamps_ns, measured, beta, q)
+    smoothed = rts_smooth(nodes, beta)
+    assert len(smoothed) == len(nodes)
+    for k, (x_s, p_s) in enumerate(smoothed):
+        now = slice(4 * k, 4 * k + 4)
+        assert x_s == pytest.approx(post_mean[now], abs=1e-9), k
+        assert p_s == pytest.approx(post_cov[now, now], abs=1e-9), k
+    # the last node is the filter's own posterior; the first moved with what came later
+    assert np.array_equal(smoothed[-1][0], nodes[-1].posterior[0])
+    assert not np.allclose(smoothed[0][0], nodes[0].posterior[0], atol=1e-3)

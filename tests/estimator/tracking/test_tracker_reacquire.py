@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -67,6 +68,30 @@ def test_two_robots_agreeing_after_a_bounce_straight_back_reacquire_the_track() 
     assert max(late) < 0.03, late  # within three estimates of the two robots, and on
     assert all(a for _, _, a, _ in after[3:])
     assert not any(a for t, robot, a, _ in steps if robot == "robot3" and t >= BOUNCE_S)
+
+
+def test_re_acquisition_looks_back_reacquire_ns_not_manoeuvre_ns() -> None:
+    """Guards re-acquisition's window: after the bounce straight back only robot1 sees the
+    ball, every other frame (estimates 200 ms apart: beyond ``manoeuvre_ns`` = 150 ms,
+    within ``reacquire_ns`` = 300 ms). Lone kicks are off, so only re-acquisition can follow
+    it, and it does at robot1's second estimate after the bounce; with a window of
+    ``manoeuvre_ns`` no two of them are in it, and the track coasts away on the old path."""
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if t < BOUNCE_S:
+            return back(t)
+        return back(t) if robot == "robot1" and round(t * 10) % 2 == 0 else None
+
+    params = TrackerParams(lone_kick_ns=0)
+    assert params.manoeuvre_ns < 200 * MS <= params.reacquire_ns
+    for window_ns, follows in ((params.reacquire_ns, True), (params.manoeuvre_ns, False)):
+        steps = feed(BallTracker(replace(params, reacquire_ns=window_ns)), seen, frames=20)
+        after = [s for s in steps if s[0] >= BOUNCE_S]
+        assert [round(t * 1e3) for t, _, _, _ in after[:3]] == [1008, 1208, 1408]
+        assert not after[0][2]  # the bounce's first estimate: beyond the gate, alone
+        for t, _, accepted, state in after[1:]:
+            assert state is not None
+            assert (accepted and state.confirmed and off(state, back(t)) < 0.05) is follows
 
 
 def test_a_single_robots_false_blob_neither_starts_nor_captures_the_track() -> None:

@@ -4,9 +4,11 @@ before any work, Ctrl-C stopping the workers."""
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import multiprocessing
+import os
 import shutil
 import socket
 import sys
@@ -162,6 +164,25 @@ def test_a_log_a_worker_cannot_read_names_the_host_and_path(tmp_path: Path) -> N
     assert row.error.startswith(f"{tmp_path / 'elsewhere' / 'run.mcap'}: cannot read the log "
                                 f"on host {socket.gethostname()}")
     assert "shared folder" in row.error
+
+
+def test_a_log_that_fails_with_an_os_error_is_a_one_line_row(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Guards the batch's handling of an OSError (a disk that fails while the log is read):
+    the log's row holds the error's one line, as for a bad log, and nothing is printed; it
+    is not taken for a bug (a traceback on stderr and an "unexpected OSError" row)."""
+    log = tmp_path / "run.mcap"
+    log.write_bytes(b"\x89MCAP0\r\n")
+
+    def failing_disk(path: Path, options: ReplayOptions, sinks: Any) -> Any:
+        raise OSError(errno.EIO, os.strerror(errno.EIO), str(path))
+
+    monkeypatch.setattr(replay.batch.run, "replay", failing_disk)
+    row = replay_log(LogTask(log, ReplayOptions()))
+    assert not row.ok
+    assert row.error == f"[Errno {errno.EIO}] {os.strerror(errno.EIO)}: '{log}'"
+    assert capsys.readouterr().err == ""
 
 
 def test_a_task_error_comes_back_as_its_message_and_exit_code() -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import random
 import struct
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,7 @@ from fuzzing import (
 from mcap.writer import CompressionType
 
 from dsp.errors import DspError, UsageError
+from estimator.constants import NS_PER_S as NS
 from replay.cli import main
 from replay.errors import (
     CorruptLogError,
@@ -34,7 +36,15 @@ from replay.errors import (
     SchemaError,
     TruncatedLogError,
 )
-from replay.log import ImageMessage, LogReader, PoseMessage, decode_image, image_size
+from replay.log import (
+    ImageMessage,
+    LogReader,
+    PoseMessage,
+    RecoveryLoss,
+    decode_image,
+    image_size,
+)
+from replay.log.mcap_scan import Damage
 from replay.options import ReplayOptions
 from replay.runner import replay
 from replay.sync import DelayLine, History
@@ -203,6 +213,26 @@ def test_recover_half_a_log_written_in_small_chunks(tmp_path: Path) -> None:
     rec = summary.recovered
     assert rec is not None and rec["truncated"] and rec["bad_chunks"] == 1
     assert rec["lost"][0]["start_s"] is not None
+
+
+def test_lost_messages_are_unknown_when_any_lost_span_has_no_count(tmp_path: Path) -> None:
+    """Guards the lost-message total: a span whose count is unknown (a chunk cut by the end
+    of the file) makes the total unknown, not that span counted as 0 messages."""
+    known = Damage(100, 50, "a damaged chunk", 0, NS, messages=3, chunks=1)
+    cut = Damage(500, 500, "the log is cut", None, None, messages=None, chunks=1)
+    counted = RecoveryLoss.from_damage(1000, [known, replace(known, offset=200)], [], NS)
+    assert counted.lost_messages == 6
+    assert "2 chunk(s), 6 message(s)" in counted.describe()[0]
+    unknown = RecoveryLoss.from_damage(1000, [known, cut], [], NS)
+    assert unknown.lost_messages is None and unknown.to_dict()["lost_messages"] is None
+    assert "2 chunk(s), an unknown number of message(s); the log is cut short" in (
+        unknown.describe()[0])
+    # a real log cut in the middle of a chunk: the cut chunk's messages are not counted
+    path = _small_chunk_rolling(tmp_path)
+    data = path.read_bytes()
+    with LogReader(_write(tmp_path, data[: len(data) // 2], "cut.mcap"), recover=True) as log:
+        assert log.loss.truncated and log.loss.spans[-1].messages is None
+        assert log.loss.lost_messages is None
 
 
 def test_recover_skips_a_damaged_chunk_and_says_when(tmp_path: Path) -> None:

@@ -26,7 +26,8 @@ __all__ = [
 @dataclass(frozen=True)
 class ImageMessage:
     """One camera image. ``data`` is the compressed bytes (``fmt`` "png"/"jpeg"/...) or the
-    raw pixel buffer (``fmt`` "raw", with ``encoding``, ``width_px``, ``height_px``, ``step``)."""
+    raw pixel buffer (``fmt`` "raw", with ``encoding``, ``width_px``, ``height_px``, ``step``,
+    ``big_endian``)."""
 
     robot: str
     stamp_ns: int
@@ -37,6 +38,8 @@ class ImageMessage:
     width_px: int = 0
     height_px: int = 0
     step: int = 0
+    big_endian: bool = False
+    """Raw 16-bit samples are big-endian (``is_bigendian``)."""
 
 
 @dataclass(frozen=True)
@@ -126,4 +129,5 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
     return ImageMessage(  # sensor_msgs/Image
         robot, stamp, record.log_time, "raw", data, encoding=str(msg.encoding),
         width_px=int(msg.width), height_px=int(msg.height), step=int(msg.step),
+        big_endian=bool(msg.is_bigendian),
     )

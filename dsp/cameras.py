@@ -106,7 +106,7 @@ class FieldTransform:
         """A pose (x, y, yaw) in the poses' frame, in the field frame."""
         c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
         return (self.x_m + c * x_m - s * y_m, self.y_m + s * x_m + c * y_m,
-                yaw_rad + self.yaw_rad)
+                math.remainder(yaw_rad + self.yaw_rad, math.tau))
 
     @property
     def identity(self) -> bool:
@@ -125,6 +125,8 @@ class CameraSpec:
     """The projection model (ideal, fisheye, mirror); None for ``lookup``."""
     calibration: Calibration | None = None
     """The entry's ``calibration``, when it gives one (it replaces the model's)."""
+    calibration_rms_m: float | None = None
+    """The calibration's fit residual RMS [m], when its ``fit`` records one (``rms_m``)."""
     max_radius_px: float | None = None
     usable_radius_px: float | None = None
     mount_yaw_rad: float = 0.0
@@ -220,12 +222,20 @@ def _ball(where: str, value: Any) -> str | Mapping[str, Any]:
                 "model, see dsp-calibrate --ball-from)")
 
 
-def _calibration(where: str, value: Any) -> Calibration:
+def _calibration(where: str, value: Any) -> tuple[Calibration, float | None]:
+    """The calibration and its fit's residual RMS [m] (None when it records none)."""
     obj = _object(where, "calibration", value)
     try:
-        return calibration_from_dict(obj)
+        model = calibration_from_dict(obj)
     except (EstimatorError, TypeError) as err:
         raise _fail(where, "calibration", f"is unusable: {err}") from err
+    fit = obj.get("fit")
+    if fit is None or "rms_m" not in _object(where, "calibration.fit", fit):
+        return model, None
+    rms = _number(where, "calibration.fit.rms_m", fit["rms_m"])
+    if rms < 0.0:
+        raise _fail(where, "calibration.fit.rms_m", "must be >= 0")
+    return model, rms
 
 
 def _check_keys(where: str, entry: Mapping[str, Any], model: str) -> None:
@@ -273,10 +283,11 @@ def camera_spec_from_json(entry: Any, where: str) -> CameraSpec:
                                  **params)
         except (ValueError, TypeError) as err:
             raise _fail(where, "model", f"{model} cannot be made: {err}") from err
+    calibration, rms = (None, None) if "calibration" not in entry else _calibration(
+        where, entry["calibration"])
     return CameraSpec(
         model=model, width_px=width, height_px=height, centre_px=(cu, cv), camera=camera,
-        calibration=None if "calibration" not in entry else _calibration(
-            where, entry["calibration"]),
+        calibration=calibration, calibration_rms_m=rms,
         max_radius_px=numbers.get("max_radius_px"),
         usable_radius_px=numbers.get("usable_radius_px"),
         mount_yaw_rad=math.radians(numbers.get("mount_yaw_deg", 0.0)),
@@ -298,7 +309,7 @@ def camera_set_from_json(doc: Any, source: str) -> CameraSet:
     for name, entry in doc.items():
         if name == DEFAULT_ENTRY:
             continue
-        if not isinstance(name, str) or not name or not name.isprintable():
+        if not isinstance(name, str) or not name:
             raise CameraDescriptionError(f"{source}: {name!r} is not a robot name")
         merged = {**(default_entry or {}), **_object(f"{source}: {name}", "", entry)}
         robots[name] = camera_spec_from_json(merged, f"{source}: {name}")

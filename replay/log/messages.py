@@ -116,7 +116,10 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
             p, v = msg.pose.pose.position, msg.twist.twist.linear
             tx, ty, vx, vy = _finite(p.x, p.y, v.x, v.y)
             return TruthMessage(stamp, tx, ty, vx, vy)
-        p = msg.pose.position if hasattr(msg, "pose") else msg.point
+        pose = getattr(msg, "pose", None)
+        if pose is not None and hasattr(pose, "pose"):  # PoseWithCovarianceStamped (mocap)
+            pose = pose.pose
+        p = msg.point if pose is None else pose.position
         tx, ty = _finite(p.x, p.y)
         return TruthMessage(stamp, tx, ty)
     data = bytes(msg.data)

@@ -24,6 +24,7 @@ from dsp.checks import check_suffix
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
+from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
 from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
@@ -31,7 +32,7 @@ from replay.runner import replay
 from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.stats import ReplaySummary
 
-__all__ = ["build_parser", "format_summary", "main"]
+__all__ = ["build_parser", "format_summary", "main", "warn"]
 
 PROG = "dsp-replay"
 
@@ -216,6 +217,13 @@ def format_summary(s: ReplaySummary) -> str:
     return "\n".join(lines)
 
 
+def warn(warnings: Sequence[str]) -> None:
+    """Each warning as a ``warning:`` line on stderr (also with ``-q``: the summary is what
+    ``-q`` drops, never what says the results may be wrong)."""
+    for line in warnings:
+        print(printable(f"warning: {line}"), file=sys.stderr)
+
+
 def _serve(args: argparse.Namespace) -> int:
     """``--serve``: start the server, say where to look, replay into it, serve until Ctrl-C."""
     from replay.sinks.rerun.live import ViewerServer
@@ -229,6 +237,7 @@ def _serve(args: argparse.Namespace) -> int:
         print(f"{PROG}: serving the Rerun web viewer at {server.web_url} (open it in a "
               "browser; Ctrl-C stops)", file=sys.stderr, flush=True)
         summary = replay(args.log, options_from_args(args, server.grpc_url))
+        warn(summary.warnings)
         echo(args, format_summary(summary))
         print(f"{PROG}: replay done; still serving at {server.web_url} until Ctrl-C",
               file=sys.stderr, flush=True)
@@ -249,7 +258,9 @@ def _main(argv: Sequence[str] | None) -> int:
     args.log = args.log[0]
     if args.serve:
         return _serve(args)
-    echo(args, format_summary(replay(args.log, options_from_args(args))))
+    summary = replay(args.log, options_from_args(args))
+    warn(summary.warnings)
+    echo(args, format_summary(summary))
     return 0
 
 

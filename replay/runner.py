@@ -16,13 +16,14 @@ results JSON, estimates MCAP, Rerun), all opened in one ExitStack that closes th
 Each robot's camera comes from the options or the log (:func:`replay.cameras.cameras_for`:
 none is guessed). Once the log is read, :class:`~replay.diagnosis.Diagnosis` says what the
 user must know (skipped messages and images, a robot that saw no ball, balls out of range,
-images of another size than the camera's): printed on stderr after the outputs are written,
-or, with ``strict``, the replay's error before any is.
+images of another size than the camera's): in the summary's ``warnings``, which the
+commands print, or, with ``strict``, the replay's error before any output is written.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import hashlib
 import math
@@ -117,11 +118,10 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                                           bad_messages=reader.bad_messages)
             if options.strict and warnings:
                 raise StrictError(warnings)  # before the outputs are committed
-        for line in warnings:  # once the outputs are written; -q does not hide them
-            print(f"warning: {line}", file=sys.stderr)
-    return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
+    summary = stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
         if p is not None))
+    return dataclasses.replace(summary, warnings=tuple(warnings))
 
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,

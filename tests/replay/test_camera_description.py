@@ -237,3 +237,14 @@ def test_a_recorders_log_keeps_its_sim_seconds() -> None:
             Path(__file__).resolve().parents[2] / "logs" / "golden" / "rolling.mcap") as r:
         assert r.info.recorder is not None and log_origin_ns(r.info) == 0
     assert contract.GT_BALL_TOPIC == "/ground_truth/ball"
+
+
+def test_the_library_returns_warnings_and_the_commands_print_them(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "yellow.mcap"
+    write_log(log, duration_s=0.2, ball_colour=(0, 220, 230))
+    s = replay(log, ReplayOptions(progress=False))
+    assert len(s.warnings) == 1 and "no robot saw the ball" in s.warnings[0]
+    assert capsys.readouterr().err == ""  # dsp-eval's scenes replay quietly
+    code, _, err = _run([log, "--out-dir", tmp_path / "batch", "--workers", "1"], capsys)
+    assert code == 0 and err.count("warning: ") == 1 and "no robot saw the ball" in err

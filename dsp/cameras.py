@@ -239,6 +239,11 @@ def _calibration(where: str, value: Any) -> tuple[Calibration, float | None]:
 
 
 def _check_keys(where: str, entry: Mapping[str, Any], model: str) -> None:
+    empty = [k for k, v in entry.items() if v is None]
+    if empty:
+        hint = (" (dsp-calibrate --from-measurements or --from-log writes a calibration)"
+                if empty[0] == "calibration" else "")
+        raise _fail(where, empty[0], f"is empty: fill it in{hint}")
     allowed = (*_COMMON, *_MODEL_KEYS[model], *_OPTIONAL)
     unknown = [k for k in entry if k not in allowed]
     if unknown:

@@ -141,6 +141,7 @@ def write_log(
     stamp_offset_ns: int = 0,
     truth_topic: str = contract.GT_BALL_TOPIC,
     ball_colour: tuple[int, int, int] = ORANGE_BGR,
+    image_topic: str | None = None,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -158,7 +159,8 @@ def write_log(
     than 1080 x 1080 (their centre is ``centre_px``), ``mount_yaw_rad`` a camera turned on
     the robot, ``map_origin`` poses in a map frame whose origin is that field point, and
     ``stamp_offset_ns`` moves every stamp (a robot's clock in Unix time); the truth goes on
-    ``truth_topic``; ``ball_colour`` paints the ball (BGR)."""
+    ``truth_topic``; ``ball_colour`` paints the ball (BGR); ``image_topic`` is a pattern for
+    the images (default: the contract's, less ``/compressed`` for raw images)."""
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -284,6 +286,8 @@ def write_log(
                            "data": data}
                     schema = schemas[contract.IMAGE]
                     topic = topic.replace("/compressed", "")
+                if image_topic is not None:
+                    topic = contract.topic_for(image_topic, name)
                 writer.write_message(topic, schema, msg, log_time=t + stamp_offset_ns,
                                      publish_time=t + stamp_offset_ns)
                 if name == next(iter(robots)):

@@ -142,6 +142,7 @@ def write_log(
     truth_topic: str = contract.GT_BALL_TOPIC,
     ball_colour: tuple[int, int, int] = ORANGE_BGR,
     image_topic: str | None = None,
+    robot_velocity: tuple[float, float] = (0.0, 0.0),
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -160,7 +161,8 @@ def write_log(
     the robot, ``map_origin`` poses in a map frame whose origin is that field point, and
     ``stamp_offset_ns`` moves every stamp (a robot's clock in Unix time); the truth goes on
     ``truth_topic``; ``ball_colour`` paints the ball (BGR); ``image_topic`` is a pattern for
-    the images (default: the contract's, less ``/compressed`` for raw images)."""
+    the images (default: the contract's, less ``/compressed`` for raw images);
+    ``robot_velocity`` (m/s) moves every robot."""
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -171,7 +173,9 @@ def write_log(
 
     def robot_at(name: str, t_ns: int) -> tuple[float, float, float]:
         x, y, yaw = robots[name]
-        return x, y, yaw + yaw_rate_rad_s * t_ns / NS
+        s = t_ns / NS
+        return (x + robot_velocity[0] * s, y + robot_velocity[1] * s,
+                yaw + yaw_rate_rad_s * s)
 
     def ball_state(t_ns: int) -> tuple[tuple[float, float], tuple[float, float]]:
         if ball_path is not None:

@@ -15,7 +15,12 @@ This module gathers its parts under one name:
 
 from __future__ import annotations
 
-from estimator.calibration.centre import CentreFit, fit_centre_and_mount, fit_mount
+from estimator.calibration.centre import (
+    CentreFit,
+    fit_centre_and_mount,
+    fit_centre_to_ranges,
+    fit_mount,
+)
 from estimator.calibration.fit import (
     FITTERS,
     MIN_HOLDOUT_RANGES,
@@ -64,6 +69,7 @@ __all__ = [
     "calibration_to_json",
     "fit_all",
     "fit_centre_and_mount",
+    "fit_centre_to_ranges",
     "fit_linear",
     "fit_lookup",
     "fit_mirror",

@@ -2,10 +2,13 @@
 
 For each robot (:func:`fit_camera`):
 
-1. the image centre and the mounting rotation (:func:`estimator.calibration.
-   fit_centre_and_mount`), when the samples are centroids seen in enough directions around
-   the robot; otherwise the mounting rotation alone about the centre given
-   (:func:`~estimator.calibration.fit_mount`);
+1. the image centre and the mounting rotation, when the samples are centroids seen in
+   enough directions around the robot: the centre first from the lines of the balls'
+   directions (:func:`estimator.calibration.fit_centre_and_mount`), then moved to where the
+   radii fit the ranges best (:func:`~estimator.calibration.fit_centre_to_ranges`: far out a
+   pixel is centimetres, sharper than a measured direction), the mounting about it
+   (:func:`~estimator.calibration.fit_mount`); otherwise the mounting alone about the
+   centre given;
 2. each sample's pixel radius about that centre, and every calibration model fitted to
    (radius, range) and ranked on held-out samples (:func:`estimator.calibration.fit_all`:
    the same rule as the simulated procedure);
@@ -18,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -29,6 +32,7 @@ from estimator.calibration import (
     FitResult,
     fit_all,
     fit_centre_and_mount,
+    fit_centre_to_ranges,
     fit_mount,
 )
 from estimator.errors import CalibrationError
@@ -95,9 +99,12 @@ def _centre(robot: str, samples: Sequence[Sample], centroids: bool,
     if centre_px is not None:
         return fit_mount(u, v, theta, centre_px)
     try:
-        return fit_centre_and_mount(u, v, theta)
+        lines = fit_centre_and_mount(u, v, theta)
+        cu, cv, _rms = fit_centre_to_ranges(u, v, [s.range_m for s in samples],
+                                            (lines.cu_px, lines.cv_px))
     except CalibrationError as err:
         raise InputError(f"{robot}: {err} (--centre CU,CV)") from err
+    return replace(fit_mount(u, v, theta, (cu, cv)), centre_fitted=True)
 
 
 def fit_camera(robot: str, samples: Sequence[Sample], *, centroids: bool,

@@ -72,3 +72,21 @@ def test_the_estimate_turns_with_the_mount() -> None:
     assert plain.bearing_rad == 0.0 and turned.bearing_rad == pytest.approx(math.pi / 2)
     assert turned.range_m == plain.range_m
     assert turned.x_m == pytest.approx(1.0) and turned.y_m == pytest.approx(2.0 + plain.range_m)
+
+
+def test_the_ranges_move_a_rough_centre_to_the_true_one() -> None:
+    """Directions measured 0.3 deg off blur the lines; the radii against the ranges do not."""
+    from estimator.calibration import fit_centre_to_ranges
+
+    rng = np.random.default_rng(5)
+    theta, d = rng.uniform(-math.pi, math.pi, 40), rng.uniform(0.5, 7.0, 40)
+    r = np.arctan(d / 1.04) / 0.00286  # a mirror: d = a tan(b r)
+    u = 640.0 - r * np.sin(theta) + rng.normal(0.0, 0.2, 40)
+    v = 512.0 - r * np.cos(theta) + rng.normal(0.0, 0.2, 40)
+    seen = theta + np.radians(rng.normal(0.0, 0.3, 40))
+    lines = fit_centre_and_mount(u, v, seen)
+    cu, cv, rms = fit_centre_to_ranges(u, v, d, (lines.cu_px + 1.5, lines.cv_px - 1.5))
+    assert math.hypot(cu - 640.0, cv - 512.0) < 0.3
+    assert math.hypot(cu - 640.0, cv - 512.0) < math.hypot(lines.cu_px + 1.5 - 640.0,
+                                                           lines.cv_px - 1.5 - 512.0)
+    assert rms < 0.05

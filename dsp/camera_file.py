@@ -26,9 +26,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
-import stat
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -37,6 +35,7 @@ import yaml
 
 from dsp.cameras import DEFAULT_ENTRY, CameraDescriptionError, CameraSet, camera_set_from_json
 from dsp.jsonio import dumps as strict_json
+from dsp.textfile import read_text_file
 
 __all__ = ["CAMERA_FILE_SUFFIXES", "MAX_CAMERA_FILE_BYTES", "MAX_DEPTH", "camera_file_text",
            "load_camera_document", "read_camera_file"]
@@ -132,26 +131,8 @@ def read_camera_file(path: Path | str) -> CameraSet:
     if suffix not in CAMERA_FILE_SUFFIXES:
         raise CameraDescriptionError(f"{path}: a camera file ends in "
                                      f"{', '.join(CAMERA_FILE_SUFFIXES)}")
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):  # before opening: a FIFO would block
-            raise CameraDescriptionError(f"{path}: not a regular file")
-        with path.open("rb") as f:
-            info = os.fstat(f.fileno())
-            if not stat.S_ISREG(info.st_mode):
-                raise CameraDescriptionError(f"{path}: not a regular file")
-            if info.st_size > MAX_CAMERA_FILE_BYTES:
-                raise CameraDescriptionError(
-                    f"{path}: {info.st_size} bytes; a camera file holds at most "
-                    f"{MAX_CAMERA_FILE_BYTES} bytes")
-            data = f.read(MAX_CAMERA_FILE_BYTES + 1)
-    except OSError as err:
-        raise CameraDescriptionError(f"{path}: cannot read: {err.strerror or err}") from err
-    if len(data) > MAX_CAMERA_FILE_BYTES:
-        raise CameraDescriptionError(f"{path}: more than {MAX_CAMERA_FILE_BYTES} bytes")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise CameraDescriptionError(f"{path}: not UTF-8 text (byte {err.start})") from err
+    text = read_text_file(path, MAX_CAMERA_FILE_BYTES, what="a camera file",
+                          error=CameraDescriptionError)
     doc = load_camera_document(text, suffix, str(path))
     if isinstance(doc, dict):
         doc = {name: _resolve_ball(entry, path.parent) for name, entry in doc.items()}

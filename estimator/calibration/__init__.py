@@ -47,6 +47,7 @@ from estimator.calibration.models import (
     LinearCalibration,
     LookupCalibration,
     MirrorCalibration,
+    ranges_m,
 )
 
 __all__ = [
@@ -75,4 +76,5 @@ __all__ = [
     "fit_mirror",
     "fit_mount",
     "holdout_rms_m",
+    "ranges_m",
 ]

@@ -10,24 +10,13 @@ from typing import Any
 import numpy as np
 
 from dsp.plotting import figure
-from estimator.calibration import Calibration
-from estimator.errors import CalibrationError
+from estimator.calibration import ranges_m
 from replay.calibrate.fit import CameraFit
 
 __all__ = ["measured_figure"]
 
 _COLOURS = ("#1f5fbf", "#d95f02", "#1b9e77", "#7570b3", "#a6761d", "#666666")
 _STYLES = {"linear": "--", "mirror": "-", "lookup": ":"}
-
-
-def _curve(model: Calibration, r: np.ndarray) -> np.ndarray:
-    out = np.full(r.shape, np.nan)
-    for i, ri in enumerate(r):
-        try:
-            out[i] = float(model.range_m(float(ri)))
-        except CalibrationError:
-            pass
-    return out
 
 
 def _held(fit: Any) -> str:
@@ -45,11 +34,11 @@ def measured_figure(cameras: Sequence[CameraFit], source: str) -> Any:
         top.plot(r, d, "o", ms=3.0, color=colour, alpha=0.8, label=f"{cam.robot}: samples")
         for fit in cam.fits:
             name = fit.model.name
-            top.plot(grid, _curve(fit.model, grid), color=colour, lw=1.0,
+            top.plot(grid, ranges_m(fit.model, grid), color=colour, lw=1.0,
                      ls=_STYLES.get(name, "-"), alpha=1.0 if fit is cam.best else 0.45,
                      label=f"{cam.robot}: {name} (held-out {_held(fit)})"
                      + (", best" if fit is cam.best else ""))
-        bottom.plot(r, d - _curve(cam.best.model, r), "o", ms=3.0, color=colour, alpha=0.8,
+        bottom.plot(r, d - ranges_m(cam.best.model, r), "o", ms=3.0, color=colour, alpha=0.8,
                     label=f"{cam.robot}: {cam.best.model.name}, RMS {cam.best.rms_m:.3f} m")
     top.set_xlim(0.0, r_max)
     top.set_ylim(0.0, max(max(c.range_m) for c in cameras) * 1.1)
@@ -62,7 +51,7 @@ def measured_figure(cameras: Sequence[CameraFit], source: str) -> Any:
     bottom.set_ylabel("residual [m]")
     bottom.grid(True, lw=0.4, alpha=0.5)
     bottom.legend(loc="upper left", fontsize="x-small", frameon=False)
-    residuals = np.concatenate([np.array(c.range_m) - _curve(c.best.model, np.array(c.r_px))
+    residuals = np.concatenate([np.array(c.range_m) - ranges_m(c.best.model, np.array(c.r_px))
                                 for c in cameras])
     finite = residuals[np.isfinite(residuals)]
     worst = float(np.max(np.abs(finite))) if finite.size else math.nan

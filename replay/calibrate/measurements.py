@@ -23,13 +23,12 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 from dsp.cameras import DEFAULT_ENTRY
 from dsp.errors import InputError
+from dsp.textfile import read_text_file
 
 __all__ = ["MAX_MEASUREMENT_BYTES", "MAX_ROWS", "Measurements", "Sample", "read_measurements"]
 
@@ -80,22 +79,6 @@ def _number(where: str, column: str, text: str) -> float:
     return value
 
 
-def _text(path: Path) -> str:
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            raise MeasurementError(f"{path}: not a regular file")
-        with path.open("rb") as f:
-            data = f.read(MAX_MEASUREMENT_BYTES + 1)
-    except OSError as err:
-        raise MeasurementError(f"{path}: cannot read: {err.strerror or err}") from err
-    if len(data) > MAX_MEASUREMENT_BYTES:
-        raise MeasurementError(f"{path}: more than {MAX_MEASUREMENT_BYTES} bytes")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as err:
-        raise MeasurementError(f"{path}: not UTF-8 text (byte {err.start})") from err
-
-
 def _row(where: str, row: dict[str, str], centroids: bool) -> Sample:
     d = _number(where, "range_m", row["range_m"])
     if not 0.0 < d <= MAX_RANGE_M:
@@ -114,7 +97,9 @@ def _row(where: str, row: dict[str, str], centroids: bool) -> Sample:
 def read_measurements(path: Path | str) -> Measurements:
     """The samples of a measurements file (see the module docstring)."""
     path = Path(path)
-    lines = [line for line in _text(path).splitlines()
+    text = read_text_file(path, MAX_MEASUREMENT_BYTES, what="a measurements file",
+                          error=MeasurementError)
+    lines = [line for line in text.splitlines()
              if line.strip() and not line.lstrip().startswith("#")]
     reader = csv.DictReader(io.StringIO("\n".join(lines)), skipinitialspace=True)
     columns = [c.strip() for c in reader.fieldnames or []]

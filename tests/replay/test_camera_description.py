@@ -248,3 +248,14 @@ def test_the_library_returns_warnings_and_the_commands_print_them(
     assert capsys.readouterr().err == ""  # dsp-eval's scenes replay quietly
     code, _, err = _run([log, "--out-dir", tmp_path / "batch", "--workers", "1"], capsys)
     assert code == 0 and err.count("warning: ") == 1 and "no robot saw the ball" in err
+
+
+def test_the_ball_model_entry_is_passed_on_unread(tmp_path: Path) -> None:
+    from replay.cameras import cameras_for
+
+    path = _camera_file(tmp_path, {"default": _lookup(ball="models/orange.json"),
+                                   "robot2": {"ball": {"hue": [5, 25]}}})
+    cams = cameras_for(["robot1", "robot2"], log="x.mcap", metadata=None, cameras=path)
+    assert cams.ball_models() == {"robot1": str(tmp_path / "models" / "orange.json"),
+                                  "robot2": {"hue": [5, 25]}}
+    assert cams.sources == {"robot1": str(path), "robot2": str(path)}

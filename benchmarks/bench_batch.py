@@ -116,7 +116,7 @@ def bench_eval(tmp: Path, count: int, workers: int, repeat: int, ray_address: st
                renderer: str) -> tuple[dict[str, list[float]], str, Path]:
     """dsp-eval --suite random in each mode (its logs and tables compared)."""
     times, check = _bench(tmp, "eval", "dsp-eval", [
-        "replay.evaluate_cli", "--suite", "random", "--count", str(count),
+        "replay.evaluate.cli", "--suite", "random", "--count", str(count),
         "--renderer", renderer], workers, repeat, ray_address)
     return times, check, tmp / f"eval-0-{_slug('--workers 1')}"
 

@@ -71,8 +71,7 @@ def medians_ms(fns: dict[str, Callable[[npt.NDArray[np.uint8]], object]],
 
 
 def recorded_frames() -> list[npt.NDArray[np.uint8]]:
-    from replay.decode import decode_image
-    from replay.reader import ImageMessage, LogReader
+    from replay.log import ImageMessage, LogReader, decode_image
 
     frames = []
     for log in sorted((ROOT / "logs" / "golden").glob("*.mcap")):

@@ -55,8 +55,8 @@ print(json.dumps({"frames": s.frames, "wall_s": wall, "peak_rss_mib": rss_kib / 
 FLOOR = r"""
 import json, sys, time
 from pathlib import Path
-from replay.decode import decode_image
-from replay.reader import ImageMessage, LogReader
+from replay.log import decode_image
+from replay.log import ImageMessage, LogReader
 t0 = time.perf_counter()
 n = 0
 with LogReader(Path(sys.argv[1])) as reader:

@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.speed_of is not None:
         return speed_of(args.speed_of, args.runs)
     from replay import ReplayOptions, replay  # before tests/ joins the path (tests/replay)
-    from replay.results import ResultsCollector
+    from replay.sinks import ResultsCollector
 
     sys.path.append(str(ROOT / "tests"))
     from synthetic import write_log
@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
 def speed_of(log: Path, runs: int) -> int:
     """Replay ``log`` with mean fusion and with the tracker, interleaved; print medians."""
     from replay import ReplayOptions, replay
-    from replay.results import ResultsCollector
+    from replay.sinks import ResultsCollector
 
     walls: dict[str, list[float]] = {"mean": [], "track": []}
     frames = 0

@@ -1,5 +1,5 @@
 """Option checks every command shares: numbers finite and in range, topic patterns that name
-the robot (output extensions: :func:`dsp.cli.check_suffix`).
+the robot, output extensions (:func:`check_suffix`).
 
 Each raises :class:`~dsp.errors.UsageError` (exit 2) with one line naming the option, the
 value given and what is accepted, before any work starts::
@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Sequence
+from pathlib import Path
 
 from dsp.errors import UsageError
 
@@ -19,6 +21,7 @@ __all__ = [
     "MAX_TIME_S",
     "check_int",
     "check_number",
+    "check_suffix",
     "check_topic_pattern",
 ]
 
@@ -75,3 +78,14 @@ def check_topic_pattern(flag: str, pattern: str) -> None:
     if pattern.count("{robot}") != 1:
         raise UsageError(f"{flag} {pattern!r}: the pattern must hold {{robot}} once, where the "
                          "robot's name goes (e.g. /{robot}/pose)")
+
+
+def check_suffix(flag: str, path: Path | None, suffixes: Sequence[str]) -> Path | None:
+    """Refuse an output name whose extension is not one of ``suffixes`` (case-insensitive):
+    ``--out-csv run.json`` is a mistake worth a word before a long run, not a surprise after.
+    Returns ``path`` (None passes)."""
+    if path is None or path.suffix.lower() in suffixes:
+        return path
+    wanted = " or ".join(suffixes)
+    raise UsageError(f"{flag} {path}: the file name must end in {wanted} "
+                     f"(e.g. {path.with_suffix(suffixes[0])})")

@@ -8,7 +8,9 @@ One place for what the four commands share:
 - One progress rule, :func:`progress_enabled`: an explicit ``--progress`` / ``--no-progress``
   wins; otherwise ``--quiet`` means no progress; otherwise a bar when stderr is a terminal
   and, when it is not (a pipe, a CI log), a plain line every few seconds.
-  ``--quiet`` also silences the summary (:func:`echo`). :func:`progress_bar` makes either.
+  ``--quiet`` also silences the summary (:func:`echo`), never a ``warning:`` line on stderr
+  (what says the results may be wrong). :func:`dsp.progress.progress_bar`
+  makes either (library code uses it too; nothing outside a command imports this module).
 - :func:`run_main`: the one ``main`` wrapper. Exit codes: 0 done; 1 bad input
   (:class:`~dsp.errors.InputError`, an ``OSError``); 2 usage (argparse's own and
   :class:`~dsp.errors.UsageError`); 3 refused overwrite (:class:`~dsp.errors.OutputExistsError`);
@@ -24,25 +26,19 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from collections.abc import Callable, Sequence
 from importlib import metadata
-from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
 from dsp.contract import RENDERERS
-from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError, UsageError
+from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError
 from dsp.text import printable
 
 __all__ = [
     "DISTRIBUTION",
-    "LINE_INTERVAL_S",
     "RENDERERS",
-    "LineProgress",
     "add_common_arguments",
-    "check_suffix",
     "echo",
-    "progress_bar",
     "progress_enabled",
     "run_main",
     "version",
@@ -50,8 +46,6 @@ __all__ = [
 
 DISTRIBUTION = "dual-sight"
 """The installed distribution whose version ``--version`` prints."""
-
-"""pybullet renderers: auto = EGL when it loads, else TinyRenderer (env DSP_RENDERER overrides)."""
 
 
 def version() -> str:
@@ -99,18 +93,8 @@ def add_common_arguments(
                          help="never show a progress bar (default: when stderr is a terminal "
                          "and not --quiet)")
         parser.add_argument("-q", "--quiet", action="store_true",
-                            help="print no summary; no progress bar unless --progress")
-
-
-def check_suffix(flag: str, path: Path | None, suffixes: Sequence[str]) -> Path | None:
-    """Refuse an output name whose extension is not one of ``suffixes`` (case-insensitive):
-    ``--out-csv run.json`` is a mistake worth a word before a long run, not a surprise after.
-    Returns ``path`` (None passes)."""
-    if path is None or path.suffix.lower() in suffixes:
-        return path
-    wanted = " or ".join(suffixes)
-    raise UsageError(f"{flag} {path}: the file name must end in {wanted} "
-                     f"(e.g. {path.with_suffix(suffixes[0])})")
+                            help="print no summary; no progress bar unless --progress "
+                            "(warnings are still printed)")
 
 
 def progress_enabled(args: argparse.Namespace, stream: IO[str] | None = None) -> bool | None:
@@ -132,67 +116,6 @@ def echo(args: argparse.Namespace, text: str) -> None:
     characters (from names in a log) are escaped (:func:`dsp.text.printable`)."""
     if not getattr(args, "quiet", False):
         print(printable(text, lines=True))
-
-
-LINE_INTERVAL_S = 10.0
-"""How often a progress line is printed when stderr is not a terminal."""
-
-
-class LineProgress:
-    """Progress as plain lines on a stream that is not a terminal: ``desc: 120/600 img
-    (20%), 31 s`` at most every ``interval_s`` seconds (the tqdm calls a bar gets)."""
-
-    def __init__(self, total: int | None, desc: str, *, unit: str = "it",
-                 interval_s: float = LINE_INTERVAL_S, stream: IO[str] | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        self.total, self.desc, self.unit = total, desc, unit
-        self.n = 0
-        self.interval_s = interval_s
-        self.stream = stream
-        self.clock = clock
-        self.start = self.last = clock()
-
-    def update(self, n: int = 1) -> None:
-        self.n += n
-        now = self.clock()
-        if now - self.last >= self.interval_s:
-            self.last = now
-            self._line(now)
-
-    def set_postfix_str(self, text: str, refresh: bool = True) -> None:
-        """Accepted for tqdm compatibility; lines carry counts only."""
-
-    def _line(self, now: float) -> None:
-        done = f"{self.n}/{self.total}" if self.total else f"{self.n}"
-        pct = f" ({100.0 * self.n / self.total:.0f}%)" if self.total else ""
-        stream = sys.stderr if self.stream is None else self.stream
-        print(f"{self.desc}: {done} {self.unit}{pct}, {now - self.start:.0f} s",
-              file=stream, flush=True)
-
-    def close(self) -> None:
-        return None
-
-    def __enter__(self) -> LineProgress:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-def progress_bar(total: int | None, desc: str, enabled: bool | None, *,
-                 unit: str = "it") -> Any:
-    """Progress on stderr as :func:`progress_enabled` decided: a tqdm bar (True), plain
-    lines (None, :class:`LineProgress`) or nothing (False); use it as a context manager.
-
-    The bar is removed when it closes, so the summary that follows stands alone. ``desc``
-    (often a file name) is escaped as everything printed is (:func:`dsp.text.printable`)."""
-    desc = printable(desc)
-    if enabled is None:
-        return LineProgress(total, desc, unit=unit)
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, unit=unit, disable=not enabled, leave=False,
-                file=sys.stderr, dynamic_ncols=True)
 
 
 def _fail(prog: str, message: str) -> None:

@@ -3,16 +3,22 @@
 Python's :func:`json.dumps` writes ``NaN`` and ``Infinity`` by default, which JSON does not
 have (strict parsers, ``jq``, browsers refuse the file). :func:`finite` turns every
 non-finite float into ``null``; :func:`dumps` does that and then dumps with
-``allow_nan=False``, so a stray one is an error here and never a bad file.
+``allow_nan=False``, so a stray one is an error here and never a bad file. :data:`Json` is the
+type of what JSON holds, for the documents the commands write.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, TypeAlias
 
-__all__ = ["dumps", "finite"]
+__all__ = ["Json", "dumps", "finite"]
+
+Json: TypeAlias = "bool | int | float | str | Sequence[Json] | Mapping[str, Json] | None"
+"""A JSON value, as the documents the commands write hold them (any sequence is an array,
+any mapping with string keys an object)."""
 
 
 def finite(value: Any) -> Any:

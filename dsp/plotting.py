@@ -9,7 +9,10 @@ matplotlib is imported only when a figure is made.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["FIGURE_SUFFIXES", "figure", "save"]
 
@@ -17,7 +20,7 @@ FIGURE_SUFFIXES = (".png", ".svg")
 """The figure formats written deterministically."""
 
 
-def figure(width_in: float, height_in: float, **subplots: Any) -> tuple[Any, Any]:
+def figure(width_in: float, height_in: float, **subplots: Any) -> tuple[Figure, Any]:
     """A new figure and its axes (``Figure.subplots(**subplots)``), not attached to pyplot."""
     from matplotlib.figure import Figure
 
@@ -25,7 +28,7 @@ def figure(width_in: float, height_in: float, **subplots: Any) -> tuple[Any, Any
     return fig, fig.subplots(**subplots)
 
 
-def save(fig: Any, path: Path | str | IO[bytes], *, fmt: str = "png", dpi: int = 100) -> None:
+def save(fig: Figure, path: Path | str | IO[bytes], *, fmt: str = "png", dpi: int = 100) -> None:
     """Write ``fig`` to ``path`` (a file name or a binary file) as ``fmt`` (png or svg),
     with no varying metadata."""
     import matplotlib

@@ -24,10 +24,15 @@ def _escape(ch: str) -> str:
         else f"\\U{code:08x}"
 
 
-def printable(text: object, *, lines: bool = False) -> str:
+def printable(text: object, *, lines: bool = False, limit: int | None = None) -> str:
     """``str(text)`` with control and format characters escaped (``"\\x1b[2J"`` ->
-    ``"\\\\x1b[2J"``); tabs are kept, newlines are kept only when ``lines``."""
-    s = str(text)
+    ``"\\\\x1b[2J"``); tabs are kept, newlines are kept only when ``lines``. With ``limit``,
+    what is longer is cut to ``limit`` characters and ``...`` (a name from a log in a line)."""
+    s = _escaped(str(text), lines)
+    return s if limit is None or len(s) <= limit else s[:limit] + "..."
+
+
+def _escaped(s: str, lines: bool) -> str:
     if s.isprintable():  # the common case: nothing to escape
         return s
     out = []

@@ -1,12 +1,13 @@
 """The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O.
 
-Detection (:mod:`estimator.detection`), paper mode (:mod:`estimator.paper`), the corrected
-estimator (:mod:`estimator.corrected`) with its calibrations (:mod:`estimator.calibration`:
-models, fitting and JSON form in ``calibration_models``, ``calibration_fit`` and
-``calibration_json``), fusion of several robots (:mod:`estimator.fusion`), the ball tracker
-(:mod:`estimator.tracker`, its model :mod:`estimator.tracker_model`), geometry,
-errors and the paper's numbers (:mod:`estimator.constants`). Camera models live in
-:mod:`estimator.camera` (imported on demand, not re-exported here).
+Three rooms: detection (:mod:`estimator.detection`), calibrations (:mod:`estimator.calibration`:
+models, fitting, JSON form) and the ball tracker (:mod:`estimator.tracking`). Beside them:
+paper mode (:mod:`estimator.paper`), the corrected estimator (:mod:`estimator.corrected`),
+the estimates that flow between the parts (:mod:`estimator.estimates`), their noise models
+(:mod:`estimator.noise`), fusion of several robots (:mod:`estimator.fusion`), geometry,
+errors and the numbers defined once (:mod:`estimator.constants`). Camera models live in
+:mod:`estimator.camera` (imported on demand, not re-exported here). Imports run one way:
+fusion -> tracking -> noise -> estimates; the estimator imports nothing else of the project.
 """
 
 from estimator.calibration import (
@@ -27,13 +28,14 @@ from estimator.calibration import (
 )
 from estimator.constants import (
     BALL_RADIUS_M,
+    NS_PER_S,
     PAPER_B_M,
     PAPER_CENTRE_PX,
     PAPER_IMAGE_SIZE_PX,
     PAPER_K_M_PER_PX,
     PAPER_R2,
 )
-from estimator.corrected import BallEstimate, ball_visibility, estimate_ball
+from estimator.corrected import ball_visibility, estimate_ball
 from estimator.detection import Detection, DetectionParams, detect_ball, detect_blobs
 from estimator.errors import (
     CalibrationError,
@@ -46,20 +48,15 @@ from estimator.errors import (
     OutOfRangeError,
     UnknownFusionError,
 )
+from estimator.estimates import BallEstimate, FusedEstimate
 from estimator.fusion import (
     FUSION_METHODS,
-    RANGE_SIGMA_COEFFICIENTS,
-    CalibratedNoise,
-    FusedEstimate,
     Fusion,
     MeanFusion,
     NearestFusion,
-    Noise,
-    NoiseModel,
     RobustFusion,
     WeightedFusion,
     get_fusion,
-    range_sigma_m,
 )
 from estimator.geometry import (
     RobotPose,
@@ -69,12 +66,20 @@ from estimator.geometry import (
     wrap_angle,
     yaw_from_quaternion,
 )
+from estimator.noise import (
+    RANGE_SIGMA_COEFFICIENTS,
+    CalibratedNoise,
+    Noise,
+    NoiseModel,
+    range_sigma_m,
+)
 from estimator.paper import locate_ball, rpy_from_quaternion
-from estimator.tracker import BallTracker, Measurement, TrackerParams, TrackFusion, TrackState
+from estimator.tracking import BallTracker, Measurement, TrackerParams, TrackFusion, TrackState
 
 __all__ = [
     "BALL_RADIUS_M",
     "FUSION_METHODS",
+    "NS_PER_S",
     "PAPER_B_M",
     "PAPER_CALIBRATION",
     "PAPER_CENTRE_PX",

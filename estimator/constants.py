@@ -4,13 +4,16 @@ The paper ("Object Position Estimation based on Dual Sight Perspective Configura
 calibrates the pixel radius r of the ball's centroid to its range,
 ``d = PAPER_K_M_PER_PX * r + PAPER_B_M`` (eq. 4, R^2 = PAPER_R2), in a square omni image of
 ``PAPER_IMAGE_SIZE_PX`` pixels whose centre, the robot's centre, is ``PAPER_CENTRE_PX``.
-The ball is the MSL (and simatch) ball of radius ``BALL_RADIUS_M``.
+The ball is the MSL (and simatch) ball of radius ``BALL_RADIUS_M``. Time between stages is an
+integer count of nanoseconds; ``NS_PER_S`` converts it, for the whole project (the estimator
+imports nothing of ours, so everything else can import this).
 """
 
 from __future__ import annotations
 
 __all__ = [
     "BALL_RADIUS_M",
+    "NS_PER_S",
     "PAPER_B_M",
     "PAPER_CENTRE_PX",
     "PAPER_IMAGE_SIZE_PX",
@@ -30,3 +33,6 @@ PAPER_CENTRE_PX = (539.0, 539.0)
 """The paper's image centre = robot centre in the 1080 x 1080 image [px] (eq. 3, 6)."""
 BALL_RADIUS_M = 0.11
 """Radius of the MSL ball [m]."""
+NS_PER_S = 1_000_000_000
+"""Nanoseconds per second: stamps are integer nanoseconds (``*_ns``), seconds only at the
+edges."""

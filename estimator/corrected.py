@@ -16,41 +16,21 @@ right = robot right (-y_r). With du = u - cu, dv = v - cv (pixels)::
 
 At r == 0 the bearing is undefined; we define theta = 0 (forward), so the ball is put
 d(0) in front of the robot.
+
+A camera mounted turned on the robot (image up showing the robot-frame direction
+``mount_yaw_rad``, 0 = forward, +pi/2 = left) adds that angle to theta.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-from estimator.calibration_models import PAPER_CALIBRATION, Calibration
+from estimator.calibration.models import PAPER_CALIBRATION, Calibration
 from estimator.constants import PAPER_CENTRE_PX
-from estimator.geometry import RobotPose
+from estimator.estimates import BallEstimate
+from estimator.geometry import RobotPose, wrap_angle
 
-__all__ = ["BallEstimate", "ball_visibility", "estimate_ball"]
-
-
-@dataclass(frozen=True)
-class BallEstimate:
-    """One robot's estimate of the ball: range and bearing from the robot, field position."""
-
-    robot: str
-    robot_x_m: float
-    robot_y_m: float
-    range_m: float
-    """Horizontal range from the robot's centre to the ball's centre [m]."""
-    bearing_rad: float
-    """Bearing of the ball in the ROBOT frame [rad]: 0 forward, +pi/2 left."""
-    x_m: float
-    y_m: float
-    visibility: float = 1.0
-    """How much of the ball the blob shows: detected area / the area a whole ball at this
-    range would have (:func:`ball_visibility`), 1 when unknown. A partly hidden ball's
-    centroid is biased, so fusion trusts it less."""
-    r_px: float | None = None
-    """Pixel radius of the centroid from the image centre (eq. 3), None when unknown: the
-    calibrated noise model (:class:`estimator.fusion.CalibratedNoise`) takes the
-    calibration's slope there."""
+__all__ = ["ball_visibility", "estimate_ball"]
 
 
 def ball_visibility(area_px: float, expected_area_px: float) -> float:
@@ -69,12 +49,16 @@ def estimate_ball(
     *,
     centre_px: tuple[float, float] = PAPER_CENTRE_PX,
     robot: str = "",
+    mount_yaw_rad: float = 0.0,
 ) -> BallEstimate:
-    """The ball's field position from its centroid (cx_px, cy_px) seen by a robot at ``pose``."""
+    """The ball's field position from its centroid (cx_px, cy_px) seen by a robot at ``pose``
+    through a camera whose image up shows the robot-frame direction ``mount_yaw_rad``."""
     du = cx_px - centre_px[0]
     dv = cy_px - centre_px[1]
     r = math.hypot(du, dv)  # eq. 3
     theta = math.atan2(-du, -dv) if r > 0.0 else 0.0  # robot frame, 0 = forward
+    if mount_yaw_rad:
+        theta = wrap_angle(theta + mount_yaw_rad)
     d = calibration.range_m(r)  # eq. 4, applied to the range
     phi = pose.yaw_rad + theta  # field bearing of the ball from the robot
     return BallEstimate(

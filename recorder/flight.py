@@ -30,23 +30,22 @@ rendered ball and the truth follow one curve. What had to be set right for the a
 A lob is struck without spin (pybullet has no Magnus force; spin matters only at the
 bounces). A kick that falls due while the ball is in the air waits until it is down.
 
-No pybullet here (the :class:`Flight` drives a :class:`recorder.world.World` it is given).
+No pybullet here (the :class:`Flight` drives a :class:`recorder.world.World` it is given,
+through the few methods :class:`FlightWorld` names, so this module imports no world).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
+from dsp.field import FieldSpec
 from estimator.constants import BALL_RADIUS_M
 from recorder.match import LobKick
 
-if TYPE_CHECKING:  # the world is pybullet's; this module is plain data and arithmetic
-    from recorder.world import World
-
 __all__ = ["AIRBORNE_M", "AIR_DAMPING", "GROUND_DAMPING", "LOB_FLIGHT", "Flight",
-           "FlightParams"]
+           "FlightParams", "FlightWorld"]
 
 GROUND_DAMPING = 0.05
 """The ball's linear damping on the ground (every log's): its rolling friction and drag."""
@@ -82,10 +81,25 @@ LOB_FLIGHT = FlightParams(restitution=0.6, ground_restitution=0.95, contact_thre
 """The flight of every scenario with lobs."""
 
 
+class FlightWorld(Protocol):
+    """What a :class:`Flight` needs of the world (:class:`recorder.world.World` has it)."""
+
+    @property
+    def field(self) -> FieldSpec: ...
+
+    def ball_position(self) -> tuple[float, float, float]: ...
+
+    def set_ball_damping(self, linear: float) -> None: ...
+
+    def set_bounce(self, ground_restitution: float, contact_threshold_m: float) -> None: ...
+
+    def launch_ball(self, vx_mps: float, vy_mps: float, vz_mps: float) -> None: ...
+
+
 class Flight:
     """Sets the world up for lobs and keeps the ball's damping to its place (air or ground)."""
 
-    def __init__(self, world: World, params: FlightParams = LOB_FLIGHT) -> None:
+    def __init__(self, world: FlightWorld, params: FlightParams = LOB_FLIGHT) -> None:
         self.world = world
         self.params = params
         self._in_air = False

@@ -37,10 +37,11 @@ import numpy as np
 from dsp import contract as c
 from dsp import metadata as meta
 from dsp.atomic import AtomicFile, check_output_path, partial_paths
-from dsp.checks import check_int, check_number
-from dsp.cli import check_suffix, progress_bar
+from dsp.checks import check_int, check_number, check_suffix
 from dsp.errors import UsageError
+from dsp.progress import progress_bar
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
+from estimator.constants import NS_PER_S
 from recorder.ball import BALL_COLOURS, BALL_PATTERNS, ball_look
 from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.field import field_spec
@@ -68,7 +69,6 @@ __all__ = [
 ]
 
 IMAGE_FORMATS = ("png", "jpeg")
-_NS = 1_000_000_000
 MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 86_400.0
 """The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
@@ -132,7 +132,7 @@ class RecordOptions:
     renderer: str = "auto"
     force: bool = False
     progress: bool | None = False
-    """True a bar, False none, None plain lines (:func:`dsp.cli.progress_bar`)."""
+    """True a bar, False none, None plain lines (:func:`dsp.progress.progress_bar`)."""
     pose_rate_hz: float | None = None
     camera_phase: str | None = None
     pose_bias_m: float = 0.0
@@ -265,13 +265,13 @@ def _plan(path: Path, options: RecordOptions) -> Plan:
         frames = max(1, round(duration * rate))
     pose_rate = options.pose_rate_hz or sc.default_pose_rate_hz
     if pose_rate is None:  # twice the camera rate, as the logs before match play
-        tick_ns, per_frame = max(1, round(_NS / rate / 2)), 2
+        tick_ns, per_frame = max(1, round(NS_PER_S / rate / 2)), 2
     else:
         per_frame = round(pose_rate / rate)
         if per_frame < 1 or abs(per_frame * rate - pose_rate) > 1e-6 * pose_rate:
             raise UsageError(f"the pose rate {pose_rate:g} Hz must be a whole multiple of the "
                              f"camera rate {rate:g} Hz")
-        tick_ns = max(1, round(_NS / pose_rate))
+        tick_ns = max(1, round(NS_PER_S / pose_rate))
     robots = [tr.name for tr in sc.robots]
     phase = options.camera_phase or ("random" if sc.play is not None else "sync")
     phases = dict.fromkeys(robots, 0)
@@ -332,7 +332,7 @@ def log_metadata(
     camera model and the recorder (renderer, physics, package versions). ``plan``: the
     resolved timing (default: poses at twice ``rate_hz``, cameras in sync)."""
     if plan is None:
-        plan = Plan(sc, rate_hz, frames, max(1, round(_NS / rate_hz / 2)), 2,
+        plan = Plan(sc, rate_hz, frames, max(1, round(NS_PER_S / rate_hz / 2)), 2,
                     {tr.name: 0 for tr in sc.robots})
     scene = sc.params()
     field_name = scene.pop("field")

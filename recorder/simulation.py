@@ -26,6 +26,7 @@ import numpy as np
 
 from dsp import contract as c
 from estimator.camera import CameraModel
+from estimator.constants import NS_PER_S
 from recorder.effects import ImageEffects, PoseDrift
 from recorder.errors import RecorderError
 from recorder.flight import Flight
@@ -38,7 +39,6 @@ from recorder.writer import LogWriter
 __all__ = ["CAMERA_PHASES", "Plan", "Simulation", "encode_image"]
 
 CAMERA_PHASES = ("sync", "random")
-_NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ def encode_image(img: np.ndarray, fmt: str, jpeg_quality: int) -> bytes:
 
 def _step_of(t_ns: int) -> int:
     """The physics step nearest ``t_ns``."""
-    return (t_ns * PHYSICS_HZ + _NS // 2) // _NS
+    return (t_ns * PHYSICS_HZ + NS_PER_S // 2) // NS_PER_S
 
 
 class Simulation:
@@ -125,7 +125,7 @@ class Simulation:
         robots = [tr.name for tr in sc.robots]
         self.drift = PoseDrift(robots, options.seed, pose_bias_m=options.pose_bias_m,
                                yaw_bias_deg=options.yaw_bias_deg,
-                               tau_s=options.pose_bias_tau_s, dt_s=plan.tick_ns / _NS)
+                               tau_s=options.pose_bias_tau_s, dt_s=plan.tick_ns / NS_PER_S)
         self.effects = ImageEffects(robots, options.seed, image_noise=options.image_noise,
                                     gain_jitter=options.gain_jitter,
                                     exposure_steps=round(options.exposure_ms * PHYSICS_HZ / 1000),
@@ -155,7 +155,7 @@ class Simulation:
         for k in range(plan.ticks):
             t_ns = k * plan.tick_ns
             self._advance_to(t_ns)
-            truth = {name: tr.pose_at(t_ns / _NS) for name, tr in truth_of.items()}
+            truth = {name: tr.pose_at(t_ns / NS_PER_S) for name, tr in truth_of.items()}
             self._write_poses(writer, t_ns, truth)
             for robot, (x, y, yaw) in truth.items():
                 if not self._takes_image(robot, k):

@@ -6,14 +6,11 @@ docs/api.md maps the modules and how a frame flows from the reader to the sinks.
 """
 
 from replay.errors import ReplayError
+from replay.log import LogReader
 from replay.options import ReplayOptions, RerunTarget
-from replay.reader import LogReader
 from replay.runner import replay
 from replay.sink import Sink, SinkBase
 from replay.stats import ReplaySummary
 
-run = replay
-"""Alias: docs/api.md names the entry point ``replay.run``."""
-
 __all__ = ["LogReader", "ReplayError", "ReplayOptions", "ReplaySummary", "RerunTarget", "Sink",
-           "SinkBase", "replay", "run"]
+           "SinkBase", "replay"]

@@ -11,27 +11,22 @@ from __future__ import annotations
 from pathlib import Path
 
 from dsp.errors import InputError
+from dsp.text import printable
 
 __all__ = [
     "CorruptLogError",
-    "EstimatorUnavailableError",
     "ImageDecodeError",
     "InputNotFoundError",
     "MissingPosesError",
+    "NoCameraError",
     "NoFramesError",
     "NoImageTopicsError",
     "NotMcapError",
     "ReplayError",
     "SchemaError",
+    "StrictError",
     "TruncatedLogError",
 ]
-
-
-def shown(text: str, limit: int = 120) -> str:
-    """``text`` from a log made safe for a terminal: control characters escaped, cut to
-    ``limit`` characters."""
-    out = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in text)
-    return out if len(out) <= limit else out[:limit] + "..."
 
 
 class ReplayError(InputError):
@@ -89,6 +84,23 @@ class MissingPosesError(ReplayError):
         super().__init__(f"{path}: missing poses: {detail} (set --pose-topic or --pose-tolerance)")
 
 
+class NoCameraError(ReplayError):
+    """A robot that replays needs a camera description that neither the log nor an option
+    gives (a replay never guesses the image centre or the calibration)."""
+
+    def __init__(self, path: Path | str, detail: str) -> None:
+        super().__init__(f"{path}: {detail}")
+
+
+class StrictError(ReplayError):
+    """``--strict``: a replay that would have ended with warnings fails instead."""
+
+    def __init__(self, warnings: list[str]) -> None:
+        more = f" (and {len(warnings) - 1} more warning(s))" if len(warnings) > 1 else ""
+        super().__init__(f"--strict: {warnings[0]}{more}")
+        self.warnings = warnings
+
+
 class ImageDecodeError(ReplayError):
     """No image of the log could be decoded (a single bad image is only counted)."""
 
@@ -100,7 +112,7 @@ class SchemaError(ReplayError):
     """The schema of a topic replay reads is missing or does not parse."""
 
     def __init__(self, path: Path | str, what: str, detail: str) -> None:
-        super().__init__(f"{path}: unusable schema for {what}: {shown(detail)}")
+        super().__init__(f"{path}: unusable schema for {what}: {printable(detail, limit=120)}")
 
 
 class NoFramesError(ReplayError):
@@ -108,10 +120,3 @@ class NoFramesError(ReplayError):
 
     def __init__(self, path: Path | str, detail: str) -> None:
         super().__init__(f"{path}: no frames replayed: {detail}")
-
-
-class EstimatorUnavailableError(ReplayError):
-    """A part of ``estimator/`` the chosen options need is not importable."""
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(f"estimator unavailable: {detail}")

@@ -1,55 +1,52 @@
 """Per-frame estimation: the estimator parts chosen by the options, applied to one image.
 
-:class:`FrameEstimator` is built once per replay from the options and the log's camera
-metadata; :meth:`FrameEstimator.estimate` turns one decoded image (and a way to look up the
-robot's pose at its stamp) into a :class:`FrameOutcome` whose :class:`FrameStatus` says how
-far the image got:
+:class:`FrameEstimator` is built once per replay from the options and the robots' cameras
+(:mod:`replay.cameras`); :meth:`FrameEstimator.estimate` turns one decoded image (and a way
+to look up the robot's pose at its stamp) into a :class:`FrameOutcome` whose
+:class:`~replay.records.FrameStatus` says how far the image got:
 
     image --detect--> blob --pose at stamp--> pose --locate--> field estimate
     (BAD_IMAGE)     (DETECT_ERROR,          (NO_POSE)        (OUT_OF_RANGE)      OK
                      NO_DETECTION)
 
-A frame without a ball is not a skipped frame: NO_DETECTION still carries the pose.
+A frame without a ball is not a skipped frame: NO_DETECTION still carries the pose. A blob
+beyond the camera's usable radius is OUT_OF_RANGE, as is one its calibration has no range
+for. Poses in another frame than the field's (AMCL's ``map``) are turned into the field
+frame by the camera description's ``map_to_field`` first; a camera mounted turned adds its
+``mount_yaw_deg`` to every bearing (:mod:`replay.cameras`).
 
 :meth:`FrameEstimator.step` fuses one step's frames: a window fusion of their estimates, or
 (``track``) the ball tracker fed with each estimate at its own stamp, with its calibrated
-covariance (:class:`~estimator.fusion.CalibratedNoise`), and read at the step's stamp, with
+covariance (:class:`~estimator.noise.CalibratedNoise`), and read at the step's stamp, with
 the ball's velocity. The tracker makes a step at every image stamp
 (:meth:`FrameEstimator.step_window_ns`). Offline (``smooth``), the steps are held back and
 leave with the RTS smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
-:meth:`FrameEstimator.flush`).
+:meth:`FrameEstimator.flush`, :mod:`replay.smoothing`).
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
-from dsp import contract
-from dsp.errors import CalibrationError
-from estimator import calibration as cal
-from estimator import camera as cam
-from estimator import corrected, detection, fusion, paper
-from estimator.constants import PAPER_CENTRE_PX
+from estimator import corrected, fusion, paper
+from estimator.detection import Detection, detect_ball
 from estimator.errors import EstimatorError
+from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covariance_rows
 from estimator.geometry import RobotPose
-from estimator.tracker import BallTracker, Measurement
-from estimator.tracker_smoother import SmoothedTrack
-from replay.results import FrameResult, FrameStatus, RobotEstimate, StepResult
-from replay.sink import Sink, SinkBase
+from estimator.noise import CalibratedNoise, Noise
+from estimator.tracking import BallTracker, Measurement
+from replay.cameras import DEFAULT_CENTRE_PX, Cameras
+from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
+from replay.sink import Sink
+from replay.smoothing import SmoothedSteps
 from replay.sync import PoseMatch
 
-__all__ = ["DEFAULT_CENTRE_PX", "Detected", "FrameEstimator", "FrameOutcome", "FrameStatus",
-           "detect"]
-
-DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
-"""The image centre of a robot whose log names no camera: the paper's."""
+__all__ = ["Detected", "FrameEstimator", "FrameOutcome", "Locator", "detect"]
 
 
 @dataclass(frozen=True)
@@ -57,7 +54,7 @@ class FrameOutcome:
     """What the estimator made of one image."""
 
     status: FrameStatus
-    detection: detection.Detection | None = None
+    detection: Detection | None = None
     r_px: float | None = None
     """Pixel radius of the blob from the image centre (eq. 3)."""
     pose: PoseMatch | None = None
@@ -70,7 +67,7 @@ class Detected:
 
     status: FrameStatus | None
     """BAD_IMAGE or DETECT_ERROR when detection could not run; None when it ran."""
-    detection: detection.Detection | None = None
+    detection: Detection | None = None
 
 
 def detect(image: np.ndarray | None) -> Detected:
@@ -78,7 +75,7 @@ def detect(image: np.ndarray | None) -> Detected:
     if image is None:
         return Detected(FrameStatus.BAD_IMAGE)
     try:
-        return Detected(None, detection.detect_ball(image))
+        return Detected(None, detect_ball(image))
     except EstimatorError:
         return Detected(FrameStatus.DETECT_ERROR)
 
@@ -86,37 +83,20 @@ def detect(image: np.ndarray | None) -> Detected:
 class Locator(Protocol):
     """Turns a robot's blob and pose into its field estimate (paper or corrected mode)."""
 
-    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate: ...
-
-
-@dataclass(frozen=True)
-class _Cameras:
-    """Per robot: image centre, camera model (when the log names one) and calibration."""
-
-    centres: Mapping[str, tuple[float, float]]
-    models: Mapping[str, cam.CameraModel]
-    calibrations: Mapping[str, cal.Calibration]
-    fit_rms_m: float = 0.0
-    """The calibration file's fit residual RMS [m] when it records one (0: a camera model)."""
-
-    def visibility(self, robot: str, det: detection.Detection, range_m: float) -> float:
-        """How much of the ball the blob shows, when the log names the camera model."""
-        model = self.models.get(robot)
-        if model is None:
-            return 1.0
-        expected = cam.ball_image_area_px(model, range_m)
-        return corrected.ball_visibility(float(det.area_px), expected)
+    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate: ...
 
 
 @dataclass(frozen=True)
 class PaperLocator:
     """Eq. 3-14 exactly, the paper's calibration folded in."""
 
-    cameras: _Cameras
+    cameras: Cameras
 
-    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate:
+    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
+        # a turned camera: the paper's alpha0 = 90 deg - yaw takes the image's own yaw
+        image_yaw = pose.yaw_rad + self.cameras.mount_yaw_rad(robot)
         x, y = paper.locate_ball(float(det.cx_px), float(det.cy_px), pose.x_m, pose.y_m,
-                                 pose.yaw_rad, centre_px=self.cameras.centres[robot])
+                                 image_yaw, centre_px=self.cameras.centres[robot])
         dx, dy = x - pose.x_m, y - pose.y_m
         bearing = math.atan2(dy, dx) - pose.yaw_rad
         bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
@@ -129,71 +109,27 @@ class PaperLocator:
 class CorrectedLocator:
     """The corrected estimator: calibration on the range, yaw from the full quaternion."""
 
-    cameras: _Cameras
+    cameras: Cameras
 
-    def locate(self, robot: str, det: detection.Detection, pose: RobotPose) -> RobotEstimate:
+    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
         e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
                                     self.cameras.calibrations[robot],
-                                    centre_px=self.cameras.centres[robot], robot=robot)
+                                    centre_px=self.cameras.centres[robot], robot=robot,
+                                    mount_yaw_rad=self.cameras.mount_yaw_rad(robot))
         return RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m, pose.y_m,
                              pose.yaw_rad, self.cameras.visibility(robot, det, e.range_m))
-
-
-def _cameras(robots: Sequence[str], metadata: Mapping[str, Mapping[str, Any]], source: str,
-             calibration_file: Path | None) -> _Cameras:
-    """Each robot's camera from the log's metadata (the paper's when it names none), and the
-    calibration file, when given, for every robot."""
-    centres: dict[str, tuple[float, float]] = {}
-    models: dict[str, cam.CameraModel] = {}
-    calibrations: dict[str, cal.Calibration] = {}
-    for robot in robots:
-        centres[robot] = DEFAULT_CENTRE_PX
-        calibrations[robot] = cal.PAPER_CALIBRATION
-        if robot in metadata:
-            try:
-                model = cam.camera_from_dict(dict(metadata[robot]))
-            except (ValueError, TypeError, EstimatorError) as err:
-                raise CalibrationError(
-                    f"{source} metadata {contract.CAMERAS_METADATA}[{robot}]", str(err)
-                ) from err
-            centres[robot] = (float(model.centre_px[0]), float(model.centre_px[1]))
-            calibrations[robot] = cal.CameraCalibration(model)
-            models[robot] = model
-    fit_rms_m = 0.0
-    if calibration_file is not None:
-        model_from_file, fit_rms_m = _read_calibration(Path(calibration_file))
-        calibrations = dict.fromkeys(robots, model_from_file)
-    return _Cameras(centres, models, calibrations, fit_rms_m)
-
-
-def _read_calibration(path: Path) -> tuple[cal.Calibration, float]:
-    """The calibration in ``path`` and its fit's residual RMS [m] (0 when not recorded)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
-    try:
-        model = cal.calibration_from_json(text)
-        fit = json.loads(text).get("fit") or {}
-        rms = float(fit.get("rms_m", 0.0)) if isinstance(fit, dict) else 0.0
-    except (ValueError, TypeError, KeyError, EstimatorError) as err:
-        raise CalibrationError(path, str(err)) from err
-    if not (math.isfinite(rms) and rms >= 0.0):
-        raise CalibrationError(path, f"fit rms_m = {rms} must be a finite number >= 0")
-    return model, rms
 
 
 class FrameEstimator:
     """The estimator as the options choose it: detection, the method's locator, the fusion."""
 
-    def __init__(self, *, method: str, fusion_method: str, robots: Sequence[str],
-                 camera_metadata: Mapping[str, Mapping[str, Any]], source: str,
-                 calibration_file: Path | None = None, smooth: bool = False,
-                 noise: str = "cambada") -> None:
-        self.cameras = _cameras(robots, camera_metadata, source, calibration_file)
+    def __init__(self, *, method: str, fusion_method: str, cameras: Cameras,
+                 smooth: bool = False, noise: str = "cambada") -> None:
+        self.cameras = cameras
+        self._centres = dict(cameras.centres)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
-        self.noise: fusion.Noise = fusion.CalibratedNoise(
+        self.noise: Noise = CalibratedNoise(
             calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
         self.tracker: BallTracker | None = None
         if fusion_method == "track":
@@ -202,14 +138,14 @@ class FrameEstimator:
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
             self.fusion = fusion.get_fusion(
                 fusion_method, noise=self.noise if noise == "calibrated" else None)
-        self._deferred: _Deferred | None = None
+        self._deferred: SmoothedSteps | None = None
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
-        return self.cameras.centres
+        return self._centres
 
     def centre(self, robot: str) -> tuple[float, float]:
-        return self.cameras.centres.get(robot, DEFAULT_CENTRE_PX)
+        return self._centres.get(robot, DEFAULT_CENTRE_PX)
 
     def estimate(self, robot: str, image: np.ndarray | None,
                  pose_at: Callable[[], PoseMatch | None], *,
@@ -229,46 +165,33 @@ class FrameEstimator:
         pose = pose_at()
         if pose is None:
             return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
+        transform = self.cameras.map_to_field(robot)
+        if transform is not None:
+            x, y, yaw = transform.apply(pose.pose.x_m, pose.pose.y_m, pose.pose.yaw_rad)
+            pose = replace(pose, pose=RobotPose(x, y, yaw))
         if det is None:
             return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose)
+        usable = self.cameras.usable_radius_px(robot)
+        if usable is not None and r_px is not None and r_px > usable:
+            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
         try:
             estimate = self.locator.locate(robot, det, pose.pose)
         except EstimatorError:
             return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate)
 
-    def fuse(self, estimates: Sequence[RobotEstimate]) -> fusion.FusedEstimate | None:
-        """The robots' estimates of one step, fused by the window fusion (the tracker's
-        one-shot form for ``track``); None when there are none."""
-        if not estimates:
-            return None
-        return self.fusion.fuse([_ball(e) for e in estimates])
-
     def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
         """The sinks the runner feeds: these, or (smoothing) one that passes frames on and
         holds the steps back until :meth:`flush`."""
         if self.tracker is None or not self.tracker.record:
             return list(sinks)
-        self._deferred = _Deferred(self, list(sinks))
+        self._deferred = SmoothedSteps(self.tracker, list(sinks))
         return [self._deferred]
 
     def flush(self) -> None:
         """Once the log is read: the held-back steps, smoothed, to the sinks."""
         if self._deferred is not None:
             self._deferred.flush()
-
-    def smoothed_step(self, step: StepResult, smooth: SmoothedTrack) -> StepResult:
-        """``step`` with the smoothed track in place of the causal one (where there was one)."""
-        g = None if step.fused is None else smooth.state_at(step.stamp_ns)
-        if g is None:
-            return step
-        x, p = g
-        fused = fusion.FusedEstimate(float(x[0]), float(x[1]), _covariance(p[:2, :2]),
-                                     step.fused.robots)
-        err = None if step.truth is None else math.hypot(fused.x_m - step.truth[0],
-                                                         fused.y_m - step.truth[1])
-        return replace(step, fused=fused, error_m=err, velocity_m_s=(float(x[2]), float(x[3])),
-                       velocity_covariance=_covariance(p[2:, 2:]))
 
     def step_window_ns(self, window_ns: int) -> int:
         """The window that groups frames into steps: the fusion window, or 1 ns for the
@@ -293,7 +216,7 @@ class FrameEstimator:
                           velocity_covariance=velocity_cov, truth_velocity_m_s=truth_velocity)
 
     def _track(self, tracker: BallTracker, stamp_ns: int, frames: tuple[FrameResult, ...]) -> (
-        tuple[fusion.FusedEstimate | None, tuple[float, float] | None, fusion.Covariance | None]
+        tuple[FusedEstimate | None, tuple[float, float] | None, Covariance | None]
     ):
         """Each frame's estimate into the tracker at its own stamp; the track at stamp_ns."""
         for f in frames:
@@ -301,48 +224,16 @@ class FrameEstimator:
                 continue
             sigma = self.noise.covariance(_ball(f.estimate, f.r_px))
             tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m, f.estimate.y_m,
-                                       _covariance(sigma)))
+                                       covariance_rows(sigma)))
         state = tracker.state_at(stamp_ns)
         if state is None or not state.confirmed:  # a tentative track may be a false blob
             return None, None, None
-        fused = fusion.FusedEstimate(state.x_m, state.y_m, state.position_covariance,
-                                     tracker.accepted_at(stamp_ns))
+        fused = FusedEstimate(state.x_m, state.y_m, state.position_covariance,
+                              tracker.accepted_at(stamp_ns))
         return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
 
 
-def _ball(e: RobotEstimate, r_px: float | None = None) -> corrected.BallEstimate:
-    return corrected.BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
-                                  range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m,
-                                  y_m=e.y_m, visibility=e.visibility, r_px=r_px)
-
-
-def _covariance(m: np.ndarray) -> fusion.Covariance:
-    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
-
-
-class _Deferred(SinkBase):
-    """Sinks behind the offline smoother: frames pass at once, steps wait for the whole
-    log (:meth:`flush`), then go on with the smoothed track (the ``--smooth`` option)."""
-
-    def __init__(self, estimator: FrameEstimator, sinks: list[Sink]) -> None:
-        self.estimator = estimator
-        self.sinks = sinks
-        self._steps: list[StepResult] = []
-
-    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
-        for sink in self.sinks:
-            sink.frame(result, image_bgr)
-
-    def step(self, result: StepResult) -> None:
-        self._steps.append(result)
-
-    def flush(self) -> None:
-        tracker = self.estimator.tracker
-        assert tracker is not None
-        tracker.finish()
-        smooth = tracker.smoothed()
-        for step in self._steps:
-            smoothed = self.estimator.smoothed_step(step, smooth)
-            for sink in self.sinks:
-                sink.step(smoothed)
-        self._steps.clear()
+def _ball(e: RobotEstimate, r_px: float | None = None) -> BallEstimate:
+    return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
+                        range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
+                        visibility=e.visibility, r_px=r_px)

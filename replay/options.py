@@ -13,26 +13,26 @@ from __future__ import annotations
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
 from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
+from dsp.jsonio import Json
+from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
-from replay.mcap_records import DEFAULT_MAX_MESSAGE_BYTES, Limits
+from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
-__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "NS", "ReplayOptions", "RerunTarget",
+__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
            "Timing"]
 
 METHODS = ("paper", "corrected")
 DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
 """Paper mode fuses as the paper does (eq. 20-21); the corrected estimator tracks the ball
-(:mod:`estimator.tracker`): a fused position and velocity at every image stamp, robust to
+(:mod:`estimator.tracking.tracker`): a fused position and velocity at every image stamp, robust to
 unsynchronised cameras and a moving ball (window fusions stay available)."""
 NOISE_MODELS = ("cambada", "calibrated")
 """The window fusions' covariance models (``--noise``); the tracker's is "calibrated"."""
-NS = 1_000_000_000
 MAX_WINDOW_S = 60.0
 """The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their
 poses, so the look-ahead stays bounded."""
@@ -85,19 +85,32 @@ class ReplayOptions:
     method: str = "corrected"
     fusion: str | None = None
     """None: the method's own (:data:`DEFAULT_FUSION`)."""
-    calibration: Path | None = None
+    calibration: Path | str | None = None
+    """A calibration file for every robot, or "paper" (the paper's eq. 4 and, for a robot
+    the log describes no camera of, its image centre too)."""
+    cameras: Path | str | None = None
+    """A camera file (:mod:`dsp.camera_file`), or "paper" (the paper's camera for every
+    robot); None: the log's ``dsp.cameras`` metadata (:mod:`replay.cameras`)."""
     image_topic: str = contract.IMAGE_TOPIC
     pose_topic: str = contract.POSE_TOPIC
+    truth_topic: str | None = None
+    """The ball's true position (PoseStamped, PointStamped or Odometry), for scoring; None:
+    the contract's (/ground_truth/ball, or its odometry)."""
     robots: tuple[str, ...] | None = None
     start_s: float | None = None
+    """Seconds from the log's start (see :meth:`timing`), or an absolute stamp with
+    ``start_absolute``."""
     end_s: float | None = None
+    start_absolute: bool = False
+    """``start_s`` is a stamp (seconds since the epoch of the log's clock), not an offset."""
+    end_absolute: bool = False
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
     noise: str = "cambada"
     """The window fusions' per-estimate covariance: "cambada" (the fixed range law,
-    :class:`~estimator.fusion.NoiseModel`) or "calibrated" (from the calibration,
-    :class:`~estimator.fusion.CalibratedNoise`, as the tracker always uses)."""
+    :class:`~estimator.noise.NoiseModel`) or "calibrated" (from the calibration,
+    :class:`~estimator.noise.CalibratedNoise`, as the tracker always uses)."""
     smooth: bool = False
     """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
     (``track`` fusion only); steps reach the sinks once the log is read."""
@@ -108,9 +121,9 @@ class ReplayOptions:
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None
-    """The estimates as CSV (:mod:`replay.exports`)."""
+    """The estimates as CSV (:mod:`replay.sinks.csv_export`)."""
     plot: Path | None = None
-    """A figure of the replay, .png or .svg (:mod:`replay.figures`)."""
+    """A figure of the replay, .png or .svg (:mod:`replay.sinks.figure`)."""
     force: bool = False
     rerun: RerunTarget | None = None
     threads: int | None = None
@@ -118,9 +131,13 @@ class ReplayOptions:
     machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
     progress: bool | None = None
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
-    plain lines every few seconds when it is not (:func:`dsp.cli.progress_bar`)."""
+    plain lines every few seconds when it is not (:func:`dsp.progress.progress_bar`)."""
     quiet: bool = False
-    """Print no warnings (a log without camera metadata, skipped bad messages)."""
+    """Print no summary and no progress (the CLI's ``-q``); warnings are still printed: they
+    are what a replay that went wrong quietly would otherwise hide."""
+    strict: bool = False
+    """Warnings are errors (:mod:`replay.diagnosis`): a replay that would warn fails, and
+    writes nothing."""
     max_chunk_mib: float = 128.0
     """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
     max_image_mpx: float = 40.0
@@ -146,7 +163,8 @@ class ReplayOptions:
                      unit="MiB")
         check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,
                      unit="Mpx")
-        if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
+        if (self.start_s is not None and self.end_s is not None
+                and self.start_absolute == self.end_absolute and self.end_s < self.start_s):
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
         if self.noise not in NOISE_MODELS:
             raise UsageError(f"--noise {self.noise!r}; choose one of {', '.join(NOISE_MODELS)}")
@@ -155,6 +173,10 @@ class ReplayOptions:
                              f"{self.fusion_method!r}")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
+        if self.truth_topic is not None and not (
+                self.truth_topic.startswith("/") and self.truth_topic.isprintable()):
+            raise UsageError(f"--truth-topic {self.truth_topic!r}: give a topic name such as "
+                             "/mocap/ball")
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
             raise UsageError(f"--robots {','.join(self.robots)!r}: give robot names")
         check_distinct(self.output_flags())
@@ -176,13 +198,20 @@ class ReplayOptions:
         return (("--out", self.out), ("--out-mcap", self.out_mcap), ("--out-csv", self.out_csv),
                 ("--plot", self.plot), ("--save", self.save_path))
 
-    def timing(self) -> Timing:
+    def timing(self, origin_ns: int = 0) -> Timing:
+        """The times in nanoseconds; ``--start`` / ``--end`` that are not absolute count from
+        ``origin_ns``, the log's start (:func:`replay.selection.log_origin_ns`)."""
+        def stamp(seconds: float | None, absolute: bool) -> int | None:
+            if seconds is None:
+                return None
+            return round(seconds * NS_PER_S) + (0 if absolute else origin_ns)
+
         return Timing(
-            tolerance_ns=round(self.pose_tolerance_s * NS),
-            window_ns=max(1, round(self.window_s * NS)),
-            start_ns=None if self.start_s is None else round(self.start_s * NS),
-            end_ns=None if self.end_s is None else round(self.end_s * NS),
-            clock_ns=None if self.clock_hz is None else max(1, round(NS / self.clock_hz)),
+            tolerance_ns=round(self.pose_tolerance_s * NS_PER_S),
+            window_ns=max(1, round(self.window_s * NS_PER_S)),
+            start_ns=stamp(self.start_s, self.start_absolute),
+            end_ns=stamp(self.end_s, self.end_absolute),
+            clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
         )
 
     def limits(self) -> Limits:
@@ -199,18 +228,22 @@ class ReplayOptions:
         """Refuse, before any work: an output that exists already (unless ``force``), is a
         folder or has no folder; an output that is the input ``log`` or the calibration
         file, or that another output names too (symlinks and hard links included)."""
-        check_distinct(self.output_flags(), [("the input log", log),
-                                             ("the --calibration file", self.calibration)])
+        inputs = [("the input log", log)]
+        for flag, given in (("--calibration", self.calibration), ("--cameras", self.cameras)):
+            if given is not None and given != "paper":
+                inputs.append((f"the {flag} file", Path(given)))
+        check_distinct(self.output_flags(), inputs)
         for flag, out in self.output_flags():
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)
 
-    def results_view(self) -> dict[str, Any]:
+    def results_view(self) -> dict[str, Json]:
         """The options that shape the results (no output paths, no display switches)."""
         return {
             "method": self.method,
             "fusion": self.fusion_method,
             "calibration": None if self.calibration is None else Path(self.calibration).name,
+            **({"cameras": Path(self.cameras).name} if self.cameras is not None else {}),
             "image_topic": self.image_topic,
             "pose_topic": self.pose_topic,
             "robots": None if self.robots is None else list(self.robots),
@@ -223,6 +256,9 @@ class ReplayOptions:
             **({"noise": self.noise} if self.noise != "cambada" else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
+            **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
+            **({"start_absolute": True} if self.start_absolute else {}),
+            **({"end_absolute": True} if self.end_absolute else {}),
         }
 
     @property
@@ -235,7 +271,7 @@ class ReplayOptions:
         except AttributeError:  # not on Linux
             return max(1, os.cpu_count() or 1)
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """All options as plain values (for hashing into a Rerun recording id); not the
         thread count, which changes nothing in the outputs."""
         d = asdict(self)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 if TYPE_CHECKING:
-    from replay.results import FrameResult, StepResult
+    from replay.records import FrameResult, StepResult
 
 __all__ = ["Sink", "SinkBase"]
 

@@ -10,11 +10,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from replay.results import FrameResult, StepResult
+from dsp.jsonio import Json
+from replay.log import RecoveryLoss
+from replay.records import FrameResult, StepResult
 from replay.sink import SinkBase
 
 __all__ = ["ErrorStats", "ReplayStats", "ReplaySummary", "RobotSummary", "VelocitySummary"]
@@ -43,7 +44,7 @@ class ErrorStats:
     def mean_m(self) -> float | None:
         return self.sum_abs / self.n if self.n else None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Json]:
         return {"errors": self.n, "rmse_m": self.rmse_m, "mean_error_m": self.mean_m,
                 "max_error_m": self.max_abs if self.n else None}
 
@@ -82,13 +83,19 @@ class ReplaySummary:
     per_robot: dict[str, RobotSummary]
     fused: RobotSummary
     undecodable_messages: int
-    recovered: dict[str, Any] | None
+    recovered: dict[str, Json] | None
+    """What ``--recover`` lost, as the results file's ``log.recovered`` (None without it)."""
     wall_s: float
     estimator_ms: float | None
     outputs: tuple[Path, ...] = ()
     fused_velocity: VelocitySummary | None = None
     """The fused velocity's errors [m/s], when the fusion estimates a velocity and the log
     holds the true one."""
+    loss: RecoveryLoss | None = None
+    """``recovered`` as read (None without ``--recover``)."""
+    warnings: tuple[str, ...] = ()
+    """What the user must know about a replay that worked (:mod:`replay.diagnosis`); the
+    commands print them on stderr (``-q`` does not hide them)."""
 
     @property
     def frames_per_s(self) -> float:
@@ -123,7 +130,7 @@ class ReplayStats(SinkBase):
         self.estimator_s = 0.0
         self.estimator_n = 0
         self.undecodable = 0
-        self.recovered: dict[str, Any] | None = None
+        self.recovered: RecoveryLoss | None = None
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         self.frames += 1
@@ -151,12 +158,12 @@ class ReplayStats(SinkBase):
             if velocity_error is not None:
                 self.velocity_errors.add(velocity_error)
 
-    def finish(self, *, undecodable: int, recovered: dict[str, Any] | None) -> None:
+    def finish(self, *, undecodable: int, recovered: RecoveryLoss | None) -> None:
         """What only the reader knows once the log is read."""
         self.undecodable = undecodable
         self.recovered = recovered
 
-    def summary_dict(self) -> dict[str, Any]:
+    def summary_dict(self) -> dict[str, Json]:
         """The results file's ``summary``."""
         return {
             "frames": self.frames,
@@ -173,7 +180,7 @@ class ReplayStats(SinkBase):
             "undecodable_messages": self.undecodable,
         }
 
-    def _velocity_dict(self) -> dict[str, Any]:
+    def _velocity_dict(self) -> dict[str, Json]:
         """``{"velocity": {...}}`` when there are velocity errors, else nothing (so a
         window fusion's summary is as it was)."""
         v = self.velocity_errors
@@ -195,7 +202,7 @@ class ReplayStats(SinkBase):
             per_robot={r: c.summary() for r, c in self.per_robot.items()},
             fused=fused.summary(),
             undecodable_messages=self.undecodable,
-            recovered=self.recovered,
+            recovered=None if self.recovered is None else self.recovered.to_dict(),
             wall_s=wall_s,
             estimator_ms=(1e3 * self.estimator_s / self.estimator_n) if self.estimator_n
             else None,
@@ -203,4 +210,5 @@ class ReplayStats(SinkBase):
             fused_velocity=None if not self.velocity_errors.n else VelocitySummary(
                 self.velocity_errors.n, self.velocity_errors.rmse_m, self.velocity_errors.mean_m,
                 self.velocity_errors.max_abs),
+            loss=self.recovered,
         )

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Generic, TypeVar
 
 from estimator.geometry import RobotPose, slerp, yaw_from_quaternion
-from replay.reader import ImageMessage, PoseMessage, TruthMessage
+from replay.log import ImageMessage, PoseMessage, TruthMessage
 
 __all__ = [
     "DelayLine",

@@ -34,7 +34,7 @@ from urllib.parse import quote
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from replay.rerun_live import ViewerServer
+from replay.sinks.rerun.live import ViewerServer
 
 THEMES = ("light", "dark")
 

@@ -192,7 +192,7 @@ def test_unreadable_metadata_is_an_error(cls: Any, data: dict[str, str], match: 
 
 
 def test_the_reader_names_the_log_with_unreadable_metadata(tmp_path: Path) -> None:
-    from replay.reader import LogReader
+    from replay.log import LogReader
 
     path = tmp_path / "bad.mcap"
     with path.open("wb") as f:

@@ -18,7 +18,7 @@ from synthetic import write_log
 import recorder.calibrate_cli
 import recorder.cli
 import replay.cli
-import replay.evaluate_cli
+import replay.evaluate.cli
 from dsp.cli import RENDERERS, add_common_arguments, progress_enabled, run_main
 from dsp.errors import DspError, InputError, OutputExistsError, UsageError
 from estimator.camera import CAMERA_MODELS
@@ -29,19 +29,19 @@ COMMANDS = {
     "dsp-record": "recorder.cli",
     "dsp-calibrate": "recorder.calibrate_cli",
     "dsp-replay": "replay.cli",
-    "dsp-eval": "replay.evaluate_cli",
+    "dsp-eval": "replay.evaluate.cli",
 }
 MAINS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "dsp-record": recorder.cli.main,
     "dsp-calibrate": recorder.calibrate_cli.main,
     "dsp-replay": replay.cli.main,
-    "dsp-eval": replay.evaluate_cli.main,
+    "dsp-eval": replay.evaluate.cli.main,
 }
 PARSERS = {
     "dsp-record": recorder.cli.build_parser,
     "dsp-calibrate": recorder.calibrate_cli.build_parser,
     "dsp-replay": replay.cli.build_parser,
-    "dsp-eval": replay.evaluate_cli.build_parser,
+    "dsp-eval": replay.evaluate.cli.build_parser,
 }
 
 
@@ -235,7 +235,7 @@ def test_dsp_eval_counts_finished_scenes_on_its_bar() -> None:
             self.n += k
 
     bar = Bar()
-    map_scenes = replay.evaluate_cli._scene_mapper(Workers(count=1), bar)
+    map_scenes = replay.evaluate.cli._scene_mapper(Workers(count=1), bar)
     assert map_scenes(lambda t: 2 * t, [1, 2, 3]) == [2, 4, 6]  # in order
     assert bar.n == 3
 

@@ -15,7 +15,7 @@ import pytest
 from recorder.calibrate_cli import main as calibrate_main
 from recorder.cli import main as record_main
 from replay.cli import main as replay_main
-from replay.evaluate_cli import main as eval_main
+from replay.evaluate.cli import main as eval_main
 
 Main = Callable[[Sequence[str] | None], int]
 

@@ -9,20 +9,19 @@ import pytest
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from estimator.corrected import BallEstimate
 from estimator.errors import FusionError, UnknownFusionError
+from estimator.estimates import BallEstimate
 from estimator.fusion import (
     FUSION_METHODS,
     RANGE_TIE_M,
     Fusion,
     MeanFusion,
     NearestFusion,
-    NoiseModel,
     RobustFusion,
     WeightedFusion,
     get_fusion,
-    range_sigma_m,
 )
+from estimator.noise import NoiseModel, range_sigma_m
 
 
 def est(robot: str, rx: float, ry: float, bx: float, by: float) -> BallEstimate:

@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 
 from estimator.camera import CAMERA_MODELS, ball_image_area_px, make_camera
-from estimator.corrected import BallEstimate, ball_visibility
+from estimator.corrected import ball_visibility
 from estimator.detection import detect_ball
-from estimator.fusion import NoiseModel, get_fusion
+from estimator.estimates import BallEstimate
+from estimator.fusion import get_fusion
+from estimator.noise import NoiseModel
 
 
 @pytest.mark.parametrize(("area", "expected", "visibility"), [

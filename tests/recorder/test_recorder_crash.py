@@ -23,7 +23,7 @@ from mcap.reader import make_reader
 from recorder.cli import main as record_main
 from recorder.record import RecordingInterrupted, RecordOptions, partial_logs, record
 from recorder.writer import LogWriter
-from replay.reader import LogReader
+from replay.log import LogReader
 
 NS = 1_000_000_000
 

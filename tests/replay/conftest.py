@@ -1,7 +1,7 @@
 """Fixtures for the replay tests: one local Ray instance (2 CPUs) for the whole session.
 
 Ray takes seconds to start, so the tests that run tasks on it share this one; the code
-under test finds it initialised and uses it as it is (replay.parallel_ray)."""
+under test finds it initialised and uses it as it is (replay.parallel.ray_tasks)."""
 
 from __future__ import annotations
 

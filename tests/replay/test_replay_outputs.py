@@ -15,7 +15,7 @@ from synthetic import write_log
 
 from replay.cli import format_summary
 from replay.cli import main as replay_main
-from replay.results import ResultsWriter
+from replay.sinks import ResultsWriter
 
 ESCAPES = "\x1b]0;x\x07\x1b[2J"
 """Retitles the terminal (OSC 0) and clears the screen (CSI 2J) when printed raw."""
@@ -102,7 +102,7 @@ def _strict(text: str) -> Any:
 
 
 def test_results_are_strict_json_even_with_non_finite_numbers(tmp_path: Path) -> None:
-    from replay.results import ResultsHeader
+    from replay.sinks import ResultsHeader
     from replay.stats import ReplayStats
 
     stats = ReplayStats(("robot1",))

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from replay.reader import ImageMessage, PoseMessage, TruthMessage
+from replay.log import ImageMessage, PoseMessage, TruthMessage
 from replay.sync import DelayLine, FusionGrouper, History, interpolate_pose, interpolate_truth
 
 MS = 1_000_000

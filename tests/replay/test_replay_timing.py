@@ -17,7 +17,7 @@ import pytest
 from synthetic import NS, write_log
 
 from replay import ReplayOptions, replay
-from replay.reader import PoseMessage, TruthMessage
+from replay.log import PoseMessage, TruthMessage
 from replay.sync import FusionGrouper, History, interpolate_pose, interpolate_truth
 
 MS = 1_000_000

@@ -1,0 +1,60 @@
+"""The estimates that flow between the estimator's parts: one robot's, and the team's.
+
+A :class:`BallEstimate` is what one robot makes of one image (:mod:`estimator.corrected`,
+:mod:`estimator.paper`); the noise models (:mod:`estimator.noise`) give it a covariance;
+fusion (:mod:`estimator.fusion`) and the tracker (:mod:`estimator.tracking`) turn several
+into a :class:`FusedEstimate`. A leaf: every one of those imports it, it imports none of
+them, so the estimator's parts depend on each other in one direction only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["BallEstimate", "Covariance", "FusedEstimate", "Matrix", "covariance_rows"]
+
+Covariance = tuple[tuple[float, float], tuple[float, float]]
+"""A 2 x 2 covariance [m^2] as a tuple of rows."""
+
+Matrix = npt.NDArray[np.float64]
+
+
+def covariance_rows(m: Matrix) -> Covariance:
+    """The top-left 2 x 2 block of ``m`` as plain floats, row by row."""
+    return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
+
+
+@dataclass(frozen=True)
+class BallEstimate:
+    """One robot's estimate of the ball: range and bearing from the robot, field position."""
+
+    robot: str
+    robot_x_m: float
+    robot_y_m: float
+    range_m: float
+    """Horizontal range from the robot's centre to the ball's centre [m]."""
+    bearing_rad: float
+    """Bearing of the ball in the ROBOT frame [rad]: 0 forward, +pi/2 left."""
+    x_m: float
+    y_m: float
+    visibility: float = 1.0
+    """How much of the ball the blob shows: detected area / the area a whole ball at this
+    range would have (:func:`estimator.corrected.ball_visibility`), 1 when unknown. A partly
+    hidden ball's centroid is biased, so fusion trusts it less."""
+    r_px: float | None = None
+    """Pixel radius of the centroid from the image centre (eq. 3), None when unknown: the
+    calibrated noise model (:class:`estimator.noise.CalibratedNoise`) takes the
+    calibration's slope there."""
+
+
+@dataclass(frozen=True)
+class FusedEstimate:
+    """The team's ball estimate: field position [m], its covariance [m^2], robots used."""
+
+    x_m: float
+    y_m: float
+    covariance: Covariance
+    robots: tuple[str, ...]

@@ -1,0 +1,64 @@
+"""The tracker's parameters (:mod:`estimator.tracking.tracker`), units in the names."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from estimator.constants import NS_PER_S
+from estimator.errors import FusionError
+
+__all__ = ["GATE_CHI2_999", "TrackerParams"]
+
+GATE_CHI2_999 = 13.815510557964274
+"""chi-square quantile, 2 degrees of freedom, 0.999: -2 ln(0.001)."""
+
+
+@dataclass(frozen=True)
+class TrackerParams:
+    """The tracker's tuning (units in the names)."""
+
+    accel_noise_m2_s3: float = 1.0
+    """q: spectral density of the white acceleration noise [m^2/s^3]: small, since kicks
+    and bounces are handled apart (velocity sigma grows by sqrt(q dt), 0.13 m/s in 17 ms)."""
+    friction_per_s: float = 0.5
+    """beta: the rolling ball's velocity decays as exp(-beta t) [1/s]. Measured on the
+    simulator's match logs (true velocities): a ball at 1-2 m/s loses about 30 % of its speed
+    per second, at 2-3 m/s 45 %, faster (just after a kick, still sliding) more; 0.5 is the
+    middle. (pybullet's linear damping alone would be 0.05.)"""
+    gate: float = GATE_CHI2_999
+    """Largest accepted Mahalanobis distance squared d^2."""
+    kick_sigma_m_s: float = 6.0
+    """Sigma of a kick's velocity change, and of the velocity of a new track [m/s]."""
+    max_speed_m_s: float = 12.0
+    """Fastest ball: bounds how far two estimates that corroborate each other may lie."""
+    manoeuvre_ns: int = 150_000_000
+    """How long a rejected estimate waits to be corroborated [ns]."""
+    lost_after_ns: int = NS_PER_S
+    """A track without an accepted estimate for this long is lost [ns]."""
+    memory_ns: int = 300_000_000
+    """How far back late estimates are re-inserted [ns] (>= manoeuvre_ns)."""
+    reacquire_ns: int = 300_000_000
+    """Window of rejected estimates that may agree on a new path [ns] (memory_ns at most)."""
+    reacquire_count: int = 2
+    """Fewest rejected estimates that agree on a new path and may restart the track."""
+    confirm_ns: int = 40_000_000
+    """A tentative track that a robot disagreed with is confirmed only when its accepted
+    estimates span at least this long [ns] (two robots taking the same box for the ball
+    9 ms apart, against a third that sees the ball, do not confirm it)."""
+    lone_kick_ns: int = 250_000_000
+    """A lone rejected estimate may explain a kick when the track's last accepted estimate
+    is at most this old [ns] and within the tracker's memory (0: never; a kick then needs
+    corroboration)."""
+
+    def __post_init__(self) -> None:
+        positive = (self.gate, self.kick_sigma_m_s, self.max_speed_m_s, self.lost_after_ns)
+        if not (all(v > 0 for v in positive) and self.accel_noise_m2_s3 >= 0.0
+                and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns
+                and self.reacquire_ns >= 0 and self.reacquire_count >= 2
+                and self.lone_kick_ns >= 0 and self.confirm_ns >= 0):
+            raise FusionError(
+                f"tracker parameters {self}: gate, kick_sigma_m_s, max_speed_m_s and "
+                "lost_after_ns must be > 0, accel_noise_m2_s3 and friction_per_s >= 0, "
+                "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2, "
+                "lone_kick_ns >= 0, confirm_ns >= 0"
+            )

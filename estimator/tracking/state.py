@@ -1,0 +1,48 @@
+"""The tracker's input (:class:`Measurement`) and output (:class:`TrackState`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from estimator.estimates import Covariance, covariance_rows
+from estimator.tracking.model import Gaussian
+
+__all__ = ["Measurement", "TrackState", "track_state"]
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One robot's estimate of the ball's position at its stamp, with its covariance."""
+
+    stamp_ns: int
+    robot: str
+    x_m: float
+    y_m: float
+    covariance: Covariance
+    """R [m^2], 2 x 2, symmetric positive definite."""
+
+
+@dataclass(frozen=True)
+class TrackState:
+    """The track at one stamp: position [m], velocity [m/s] and their covariances."""
+
+    stamp_ns: int
+    x_m: float
+    y_m: float
+    vx_m_s: float
+    vy_m_s: float
+    position_covariance: Covariance
+    velocity_covariance: Covariance
+    confirmed: bool
+    """False while the track rests on one estimate (or on one robot's alone)."""
+
+    @property
+    def speed_m_s(self) -> float:
+        return math.hypot(self.vx_m_s, self.vy_m_s)
+
+
+def track_state(stamp_ns: int, g: Gaussian, confirmed: bool) -> TrackState:
+    x, p = g
+    return TrackState(stamp_ns, float(x[0]), float(x[1]), float(x[2]), float(x[3]),
+                      covariance_rows(p[:2, :2]), covariance_rows(p[2:, 2:]), confirmed)

@@ -1,0 +1,148 @@
+"""Each robot's camera as a replay uses it: centre, mounting, model, calibration, poses' frame.
+
+Where a robot's camera description (:class:`dsp.cameras.CameraSpec`) comes from, first
+found first:
+
+1. ``--cameras FILE`` (:mod:`dsp.camera_file`): the robot's entry, or the file's default;
+   ``--cameras paper``: the paper's camera (:data:`dsp.cameras.PAPER_CAMERA`);
+2. the log's ``dsp.cameras`` metadata (the robot's entry, or its default);
+3. ``--calibration paper``: the paper's camera too (its centre with its calibration).
+
+A robot described by none of them is an error that says what to give
+(:class:`~replay.errors.NoCameraError`): a replay never guesses a camera. ``--calibration
+FILE`` (or ``paper``) then replaces every robot's calibration, keeping the rest of its
+description. The files a replay reads besides the log are read here.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from dsp.camera_file import read_camera_file
+from dsp.cameras import PAPER_CAMERA, CameraSet, CameraSpec, FieldTransform
+from dsp.errors import CalibrationError
+from estimator.calibration import PAPER_CALIBRATION, Calibration, calibration_from_json
+from estimator.camera import CameraModel, ball_image_area_px
+from estimator.constants import PAPER_CENTRE_PX
+from estimator.corrected import ball_visibility
+from estimator.detection import Detection
+from estimator.errors import EstimatorError
+from replay.errors import NoCameraError
+
+__all__ = ["DEFAULT_CENTRE_PX", "PAPER", "Cameras", "cameras_for", "read_calibration"]
+
+DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
+"""The centre a sink draws for a robot it knows no camera of (none replays without one)."""
+PAPER = "paper"
+"""``--cameras paper`` / ``--calibration paper``: the paper's constants, asked for by name."""
+
+
+@dataclass(frozen=True)
+class Cameras:
+    """Per robot: its camera description and the calibration the replay uses."""
+
+    specs: Mapping[str, CameraSpec]
+    calibrations: Mapping[str, Calibration]
+    fit_rms_m: float = 0.0
+    """The calibrations' fit residual RMS [m] when their files record one (0: a model)."""
+    sources: Mapping[str, str] | None = None
+    """Robot -> where its description came from ("metadata", the camera file, "paper")."""
+
+    @property
+    def centres(self) -> Mapping[str, tuple[float, float]]:
+        return {r: s.centre_px for r, s in self.specs.items()}
+
+    @property
+    def models(self) -> Mapping[str, CameraModel]:
+        return {r: s.camera for r, s in self.specs.items() if s.camera is not None}
+
+    def mount_yaw_rad(self, robot: str) -> float:
+        return self.specs[robot].mount_yaw_rad
+
+    def usable_radius_px(self, robot: str) -> float | None:
+        return self.specs[robot].usable_radius_px
+
+    def map_to_field(self, robot: str) -> FieldTransform | None:
+        transform = self.specs[robot].map_to_field
+        return None if transform is None or transform.identity else transform
+
+    def ball_models(self) -> Mapping[str, str | Mapping[str, Any]]:
+        """Robot -> its ``ball`` entry (the ball model, read by the ball detector)."""
+        return {r: s.ball for r, s in self.specs.items() if s.ball is not None}
+
+    def visibility(self, robot: str, det: Detection, range_m: float) -> float:
+        """How much of the ball the blob shows, when the camera's model is known."""
+        model = self.specs[robot].camera
+        if model is None:
+            return 1.0
+        expected = ball_image_area_px(model, range_m)
+        return ball_visibility(float(det.area_px), expected)
+
+
+def _missing(log: str, robots: Sequence[str], metadata: CameraSet | None,
+             cameras: Path | str | None) -> NoCameraError:
+    where = (" (the log has no dsp.cameras metadata)" if metadata is None
+             else " (the log's dsp.cameras metadata does not name them)")
+    if cameras is not None:
+        where = f" (neither {cameras} nor the log's metadata names them)"
+    return NoCameraError(
+        log, f"no camera description for {', '.join(robots)}{where}: give --cameras FILE "
+        f"(dsp-info --cameras-template {log} -o cameras.yaml writes one to start from), or "
+        "--cameras paper for the paper's 1080 x 1080 camera centred at (539, 539)")
+
+
+def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
+                cameras: Path | str | None = None,
+                calibration: Path | str | None = None) -> Cameras:
+    """Each robot's camera (see the module docstring for the order); raises
+    :class:`~replay.errors.NoCameraError` for a robot nothing describes."""
+    given: CameraSet | None = None
+    if cameras is not None and cameras != PAPER:
+        given = read_camera_file(Path(cameras))
+    specs: dict[str, CameraSpec] = {}
+    sources: dict[str, str] = {}
+    for robot in robots:
+        found: list[tuple[CameraSpec | None, str]] = [
+            (PAPER_CAMERA if cameras == PAPER else None, PAPER),
+            (None if given is None else given.for_robot(robot), str(cameras)),
+            (None if metadata is None else metadata.for_robot(robot), "metadata"),
+            (PAPER_CAMERA if calibration == PAPER else None, PAPER),
+        ]
+        spec, source = next(((s, w) for s, w in found if s is not None), (None, ""))
+        if spec is not None:
+            specs[robot], sources[robot] = spec, source
+    missing = [r for r in robots if r not in specs]
+    if missing:
+        raise _missing(log, missing, metadata, cameras)
+    calibrations = {r: s.range_calibration for r, s in specs.items()}
+    rms = max((s.calibration_rms_m or 0.0 for s in specs.values()), default=0.0)
+    if calibration == PAPER:
+        calibrations, rms = dict.fromkeys(robots, PAPER_CALIBRATION), 0.0
+    elif calibration is not None:
+        model, rms = read_calibration(Path(calibration))
+        calibrations = dict.fromkeys(robots, model)
+    return Cameras(specs, calibrations, rms, sources)
+
+
+def read_calibration(path: Path) -> tuple[Calibration, float]:
+    """The calibration in ``path`` and its fit's residual RMS [m] (0 when not recorded)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
+    except UnicodeDecodeError as err:
+        raise CalibrationError(path, f"not UTF-8 text (byte {err.start})") from err
+    try:
+        model = calibration_from_json(text)
+        fit = json.loads(text).get("fit") or {}
+        rms = float(fit.get("rms_m", 0.0)) if isinstance(fit, dict) else 0.0
+    except (ValueError, TypeError, KeyError, EstimatorError) as err:
+        raise CalibrationError(path, str(err)) from err
+    if not (math.isfinite(rms) and rms >= 0.0):
+        raise CalibrationError(path, f"fit rms_m = {rms} must be a finite number >= 0")
+    return model, rms

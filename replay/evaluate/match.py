@@ -1,0 +1,393 @@
+"""The ``match`` suite: seeded matches scored for the tracker against window fusion.
+
+Each match (:mod:`recorder.match`: three robots driving, the ball kicked and passed at 2-8
+m/s, each camera free-running at its own phase, orange distractors beside the field) is
+recorded once with random camera phases and, for the first ``sync_count`` seeds, once more
+with the cameras in sync. Every log is replayed with the corrected estimator and each
+fusion method (``track`` when the estimator has it, and the window fusions mean, weighted
+and robust). Scored over every fused step of every match:
+
+- position error [m] to the truth at the step's stamp: RMSE, p95, max (and per robot, from
+  the robots' own estimates);
+- velocity error [m/s] (the norm of the difference to the true velocity), median and p95,
+  for the fusions that estimate a velocity;
+- distractor captures: a run of at least :data:`CAPTURE_STEPS` consecutive fused steps
+  whose estimate is more than :data:`CAPTURE_ERROR_M` from the ball and within
+  :data:`CAPTURE_RADIUS_M` of a distractor counts as one capture.
+
+The steps are at the images' stamps, which differ between the phases: synchronised cameras
+give one step per frame time, each with fresh estimates; free-running ones three, the other
+two predicted from older estimates. So the tracker is also read on a common clock, at every
+tick of :data:`CLOCK_HZ` (``replay --clock``, the row :data:`CLOCK_ROW`): the same instants
+in either phase, as a robot's control loop would read it.
+
+:func:`run_match_task` is a function of one :class:`MatchTask` (seed, camera phase,
+options) alone, so logs can be scored in any order, in a process pool or as Ray tasks;
+:func:`run_match_suite` folds them in task order.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dsp import contract
+from dsp.jsonio import Json
+from dsp.metadata import MetadataError, ScenarioMetadata
+from estimator.fusion import FUSION_METHODS
+from replay.evaluate.scenes import serial_map
+from replay.evaluate.suites import rounded_doc
+from replay.options import ReplayOptions
+from replay.runner import replay
+from replay.sinks import ResultsCollector
+
+__all__ = [
+    "CAPTURE_ERROR_M",
+    "CAPTURE_RADIUS_M",
+    "CAPTURE_STEPS",
+    "CLOCK_HZ",
+    "CLOCK_ROW",
+    "MATCH_FUSIONS",
+    "MatchLogScore",
+    "MatchOptions",
+    "MatchRecorder",
+    "MatchSuite",
+    "MatchTask",
+    "TaskMapper",
+    "captures",
+    "match_log_name",
+    "match_markdown",
+    "match_tasks",
+    "run_match_suite",
+    "run_match_task",
+    "score_rows",
+    "serial_map",
+]
+
+MATCH_FUSIONS = tuple(f for f in ("track", "mean", "weighted", "robust") if f in FUSION_METHODS)
+"""The fusions the suite compares (``track`` first when the estimator has it)."""
+CAPTURE_ERROR_M = 0.5
+CAPTURE_RADIUS_M = 0.75
+CAPTURE_STEPS = 3
+PHASES = ("random", "sync")
+CLOCK_HZ = 100.0
+"""The common clock the tracker is also scored on (``dsp-replay --clock``)."""
+CLOCK_ROW = "track, 100 Hz clock"
+
+
+def score_rows(fusions: Sequence[str]) -> tuple[str, ...]:
+    """The table's rows: each fusion, and the tracker on the clock after ``track``."""
+    return tuple(r for f in fusions for r in ((f, CLOCK_ROW) if f == "track" else (f,)))
+
+
+@dataclass(frozen=True)
+class MatchOptions:
+    """How the suite's matches are recorded and replayed."""
+
+    camera: str = "ideal"
+    duration_s: float = 10.0
+    rate_hz: float | None = None
+    """Camera rate; None: the match scenario's (20 Hz)."""
+    face_px: int | None = None
+    """Render resolution; None: the recorder's default."""
+    distractors: int = 3
+    renderer: str = "auto"
+    calibration: Path | None = None
+
+    def log_name(self, seed: int, phase: str) -> str:
+        return match_log_name(seed, phase, self)
+
+
+def match_log_name(seed: int, phase: str, options: MatchOptions) -> str:
+    """The log's file name: every option that changes the recording is in it, so a log is
+    reused only by a run that would record the same one."""
+    rate = "" if options.rate_hz is None else f"-r{options.rate_hz:g}"
+    face = "" if options.face_px is None else f"-f{options.face_px}"
+    return (f"match-{seed}-{phase}-{options.camera}-d{options.distractors}"
+            f"-{options.duration_s:g}s{rate}{face}.mcap")
+
+
+@dataclass
+class Scores:
+    """Pooled errors of one fusion method over steps (and matches)."""
+
+    errors: list[float] = field(default_factory=list)
+    velocity_errors: list[float] = field(default_factory=list)
+    captures: int = 0
+    matches_captured: int = 0
+    steps: int = 0
+    missing: int = 0
+    """Steps with a truth but no estimate."""
+
+    def add(self, other: Scores) -> None:
+        self.errors += other.errors
+        self.velocity_errors += other.velocity_errors
+        self.captures += other.captures
+        self.matches_captured += other.matches_captured
+        self.steps += other.steps
+        self.missing += other.missing
+
+    def stats(self) -> dict[str, Any]:
+        e, v = np.array(self.errors), np.array(self.velocity_errors)
+        return {
+            "steps": self.steps, "estimates": len(e), "missing": self.missing,
+            "rmse_m": float(np.sqrt(np.mean(e**2))) if len(e) else None,
+            "median_m": float(np.median(e)) if len(e) else None,
+            "p95_m": float(np.percentile(e, 95)) if len(e) else None,
+            "max_m": float(e.max()) if len(e) else None,
+            "velocity_median_m_s": float(np.median(v)) if len(v) else None,
+            "velocity_p95_m_s": float(np.percentile(v, 95)) if len(v) else None,
+            "captures": self.captures, "matches_captured": self.matches_captured,
+        }
+
+
+@dataclass(frozen=True)
+class MatchRecorder:
+    """Records one match log with pybullet (a class, so a task pickles to other processes)."""
+
+    options: MatchOptions
+    phase: str
+
+    def __call__(self, path: Path, seed: int) -> None:
+        from recorder.omni import DEFAULT_FACE_PX  # lazy: replay alone needs no pybullet
+        from recorder.record import RecordOptions, record
+
+        o = self.options
+        record(path, RecordOptions(
+            scenario="match", seed=seed, camera=o.camera, renderer=o.renderer,
+            camera_phase=self.phase, distractors=o.distractors, duration_s=o.duration_s,
+            rate_hz=o.rate_hz, face_px=DEFAULT_FACE_PX if o.face_px is None else o.face_px))
+
+
+@dataclass(frozen=True)
+class MatchTask:
+    """One match log of the suite; :func:`run_match_task` is a pure function of it."""
+
+    seed: int
+    phase: str
+    log: Path
+    """Recorded there when missing (an existing log is reused), then replayed."""
+    options: MatchOptions
+    fusions: tuple[str, ...] = MATCH_FUSIONS
+
+
+@dataclass(frozen=True)
+class MatchLogScore:
+    """What one match log adds to the suite (small, picklable, no timings)."""
+
+    seed: int
+    phase: str
+    fused: dict[str, Scores]
+    """fusion -> scores."""
+    robots: dict[str, list[float]]
+    """robot -> errors of its own estimates."""
+
+
+TaskMapper = Callable[[Callable[[MatchTask], MatchLogScore], Sequence[MatchTask]],
+                      Iterable[MatchLogScore]]
+"""map(run_match_task, tasks): the results in task order (serially, a pool, Ray)."""
+
+
+def _distractors(log: Path) -> list[tuple[float, float]]:
+    """The distractors' (x, y) from the log's scenario metadata (none when it names none)."""
+    from mcap.reader import make_reader
+
+    with open(log, "rb") as f:
+        for m in make_reader(f).iter_metadata():
+            if m.name == contract.SCENARIO_METADATA:
+                play = ScenarioMetadata.from_metadata(m.metadata).scene.get("play") or {}
+                try:
+                    return [(float(d["x_m"]), float(d["y_m"]))
+                            for d in play.get("distractors", [])]
+                except (KeyError, TypeError, ValueError) as err:
+                    raise MetadataError(f"{log.name}: unreadable distractors: {err}") from err
+    return []
+
+
+def captures(fused: Sequence[dict[str, Any]], distractors: Sequence[tuple[float, float]],
+             *, error_m: float = CAPTURE_ERROR_M, radius_m: float = CAPTURE_RADIUS_M,
+             steps: int = CAPTURE_STEPS) -> int:
+    """Runs of >= ``steps`` consecutive fused steps more than ``error_m`` from the truth and
+    within ``radius_m`` of a distractor."""
+    runs, run = 0, 0
+    for f in fused:
+        err = f.get("error_m")
+        near = f.get("x_m") is not None and any(
+            math.hypot(f["x_m"] - x, f["y_m"] - y) <= radius_m for x, y in distractors)
+        if err is not None and err > error_m and near:
+            run += 1
+            if run == steps:
+                runs += 1
+        else:
+            run = 0
+    return runs
+
+
+def _velocity_error(f: dict[str, Any]) -> float | None:
+    if f.get("velocity_error_m_s") is not None:
+        return float(f["velocity_error_m_s"])
+    v, t = f.get("velocity_m_s"), f.get("truth_velocity_m_s")
+    if v is None or t is None:
+        return None
+    return math.hypot(v[0] - t[0], v[1] - t[1])
+
+
+def _score(fused: list[dict[str, Any]], distractors: list[tuple[float, float]]) -> Scores:
+    s = Scores()
+    for f in fused:
+        if f.get("truth") is None:
+            continue
+        s.steps += 1
+        if f.get("error_m") is None:
+            s.missing += 1
+            continue
+        s.errors.append(float(f["error_m"]))
+        if (ve := _velocity_error(f)) is not None:
+            s.velocity_errors.append(ve)
+    s.captures = captures(fused, distractors)
+    s.matches_captured = int(s.captures > 0)
+    return s
+
+
+def run_match_task(task: MatchTask) -> MatchLogScore:
+    """Record the match when its log is missing, replay it with each fusion, score it."""
+    if not task.log.exists():
+        MatchRecorder(task.options, task.phase)(task.log, task.seed)
+    distractors = _distractors(task.log)
+    fused: dict[str, Scores] = {}
+    robots: dict[str, list[float]] = {}
+    for fusion in task.fusions:
+        collected = ResultsCollector()
+        clock = CLOCK_HZ if fusion == "track" else None
+        replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
+                                       calibration=task.options.calibration, progress=False),
+               sinks=[collected])
+        fused[fusion] = _score([f for f in collected.fused if not f.get("tick")], distractors)
+        if clock is not None:  # the ticks: steps without images
+            fused[CLOCK_ROW] = _score([f for f in collected.fused if f.get("tick")], distractors)
+        if not robots:  # the robots' own estimates are the same under every fusion
+            for fr in collected.frames:
+                if fr.get("error_m") is not None:
+                    robots.setdefault(fr["robot"], []).append(float(fr["error_m"]))
+    return MatchLogScore(task.seed, task.phase, fused, robots)
+
+
+@dataclass
+class MatchSuite:
+    options: MatchOptions
+    count: int
+    seed: int
+    fusions: tuple[str, ...]
+    logs: list[MatchLogScore] = field(default_factory=list)
+
+    def pooled(self, phase: str, seeds: set[int] | None = None) -> dict[str, Scores]:
+        out = {f: Scores() for f in score_rows(self.fusions)}
+        for log in self.logs:
+            if log.phase == phase and (seeds is None or log.seed in seeds):
+                for fusion, s in log.fused.items():
+                    out[fusion].add(s)
+        return out
+
+    def robot_stats(self) -> dict[str, dict[str, Any]]:
+        pooled: dict[str, list[float]] = {}
+        for log in self.logs:
+            if log.phase == "random":
+                for robot, errs in log.robots.items():
+                    pooled.setdefault(robot, []).extend(errs)
+        return {r: Scores(errors=e, steps=len(e)).stats() for r, e in sorted(pooled.items())}
+
+    def sync_seeds(self) -> set[int]:
+        return {log.seed for log in self.logs if log.phase == "sync"}
+
+    def to_dict(self) -> dict[str, Json]:
+        both = self.sync_seeds()
+        doc = {
+            "suite": "match", "count": self.count, "seed": self.seed,
+            "options": {"camera": self.options.camera, "duration_s": self.options.duration_s,
+                        "rate_hz": self.options.rate_hz, "face_px": self.options.face_px,
+                        "distractors": self.options.distractors,
+                        "calibration": (self.options.calibration.name
+                                        if self.options.calibration else None)},
+            "capture": {"error_m": CAPTURE_ERROR_M, "radius_m": CAPTURE_RADIUS_M,
+                        "steps": CAPTURE_STEPS},
+            "fused": {f: s.stats() for f, s in self.pooled("random").items()},
+            "robots": self.robot_stats(),
+            "phase_comparison": {
+                "seeds": sorted(both),
+                "random": {f: s.stats() for f, s in self.pooled("random", both).items()},
+                "sync": {f: s.stats() for f, s in self.pooled("sync", both).items()},
+            },
+        }
+        return rounded_doc(doc)
+
+
+def match_tasks(workdir: Path, options: MatchOptions, *, count: int, seed: int = 0,
+                sync_count: int | None = None,
+                fusions: Sequence[str] = MATCH_FUSIONS) -> list[MatchTask]:
+    """``count`` matches from ``seed`` with random camera phases, then the first
+    ``sync_count`` (default all) again with the cameras in sync."""
+    sync_count = count if sync_count is None else min(sync_count, count)
+    return [MatchTask(seed + i, phase, workdir / options.log_name(seed + i, phase), options,
+                      tuple(fusions))
+            for phase, n in (("random", count), ("sync", sync_count)) for i in range(n)]
+
+
+def run_match_suite(workdir: Path, options: MatchOptions, *, count: int, seed: int = 0,
+                    sync_count: int | None = None, fusions: Sequence[str] = MATCH_FUSIONS,
+                    map_tasks: TaskMapper = serial_map) -> MatchSuite:
+    """The suite: :func:`match_tasks` mapped through :func:`run_match_task`, folded in
+    task order (so the tables are the same whatever ``map_tasks`` runs them on)."""
+    suite = MatchSuite(options, count, seed, tuple(fusions))
+    tasks = match_tasks(workdir, options, count=count, seed=seed, sync_count=sync_count,
+                        fusions=fusions)
+    suite.logs.extend(map_tasks(run_match_task, tasks))
+    return suite
+
+
+def _fmt(v: float | None, nd: int = 4) -> str:
+    return "-" if v is None else f"{v:.{nd}f}"
+
+
+def match_markdown(suite: MatchSuite) -> str:
+    """The fused errors per method, the robots' own errors and the phase comparison."""
+    o = suite.options
+    rate = "20" if o.rate_hz is None else f"{o.rate_hz:g}"
+    lines = [f"{suite.count} matches from seed {suite.seed}: {o.duration_s:g} s each, camera "
+             f"`{o.camera}` at {rate} Hz per robot, random phases, {o.distractors} "
+             "distractors.", "",
+             "| fusion | steps | RMSE [m] | median [m] | p95 [m] | max [m] | "
+             "velocity median [m/s] | velocity p95 [m/s] | captures (matches) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for fusion, s in suite.pooled("random").items():
+        st = s.stats()
+        lines.append(f"| {fusion} | {st['estimates']} | {_fmt(st['rmse_m'])} | "
+                     f"{_fmt(st['median_m'])} | {_fmt(st['p95_m'])} | {_fmt(st['max_m'])} | "
+                     f"{_fmt(st['velocity_median_m_s'], 3)} | {_fmt(st['velocity_p95_m_s'], 3)} "
+                     f"| {st['captures']} ({st['matches_captured']}) |")
+    lines += ["", "Each robot's own estimates:", "",
+              "| robot | estimates | RMSE [m] | median [m] | p95 [m] | max [m] |",
+              "|---|---|---|---|---|---|"]
+    for robot, st in suite.robot_stats().items():
+        lines.append(f"| {robot} | {st['estimates']} | {_fmt(st['rmse_m'])} | "
+                     f"{_fmt(st['median_m'])} | {_fmt(st['p95_m'])} | {_fmt(st['max_m'])} |")
+    both = suite.sync_seeds()
+    if both:
+        rnd, syn = suite.pooled("random", both), suite.pooled("sync", both)
+        lines += ["", f"Random vs synchronised camera phases, the same {len(both)} matches:", "",
+                  "| fusion | RMSE random [m] | RMSE sync [m] | random / sync |",
+                  "|---|---|---|---|"]
+        for fusion in score_rows(suite.fusions):
+            a, b = rnd[fusion].stats()["rmse_m"], syn[fusion].stats()["rmse_m"]
+            ratio = "-" if a is None or not b else f"{a / b:.2f}"
+            lines.append(f"| {fusion} | {_fmt(a)} | {_fmt(b)} | {ratio} |")
+    lines += ["", f"A capture: >= {CAPTURE_STEPS} consecutive fused steps more than "
+              f"{CAPTURE_ERROR_M:g} m from the ball and within {CAPTURE_RADIUS_M:g} m of a "
+              f"distractor. `{CLOCK_ROW}`: the tracker read at every tick of a "
+              f"{CLOCK_HZ:g} Hz clock (the same instants in both phases) instead of at the "
+              "images' stamps."]
+    return "\n".join(lines) + "\n"

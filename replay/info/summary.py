@@ -1,0 +1,221 @@
+"""What a log holds, like ``ros2 bag info`` / ``mcap info``, and whether it is intact.
+
+:func:`log_info` reads the catalogue (:mod:`replay.log.catalogue`) of any MCAP file, whatever its
+topics, and returns a :class:`LogSummary`: duration, start and end, topics with their types,
+counts and rates, the robots (named by the topics: a foreign log's too, with the
+``--image-topic`` / ``--pose-topic`` patterns that replay it, :mod:`dsp.topics`), scenario,
+each camera's description and renderer from the metadata, chunks and compression.
+``check=True`` reads every chunk too: chunk and data CRCs, the summary's CRC and whether it
+agrees with the data; the problems found are listed (none: the log is intact).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from dsp import contract
+from dsp import metadata as meta
+from dsp.jsonio import Json
+from dsp.text import printable
+from dsp.topics import infer_patterns
+from estimator.constants import NS_PER_S
+from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
+
+__all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
+
+
+def _shown(text: object, limit: int = 120) -> str:
+    """A name from the log for a terminal: escaped, cut to ``limit`` characters."""
+    return printable(text, limit=limit)
+
+@dataclass(frozen=True)
+class TopicInfo:
+    topic: str
+    type: str
+    messages: int | None
+    rate_hz: float | None
+
+
+@dataclass
+class LogSummary:
+    """A log at a glance (sim time in seconds from the log's own clock)."""
+
+    path: str
+    bytes: int
+    profile: str | None
+    start_s: float | None
+    end_s: float | None
+    duration_s: float | None
+    messages: int | None
+    topics: list[TopicInfo]
+    robots: list[str]
+    scenario: dict[str, Json] | None
+    cameras: dict[str, str]
+    """robot -> camera model name"""
+    renderer: str | None
+    chunks: int
+    compression: dict[str, int]
+    """compression ("none" for uncompressed) -> chunks"""
+    chunk_bytes: int
+    uncompressed_bytes: int
+    metadata: list[str]
+    summary: str
+    """"indexed" (a summary with chunk indexes), "summary", or "none"."""
+    checked: bool = False
+    problems: list[str] = field(default_factory=list)
+    image_topic: str | None = None
+    """The image topic pattern the robots were found by (:mod:`dsp.topics`)."""
+    pose_topic: str | None = None
+    """The pose topic pattern that names the same robots, when one does."""
+    camera_descriptions: dict[str, str] = field(default_factory=dict)
+    """robot -> its camera description in one line (:meth:`dsp.cameras.CameraSpec.describe`)"""
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=1, sort_keys=True, allow_nan=False) + "\n"
+
+
+def log_info(path: Path | str, *, check: bool = False, limits: Limits | None = None
+             ) -> LogSummary:
+    """Summarise the log at ``path``; ``check``: read and check everything, list problems
+    instead of raising. Raises :class:`~replay.errors.ReplayError` for a file that is not
+    MCAP, and (without ``check``) for a damaged one."""
+    path = Path(path)
+    size = check_mcap_file(path)
+    limits = limits or Limits()
+    with path.open("rb") as f:
+        cat = build_catalogue(f, path, size, limits, recover=check, read_chunks=check)
+        if cat.counts is None:
+            read_all_blocks(f, cat, limits, recover=False, validate_crcs=True)
+    return _summarise(cat, check)
+
+
+def _summarise(cat: Catalogue, check: bool) -> LogSummary:
+    blocks = cat.blocks
+    start = min((b.start_ns for b in blocks), default=None)
+    end = max((b.end_ns for b in blocks), default=None)
+    duration = None if start is None or end is None else (end - start) / NS_PER_S
+    counts = cat.counts or {}
+    topics = []
+    for cid, ch in sorted(cat.channels.items(), key=lambda kv: kv[1].topic):
+        schema = cat.schemas.get(ch.schema_id)
+        n = counts.get(cid) if cat.counts is not None else None
+        rate = n / duration if n is not None and duration else None
+        topics.append(TopicInfo(_shown(ch.topic), _shown(schema.name) if schema else "",
+                                n, None if rate is None else round(rate, 3)))
+    types = {ch.topic: (cat.schemas[ch.schema_id].name if ch.schema_id in cat.schemas else "")
+             for ch in cat.channels.values()}
+    patterns = infer_patterns(types)
+    robots = [] if patterns is None else [_shown(r) for r in patterns.robots]
+    scenario, cameras, renderer = _metadata(cat)
+    descriptions = _descriptions(cat)
+    chunks = cat.scan.chunks
+    summary = "none" if cat.summary is None else (
+        "indexed" if cat.summary.chunk_indexes else "summary")
+    problems = [*cat.problems, *(d.reason for d in cat.damage)] if check else []
+    return LogSummary(
+        path=str(cat.path), bytes=cat.size, profile=cat.scan.profile,
+        start_s=None if start is None else start / NS_PER_S,
+        end_s=None if end is None else end / NS_PER_S, duration_s=duration,
+        messages=sum(counts.values()) if cat.counts is not None else None,
+        topics=topics, robots=robots, scenario=scenario, cameras=cameras, renderer=renderer,
+        chunks=len(chunks),
+        compression=dict(Counter(c.compression or "none" for c in chunks)),
+        chunk_bytes=sum(c.data_length for c in chunks),
+        uncompressed_bytes=sum(c.uncompressed_size for c in chunks),
+        metadata=sorted(_shown(n) for n in cat.metadata), summary=summary, checked=check,
+        problems=[_shown(p, limit=300) for p in problems],
+        image_topic=None if patterns is None else _shown(patterns.image_topic),
+        pose_topic=None if patterns is None or patterns.pose_topic is None
+        else _shown(patterns.pose_topic),
+        camera_descriptions=descriptions,
+    )
+
+
+def _descriptions(cat: Catalogue) -> dict[str, str]:
+    """robot -> its camera in one line (an entry that does not parse: its error)."""
+    out: dict[str, str] = {}
+    for robot, text in cat.metadata.get(contract.CAMERAS_METADATA, {}).items():
+        try:
+            out[_shown(robot)] = meta.CameraMetadata(robot, json.loads(text)).spec.describe()
+        except (ValueError, TypeError, AttributeError) as err:
+            out[_shown(robot)] = _shown(f"unusable: {err}", limit=200)
+    return out
+
+
+def _metadata(cat: Catalogue) -> tuple[dict[str, Json] | None, dict[str, str], str | None]:
+    """Scenario (name, seed, field), cameras (robot -> model) and renderer; a record that
+    does not parse is reported by name rather than failing the summary."""
+    records = cat.metadata
+    scenario: dict[str, Json] | None = None
+    if contract.SCENARIO_METADATA in records:
+        try:
+            s = meta.ScenarioMetadata.from_metadata(records[contract.SCENARIO_METADATA])
+            scenario = {"name": _shown(s.name), "seed": s.seed, "field": s.field_name}
+        except meta.MetadataError as err:
+            scenario = {"error": _shown(str(err), limit=200)}
+    cameras: dict[str, str] = {}
+    try:
+        cams = meta.CamerasMetadata.from_metadata(records.get(contract.CAMERAS_METADATA, {}))
+        cameras = {_shown(c.robot): _shown(str(c.model.get("model", "?"))) for c in cams.cameras}
+    except meta.MetadataError as err:
+        cameras = {"error": _shown(str(err), limit=200)}
+    renderer = None
+    if contract.RECORDER_METADATA in records:
+        renderer = _shown(records[contract.RECORDER_METADATA].get("renderer", "?"))
+    return scenario, cameras, renderer
+
+
+def _size(n: int) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if n < 1024 or unit == "GiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024  # type: ignore[assignment]
+    return str(n)
+
+
+def format_info(s: LogSummary) -> str:
+    """The summary as aligned text."""
+    def secs(v: float | None) -> str:
+        return "-" if v is None else f"{v:.3f} s"
+
+    lines = [f"file:        {s.path} ({_size(s.bytes)}, profile {s.profile or '-'})",
+             f"duration:    {secs(s.duration_s)}  (start {secs(s.start_s)}, end "
+             f"{secs(s.end_s)})",
+             f"messages:    {'-' if s.messages is None else s.messages}"]
+    comp = ", ".join(f"{k} {v}" for k, v in sorted(s.compression.items())) or "-"
+    lines.append(f"chunks:      {s.chunks} ({comp}; {_size(s.chunk_bytes)} -> "
+                 f"{_size(s.uncompressed_bytes)}), summary: {s.summary}")
+    lines.append(f"robots:      {', '.join(s.robots) or '-'}")
+    if s.robots and s.image_topic is not None and s.image_topic != contract.IMAGE_TOPIC:
+        pose = s.pose_topic or "(none found: give --pose-topic)"
+        lines.append(f"  from topics {s.image_topic} and {pose}: replay with --image-topic "
+                     f"'{s.image_topic}'" + (f" --pose-topic '{s.pose_topic}'"
+                                             if s.pose_topic else ""))
+    if s.scenario is not None:
+        lines.append("scenario:    " + ", ".join(f"{k} {v}" for k, v in s.scenario.items()))
+    if s.cameras:
+        lines.append("cameras:     " + ", ".join(f"{k} {v}" for k, v in s.cameras.items()))
+        width = max(len(k) for k in s.camera_descriptions) if s.camera_descriptions else 0
+        lines.extend(f"  {k:<{width}}  {v}" for k, v in s.camera_descriptions.items())
+    elif s.robots:
+        lines.append("cameras:     - (no camera description: dsp-replay needs --cameras; "
+                     "dsp-info --cameras-template LOG -o cameras.yaml writes one to start from)")
+    lines.append(f"renderer:    {s.renderer or '-'}")
+    lines.append(f"metadata:    {', '.join(s.metadata) or '-'}")
+    width = max((len(t.topic) for t in s.topics), default=5)
+    lines.append(f"topics:      {len(s.topics)}")
+    for t in s.topics:
+        n = "-" if t.messages is None else str(t.messages)
+        rate = "-" if t.rate_hz is None else f"{t.rate_hz:.2f} Hz"
+        lines.append(f"  {t.topic:<{width}}  {n:>7} msgs  {rate:>10}  {t.type}")
+    if s.checked:
+        if s.problems:
+            lines.append(f"check:       {len(s.problems)} problem(s)")
+            lines.extend(f"  {p}" for p in s.problems)
+        else:
+            lines.append("check:       intact (every CRC the log carries matches; the "
+                         "summary agrees with the data)")
+    return "\n".join(lines)

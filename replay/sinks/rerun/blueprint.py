@@ -1,0 +1,96 @@
+"""The Rerun layout of a replay: one blueprint per scenario kind.
+
+Every layout shows the robots' camera views as tabs (one camera at a time, large enough to
+see the ball's outline; a last tab shows them all side by side), the field from above on a
+grass background (so its colours read the same in the viewer's light and dark themes), and
+the plots. What changes with the kind of scenario is where the space goes:
+
+- ``paper`` (the paper's four still scenes, a handful of frames): the cameras take the
+  full height beside the field; the plots are a strip under the field;
+- ``moving`` (a tracked ball: fusion ``track``): the error plot under the cameras, the
+  field, and the tracked and true speed under it;
+- ``log`` (a rolling ball without the tracker, random scenes, a robot's own log): as
+  ``moving``, without the speed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import rerun.blueprint as rrb
+
+from dsp.field import FieldSpec
+from replay.sinks.style import FIELD_BACKGROUND
+
+__all__ = ["KINDS", "blueprint", "scenario_kind"]
+
+KINDS = ("paper", "moving", "log")
+
+
+def scenario_kind(scenario: str | None, *, tracked: bool = False) -> str:
+    """The layout for a scenario's name (None: a log without one)."""
+    if scenario is not None and scenario.startswith("scenario"):
+        return "paper"
+    if tracked:
+        return "moving"
+    return "log"
+
+
+def _cameras(robots: Sequence[str]) -> rrb.Container:
+    tabs: list[rrb.Container | rrb.View] = [
+        rrb.Spatial2DView(origin=f"/robots/{r}/camera", name=f"{r} camera") for r in robots]
+    if len(robots) > 1:
+        tabs.append(rrb.Grid(*[rrb.Spatial2DView(origin=f"/robots/{r}/camera", name=r)
+                               for r in robots], name="all cameras"))
+    return rrb.Tabs(*tabs, active_tab=0, name="cameras")
+
+
+def _field(field: FieldSpec) -> rrb.View:
+    # straight down from high enough that the field and its border fit a wide panel (the
+    # viewer's vertical field of view is about 55 deg)
+    eye_height_m = field.width_m + 2 * field.border_m
+    return rrb.Spatial3DView(
+        origin="/field", name=f"field, top-down ({field.name})",
+        background=rrb.Background(color=FIELD_BACKGROUND), line_grid=rrb.LineGrid3D(False),
+        eye_controls=rrb.EyeControls3D(position=(0.0, -0.01, eye_height_m),
+                                       look_target=(0.0, 0.0, 0.0), eye_up=(0.0, 1.0, 0.0)),
+    )
+
+
+def _series(origin: str, name: str) -> rrb.View:
+    return rrb.TimeSeriesView(origin=origin, name=name,
+                              plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop))
+
+
+def _layout(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Container:
+    error = _series("/plots/error", "error vs ground truth [m]")
+    small = [_series("/plots/blob_area", "blob area [px]"),
+             _series("/plots/estimator_ms", "estimator time [ms]")]
+    if kind == "paper":
+        # a handful of frames of a still ball: the images and the field say most
+        return rrb.Horizontal(
+            _cameras(robots),
+            rrb.Vertical(_field(field), rrb.Horizontal(error, *small), row_shares=[3.0, 1.2]),
+            column_shares=[1.0, 1.45])
+    bottom: list[rrb.View] = small
+    shares = [1.0, 1.0]
+    if kind == "moving":
+        bottom = [_series("/plots/speed", "ball speed [m/s]"), *small]
+        shares = [2.0, 1.0, 1.0]
+    return rrb.Horizontal(
+        rrb.Vertical(_cameras(robots), error, row_shares=[3.0, 2.0]),
+        rrb.Vertical(_field(field), rrb.Horizontal(*bottom, column_shares=shares),
+                     row_shares=[3.0, 1.3]),
+        column_shares=[1.0, 1.6])
+
+
+def blueprint(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Blueprint:
+    """The layout of a replay of ``robots`` on ``field`` for a scenario ``kind``."""
+    if kind not in KINDS:
+        raise ValueError(f"scenario kind {kind!r}; choose one of {', '.join(KINDS)}")
+    return rrb.Blueprint(
+        _layout(robots, field, kind),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline="sim_time", play_state="following"),
+    )

@@ -1,0 +1,351 @@
+"""Sink logging a replay to Rerun (rerun-sdk 0.41: ``rr.Scalars``, ``set_time``).
+
+Uses its own :class:`rerun.RecordingStream` (never the global one) whose recording id is
+derived from the log's SHA-256 and the options, so the same replay is the same recording.
+The entity paths and timelines are listed in ``docs/viewer.md`` (:data:`ENTITY_PATHS`,
+checked against a saved .rrd by the tests); the layout is :mod:`replay.sinks.rerun.blueprint`,
+the colours and sizes :mod:`replay.sinks.style`; live viewing is :mod:`replay.sinks.rerun.live`.
+
+A series in a plot is broken where there is no value (a frame without an estimate or
+without ground truth): the sink logs a :class:`rerun.Clear` there, which Rerun draws as a
+gap instead of a straight line across.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import sys
+import uuid
+from collections import deque
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from dsp.atomic import AtomicFile
+from dsp.errors import UsageError
+from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
+from estimator.constants import NS_PER_S
+from estimator.estimates import Covariance
+from replay.log import LogInfo
+from replay.options import ReplayOptions, RerunTarget
+from replay.records import FrameResult, StepResult
+from replay.sink import SinkBase
+from replay.sinks.rerun.blueprint import blueprint, scenario_kind
+from replay.sinks.rerun.live import (
+    Liveness,
+    ViewerUnavailableError,
+    check_display,
+    check_reachable,
+    grpc_address,
+    reachable,
+)
+from replay.sinks.style import (
+    BALL_COLOUR,
+    BALL_RADIUS_M,
+    FIELD_LINE_COLOUR,
+    FUSED_COLOUR,
+    OUTLINE_COLOUR,
+    RADIUS_COLOUR,
+    ROBOT_FOOTPRINT_M,
+    TRACK_COLOUR,
+    TRUTH_COLOUR,
+    robot_colour,
+)
+
+__all__ = ["APPLICATION_ID", "ENTITY_PATHS", "TIMELINES", "RerunSink", "field_lines",
+           "recording_id"]
+
+APPLICATION_ID = "dual_sight_replay"
+TIMELINES = ("sim_time", "frame", "step")
+"""``sim_time`` (duration from the log's stamps) on everything; ``frame`` (the frame index)
+on per-frame data; ``step`` (the fusion step index) on fused data."""
+ENTITY_PATHS = (
+    "/field", "/field/lines",
+    "/field/robots/{robot}", "/field/robots/{robot}/heading",
+    "/field/robots/{robot}/estimate", "/field/robots/{robot}/ray",
+    "/field/fused", "/field/fused/covariance", "/field/ground_truth/ball",
+    "/field/track", "/field/track/trail", "/field/track/velocity",
+    "/robots/{robot}/camera/image", "/robots/{robot}/camera/centre",
+    "/robots/{robot}/camera/detection",
+    "/robots/{robot}/camera/detection/centroid", "/robots/{robot}/camera/detection/outline",
+    "/robots/{robot}/camera/detection/radius",
+    "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
+    "/plots/blob_area/{robot}", "/plots/estimator_ms/{robot}",
+)
+"""Every entity the sink logs (``{robot}`` per robot; the track's only with the tracker)."""
+TRAIL_S = 3.0
+"""How much of the track's past the trail shows [s]."""
+_BALL_Z = BALL_RADIUS_M
+
+
+def recording_id(digest: str, options: Mapping[str, object]) -> str:
+    """A UUID derived from the log's hash and the options (same input -> same recording)."""
+    text = json.dumps({"sha256": digest, "options": options}, sort_keys=True, default=str)
+    return str(uuid.UUID(bytes=hashlib.sha256(text.encode()).digest()[:16], version=4))
+
+
+def field_lines(spec: FieldSpec) -> list[list[tuple[float, float]]]:
+    """The field's markings (:mod:`dsp.field`) as polylines for ``/field/lines``."""
+    return polylines(spec)
+
+
+def _ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
+    c = np.asarray(cov, dtype=np.float64)
+    vals, vecs = np.linalg.eigh(0.5 * (c + c.T))
+    vals = np.sqrt(np.clip(vals, 0.0, None)) * k
+    a = np.linspace(0.0, 2 * math.pi, n + 1)
+    circle = np.stack([np.cos(a) * vals[0], np.sin(a) * vals[1]])
+    pts = (vecs @ circle).T + np.array([x, y])
+    return np.column_stack([pts, np.full(len(pts), 0.01)])
+
+
+def _ring(x: float, y: float, r: float, n: int = 32) -> np.ndarray:
+    a = np.linspace(0.0, 2 * math.pi, n + 1)
+    return np.column_stack([x + r * np.cos(a), y + r * np.sin(a), np.full(n + 1, 2 * r)])
+
+
+class RerunSink(SinkBase):
+    """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
+
+    def __init__(self, target: RerunTarget, *, info: LogInfo, digest: str,
+                 options: ReplayOptions, centres: Mapping[str, tuple[float, float]]) -> None:
+        self.target = target
+        self._save: AtomicFile | None = None
+        self._liveness: Liveness | None = None
+        self.lost: str | None = None
+        """Why the viewer is no longer logged to (it went away), else None."""
+        self.info = info
+        self.centres = centres
+        self.field = info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD]
+        opts = options.as_dict()
+        for key in ("rerun", "out", "out_mcap", "out_csv", "plot", "force", "progress"):
+            opts.pop(key, None)
+        self.recording_id = recording_id(digest, opts)
+        self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
+        self.rec.set_log_time_enabled(False)  # sim time only: no wall clock in the recording
+        self.colours = {r: robot_colour(i) for i, r in enumerate(info.robots)}
+        name = info.scenario.name if info.scenario is not None else None
+        self.kind = scenario_kind(name, tracked=options.fusion_method == "track")
+        self._trail: deque[tuple[int, float, float]] = deque()
+        self._open(force=options.force)
+
+    def blueprint(self) -> rrb.Blueprint:
+        return blueprint(self.info.robots, self.field, self.kind)
+
+    def _open(self, *, force: bool) -> None:
+        mode, target = self.target.mode, self.target.target
+        bp = self.blueprint()
+        if mode == "save":
+            self._save = AtomicFile(Path(str(target)), force=force)
+            self.rec.save(self._save.tmp, default_blueprint=bp)
+        elif mode == "spawn":
+            check_display()
+            self.rec.spawn(default_blueprint=bp)
+            self._watch("127.0.0.1", 9876, "--rerun: the Rerun viewer did not start (use "
+                        "--serve to watch in a browser, or --save FILE.rrd)")
+        elif mode in ("connect", "serve"):
+            if target is None:
+                raise UsageError(f"Rerun mode {mode} needs the viewer's gRPC URL")
+            check_reachable(target)
+            self.rec.connect_grpc(target, default_blueprint=bp)
+            self._watch(*grpc_address(target), f"--{mode}: the Rerun viewer at {target} "
+                        "stopped answering")
+        else:  # pragma: no cover - RerunTarget allows only the four
+            raise ValueError(f"unknown Rerun mode {mode!r}")
+        self._static()
+
+    def _watch(self, host: str, port: int, failure: str) -> None:
+        if not reachable(host, port, 5.0):
+            raise ViewerUnavailableError(failure)
+        self._liveness = Liveness(lambda: reachable(host, port, 0.5))
+
+    def _alive(self) -> bool:
+        """False once the viewer has gone away (said once, in one line on stderr)."""
+        if self.lost is not None:
+            return False
+        if self._liveness is not None and self._liveness.gone():
+            self.lost = ("the Rerun viewer went away; the replay goes on without it and "
+                         "still writes its results")
+            print(f"warning: {self.lost}", file=sys.stderr, flush=True)
+            return False
+        return True
+
+    def _static(self) -> None:
+        rec = self.rec
+        rec.log("/field", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        strips = [[(x, y, 0.0) for x, y in s] for s in field_lines(self.field)]
+        rec.log("/field/lines", rr.LineStrips3D(strips, colors=[FIELD_LINE_COLOUR], radii=0.04),
+                static=True)
+        for robot in self.info.robots:
+            cx, cy = self.centres.get(robot, (539.0, 539.0))
+            rec.log(f"/robots/{robot}/camera/centre",
+                    rr.Points2D([(cx, cy)], colors=[RADIUS_COLOUR], radii=4.0), static=True)
+        for name in (*self.info.robots, "fused"):
+            colour = FUSED_COLOUR if name == "fused" else self.colours[name]
+            width = 3.0 if name == "fused" else 1.5
+            rec.log(f"/plots/error/{name}",
+                    rr.SeriesLines(colors=[colour], names=[name], widths=[width]), static=True)
+        for name, colour in (("track", TRACK_COLOUR), ("truth", TRUTH_COLOUR)):
+            rec.log(f"/plots/speed/{name}", rr.SeriesLines(colors=[colour], names=[name]),
+                    static=True)
+        for robot in self.info.robots:
+            for plot in ("blob_area", "estimator_ms"):
+                rec.log(f"/plots/{plot}/{robot}",
+                        rr.SeriesLines(colors=[self.colours[robot]], names=[robot]), static=True)
+
+    def _time(self, stamp_ns: int, timeline: str, index: int) -> None:
+        self.rec.reset_time()
+        self.rec.set_time("sim_time", duration=np.timedelta64(int(stamp_ns), "ns"))
+        self.rec.set_time(timeline, sequence=int(index))
+
+    def _scalar(self, path: str, value: float | None) -> None:
+        """A point of a plot, or a gap where there is no value."""
+        if value is None or not math.isfinite(value):
+            self.rec.log(path, rr.Clear(recursive=False))
+        else:
+            self.rec.log(path, rr.Scalars(float(value)))
+
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
+        if not self._alive():
+            return
+        self._time(result.stamp_ns, "frame", result.frame)
+        self._camera(result, image_bgr)
+        self._robot(result)
+
+    def _camera(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
+        rec, robot = self.rec, result.robot
+        cam = f"/robots/{robot}/camera"
+        if image_bgr is not None:
+            rec.log(f"{cam}/image", rr.Image(image_bgr, color_model="BGR").compress(85))
+        det = result.detection
+        if det is None:
+            rec.log(f"{cam}/detection", rr.Clear(recursive=True))
+            self._scalar(f"/plots/blob_area/{robot}", None)
+        else:
+            cx, cy = float(det.cx_px), float(det.cy_px)
+            rec.log(f"{cam}/detection/centroid",
+                    rr.Points2D([(cx, cy)], labels=[f"({cx:.1f}, {cy:.1f})"],
+                                colors=[BALL_COLOUR], radii=5.0, show_labels=True))
+            outline = det.outline_px
+            if len(outline) >= 3:
+                pts = np.asarray(outline, dtype=np.float32).reshape(-1, 2)
+                rec.log(f"{cam}/detection/outline",
+                        rr.LineStrips2D([np.vstack([pts, pts[:1]])], colors=[OUTLINE_COLOUR],
+                                        radii=1.5))
+            else:
+                x, y, w, h = (float(v) for v in det.bbox_px)
+                rec.log(f"{cam}/detection/outline",
+                        rr.Boxes2D(mins=[(x, y)], sizes=[(w, h)], colors=[OUTLINE_COLOUR]))
+            label = f"r = {result.r_px:.1f} px" if result.r_px is not None else None
+            rec.log(f"{cam}/detection/radius",
+                    rr.LineStrips2D([[result.centre_px, (cx, cy)]], colors=[RADIUS_COLOUR],
+                                    radii=2.0, labels=[label] if label else None))
+            self._scalar(f"/plots/blob_area/{robot}", float(det.area_px))
+        rec.log(f"/plots/estimator_ms/{robot}", rr.Scalars(1e3 * result.estimator_s))
+
+    def _robot(self, result: FrameResult) -> None:
+        rec, robot = self.rec, result.robot
+        colour = self.colours[robot]
+        pose = result.pose
+        if pose is not None:
+            c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
+            h = ROBOT_FOOTPRINT_M / 2
+            rec.log(f"/field/robots/{robot}",
+                    rr.Boxes3D(centers=[(pose.x_m, pose.y_m, 0.02)], half_sizes=[(h, h, 0.02)],
+                               quaternions=[rr.Quaternion(xyzw=[0.0, 0.0, math.sin(
+                                   pose.yaw_rad / 2), math.cos(pose.yaw_rad / 2)])],
+                               colors=[colour], fill_mode="solid", labels=[robot],
+                               show_labels=True))
+            rec.log(f"/field/robots/{robot}/heading",
+                    rr.Arrows3D(origins=[(pose.x_m, pose.y_m, 0.05)],
+                                vectors=[(0.9 * ROBOT_FOOTPRINT_M * c,
+                                          0.9 * ROBOT_FOOTPRINT_M * s, 0.0)],
+                                colors=[FIELD_LINE_COLOUR], radii=0.035))
+        est = result.estimate
+        if est is None:
+            rec.log(f"/field/robots/{robot}/estimate", rr.Clear(recursive=False))
+            rec.log(f"/field/robots/{robot}/ray", rr.Clear(recursive=False))
+        else:
+            rec.log(f"/field/robots/{robot}/estimate",
+                    rr.Points3D([(est.x_m, est.y_m, _BALL_Z)], colors=[colour],
+                                radii=0.5 * BALL_RADIUS_M))
+            rec.log(f"/field/robots/{robot}/ray",
+                    rr.LineStrips3D([[(est.robot_x_m, est.robot_y_m, 0.05),
+                                      (est.x_m, est.y_m, 0.05)]], colors=[colour], radii=0.025))
+        self._scalar(f"/plots/error/{robot}", result.error_m)
+
+    def step(self, result: StepResult) -> None:
+        if not self._alive():
+            return
+        rec = self.rec
+        self._time(result.stamp_ns, "step", result.step)
+        fused = result.fused
+        if fused is None:
+            rec.log("/field/fused", rr.Clear(recursive=True))
+        else:
+            rec.log("/field/fused",
+                    rr.Points3D([(fused.x_m, fused.y_m, _BALL_Z)], colors=[FUSED_COLOUR],
+                                radii=BALL_RADIUS_M, show_labels=True,
+                                labels=[f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})"]))
+            rec.log("/field/fused/covariance",
+                    rr.LineStrips3D([_ellipse(fused.x_m, fused.y_m, fused.covariance)],
+                                    colors=[FUSED_COLOUR], radii=0.025))
+        if result.truth is None:
+            rec.log("/field/ground_truth/ball", rr.Clear(recursive=False))
+        else:
+            rec.log("/field/ground_truth/ball",
+                    rr.LineStrips3D([_ring(result.truth[0], result.truth[1], BALL_RADIUS_M)],
+                                    colors=[TRUTH_COLOUR], radii=0.03))
+        self._scalar("/plots/error/fused", result.error_m)
+        self._track(result)
+        rec.reset_time()
+
+    def _track(self, result: StepResult) -> None:
+        """The tracker's trail, velocity arrow and speed, when the step carries a velocity."""
+        velocity, truth_velocity = result.velocity_m_s, result.truth_velocity_m_s
+        if truth_velocity is not None:
+            self._scalar("/plots/speed/truth", math.hypot(*truth_velocity))
+        fused = result.fused
+        if velocity is None or fused is None:
+            if velocity is None and result.velocity_covariance is None:
+                return
+            self.rec.log("/field/track", rr.Clear(recursive=True))
+            self._scalar("/plots/speed/track", None)
+            return
+        self._trail.append((result.stamp_ns, fused.x_m, fused.y_m))
+        while self._trail and result.stamp_ns - self._trail[0][0] > TRAIL_S * NS_PER_S:
+            self._trail.popleft()
+        self.rec.log("/field/track/trail",
+                     rr.LineStrips3D([[(x, y, 0.03) for _, x, y in self._trail]],
+                                     colors=[TRACK_COLOUR], radii=0.03))
+        vx, vy = velocity
+        self.rec.log("/field/track/velocity",
+                     rr.Arrows3D(origins=[(fused.x_m, fused.y_m, _BALL_Z)],
+                                 vectors=[(vx, vy, 0.0)], colors=[TRACK_COLOUR], radii=0.04,
+                                 labels=[f"{math.hypot(vx, vy):.2f} m/s"], show_labels=True))
+        self._scalar("/plots/speed/track", math.hypot(vx, vy))
+
+    def close(self, ok: bool) -> None:
+        """Flush and disconnect; a saved .rrd is renamed into place only when ``ok``. A
+        viewer that went away is not waited for."""
+        try:
+            if self.lost is None:
+                try:
+                    self.rec.flush(timeout_sec=10.0)
+                except RuntimeError as err:  # the gRPC connection broke at the very end
+                    if self._save is not None:
+                        raise
+                    print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
+                    self.lost = str(err)
+            if self.lost is None:
+                self.rec.disconnect()
+            if ok and self._save is not None:
+                self._save.commit()
+        finally:
+            if self._save is not None:
+                self._save.discard()

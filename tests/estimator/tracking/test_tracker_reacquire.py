@@ -1,0 +1,232 @@
+"""Re-acquisition on match play: after a bounce straight back that the gate misses, and
+against false blobs (orange boxes beside the field) that robots who cannot see the ball
+report. Cameras at 10 Hz with their own phases, as in the recorded ``match`` logs."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from estimator.tracking import BallTracker, Measurement, TrackerParams, TrackState
+from estimator.tracking.clutter import ClutterMap
+from estimator.tracking.reacquire import chi_square_tail, cv_fit
+
+MS = 1_000_000
+SIGMA = 0.014
+R = ((SIGMA**2, 0.0), (0.0, SIGMA**2))
+PHASES_MS = {"robot3": 0, "robot1": 8, "robot2": 46}  # 10 Hz, no two stamps alike
+BOX = (-8.0, 6.6)  # an orange box beside the field
+BOUNCE_S = 0.96  # after robot2's image at 0.946 s: the next ones see the ball 0.3 m off
+
+Seen = Callable[[str, float], tuple[float, float] | None]
+Step = tuple[float, str, bool, TrackState | None]
+
+
+def feed(tracker: BallTracker, seen: Seen, *, frames: int, seed: int = 0) -> list[Step]:
+    """Each robot's estimate of what it ``seen`` (None: nothing) at its own stamps; returns
+    (t, robot, accepted, track at t) per estimate."""
+    rng = np.random.default_rng(seed)
+    out: list[Step] = []
+    for k in range(frames):
+        for robot, phase in PHASES_MS.items():
+            t_ns = k * 100 * MS + phase * MS
+            xy = seen(robot, t_ns / 1e9)
+            if xy is None:
+                continue
+            z = (xy[0] + rng.normal(0, SIGMA), xy[1] + rng.normal(0, SIGMA))
+            accepted = tracker.update(Measurement(t_ns, robot, z[0], z[1], R))
+            out.append((t_ns / 1e9, robot, accepted, tracker.state_at(t_ns)))
+    return out
+
+
+def back(t: float) -> tuple[float, float]:
+    """-x at 1.4 m/s towards a robot, then straight back off it at t = 0.96 s at 4.2 m/s,
+    slowing at 2.5 m/s^2 (as in a recorded match: rolling friction and a hop)."""
+    if t < BOUNCE_S:
+        return (-7.0 - 1.4 * t, 0.5 + 0.9 * t)
+    dt = t - BOUNCE_S
+    return (-7.0 - 1.4 * BOUNCE_S + 4.2 * dt - 1.25 * dt * dt, 0.5 + 0.9 * BOUNCE_S - 0.06 * dt)
+
+
+def off(state: TrackState | None, xy: tuple[float, float]) -> float:
+    assert state is not None
+    return math.hypot(state.x_m - xy[0], state.y_m - xy[1])
+
+
+def test_two_robots_agreeing_after_a_bounce_straight_back_reacquire_the_track() -> None:
+    # after the bounce robot3 loses the ball and reports the box; robots 1 and 2 see the
+    # ball, and a straight-back bounce from a slow approach is beyond the kick's gate
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot == "robot3" and t >= BOUNCE_S else back(t)
+
+    steps = feed(BallTracker(), seen, frames=20)
+    after = [s for s in steps if s[0] >= BOUNCE_S and s[1] != "robot3"]
+    late = [off(state, back(t)) for t, _, _, state in after[3:]]
+    assert max(late) < 0.03, late  # within three estimates of the two robots, and on
+    assert all(a for _, _, a, _ in after[3:])
+    assert not any(a for t, robot, a, _ in steps if robot == "robot3" and t >= BOUNCE_S)
+
+
+def test_re_acquisition_looks_back_reacquire_ns_not_manoeuvre_ns() -> None:
+    """Guards re-acquisition's window: after the bounce straight back only robot1 sees the
+    ball, every other frame (estimates 200 ms apart: beyond ``manoeuvre_ns`` = 150 ms,
+    within ``reacquire_ns`` = 300 ms). Lone kicks are off, so only re-acquisition can follow
+    it, and it does at robot1's second estimate after the bounce; with a window of
+    ``manoeuvre_ns`` no two of them are in it, and the track coasts away on the old path."""
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if t < BOUNCE_S:
+            return back(t)
+        return back(t) if robot == "robot1" and round(t * 10) % 2 == 0 else None
+
+    params = TrackerParams(lone_kick_ns=0)
+    assert params.manoeuvre_ns < 200 * MS <= params.reacquire_ns
+    for window_ns, follows in ((params.reacquire_ns, True), (params.manoeuvre_ns, False)):
+        steps = feed(BallTracker(replace(params, reacquire_ns=window_ns)), seen, frames=20)
+        after = [s for s in steps if s[0] >= BOUNCE_S]
+        assert [round(t * 1e3) for t, _, _, _ in after[:3]] == [1008, 1208, 1408]
+        assert not after[0][2]  # the bounce's first estimate: beyond the gate, alone
+        for t, _, accepted, state in after[1:]:
+            assert state is not None
+            assert (accepted and state.confirmed and off(state, back(t)) < 0.05) is follows
+
+
+def test_a_single_robots_false_blob_neither_starts_nor_captures_the_track() -> None:
+    # robot1 cannot see the ball and reports the box, from the first frame on; robots 2
+    # and 3 see the ball, robot3 only from 0.5 s to 1.2 s
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if robot == "robot1":
+            return BOX
+        if robot == "robot3" and not 0.5 <= t < 1.2:
+            return None
+        return back(t)
+
+    steps = feed(BallTracker(), seen, frames=20)
+    assert steps[0][1] == "robot1"  # the box came first: a tentative track at most
+    confirmed = [(t, s) for t, _, _, s in steps if s is not None and s.confirmed]
+    assert confirmed and confirmed[0][0] < 0.2
+    assert max(off(s, back(t)) for t, s in confirmed) < 0.6  # the bounce's own frame
+    assert max(off(s, back(t)) for t, s in confirmed if abs(t - BOUNCE_S) > 0.35) < 0.08
+    assert not any(a for _, robot, a, s in steps if robot == "robot1" and s and s.confirmed)
+
+
+def test_a_box_two_robots_see_does_not_displace_the_moving_ball() -> None:
+    # robots 1 and 2 both lose the ball behind a robot and see the same box; robot3 alone
+    # sees the moving ball: a false blob is a still object, the ball moves
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot != "robot3" and 0.3 <= t < 0.9 else back(t)
+
+    steps = feed(BallTracker(), seen, frames=10)
+    assert max(off(s, back(t)) for t, _, _, s in steps[2:]) < 0.08
+
+
+def test_the_constant_velocity_fit() -> None:
+    r = np.eye(2) * SIGMA**2
+    line = [(t, np.array([1.0 + 3.0 * t, -2.0 * t]), r) for t in (0.0, 0.033, 0.1, 0.133)]
+    v = cv_fit(line, max_speed_m_s=12.0)
+    assert v is not None and np.allclose(v, (3.0, -2.0), atol=1e-6)
+    bent = [*line[:3], (0.2, np.array([1.6, 0.0]), r)]  # 0.4 m off the line
+    assert cv_fit(bent, max_speed_m_s=12.0) is None
+    fast = [(0.0, np.zeros(2), r), (0.1, np.array([2.0, 0.0]), r)]  # 20 m/s
+    assert cv_fit(fast, max_speed_m_s=12.0) is None
+    # the closed-form tail against known quantiles
+    assert math.isclose(chi_square_tail(13.815510557964274, 2), 0.001, rel_tol=1e-9)
+    assert math.isclose(chi_square_tail(18.466826952903, 4), 0.001, rel_tol=1e-6)
+
+
+# --- a kick only one robot sees, and clutter ----------------------------------------------------
+
+
+def kicked(t: float) -> tuple[float, float]:
+    """+x at 1.5 m/s, kicked at t = 0.55 s to (2, -4) m/s (between two of robot1's images)."""
+    if t < 0.55:
+        return (1.0 + 1.5 * t, 2.0)
+    dt = t - 0.55
+    return (1.0 + 1.5 * 0.55 + 2.0 * dt, 2.0 - 4.0 * dt)
+
+
+def test_a_kick_that_one_robot_sees_is_followed_at_its_first_estimate() -> None:
+    # robots 1 and 2 see the ball until the kick; after it only robot1 does, and robots 2
+    # and 3 report boxes of their own (far off, as in a match)
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if robot == "robot3" or (robot == "robot2" and t >= 0.55):
+            return BOX if robot == "robot3" else (8.5, -6.4)
+        return kicked(t)
+
+    for lone_kick_ns, followed in ((250 * MS, True), (0, False)):
+        steps = feed(BallTracker(TrackerParams(lone_kick_ns=lone_kick_ns)), seen, frames=12)
+        first = next(s for s in steps if s[1] == "robot1" and s[0] > 0.55)  # t = 0.608 s
+        assert first[2] is followed
+        assert (off(first[3], kicked(first[0])) < 0.03) is followed
+        later = [s for s in steps if s[1] == "robot1" and s[0] > first[0]]
+        assert all(a for _, _, a, _ in later)  # corroborated by robot1's next at the latest
+        assert max(off(state, kicked(t)) for t, _, _, state in later) < 0.05
+        assert not any(a for t, robot, a, _ in steps if robot != "robot1" and t > 0.55)
+
+
+def test_a_still_false_blob_near_the_ball_never_takes_the_track() -> None:
+    # robot2 reports a box from the start, which the ball rolls past 0.7 m away at 0.93 s;
+    # robot1 alone sees the ball
+    box = (2.4, 1.3)
+
+    def roll(t: float) -> tuple[float, float]:
+        return (1.0 + 1.5 * t, 2.0)
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        if robot == "robot3":
+            return None
+        return box if robot == "robot2" and t > 0.05 else roll(t)
+
+    steps = feed(BallTracker(), seen, frames=20)
+    assert not any(a for t, robot, a, _ in steps if robot == "robot2" and t > 0.05)
+    assert max(off(state, roll(t)) for t, _, _, state in steps) < 0.05  # 0.7 m: no pull
+
+
+def test_the_clutter_map_marks_where_rejected_estimates_pile_up() -> None:
+    clutter = ClutterMap(memory_ns=1000 * MS, radius_m=0.3, count=3, span_ns=200 * MS)
+    for k in range(3):
+        clutter.add(k * 100 * MS, 5.0 + 0.1 * k, 1.0)  # three, over 0.2 s, 0.2 m apart
+    clutter.add(250 * MS, 0.0, 0.0)
+    assert clutter.covers(300 * MS, 5.1, 1.05)
+    assert not clutter.covers(300 * MS, 5.5, 1.0)  # two of them within 0.3 m
+    assert not clutter.covers(150 * MS, 5.1, 1.0)  # before the third: 0.1 s apart
+    assert not clutter.covers(1150 * MS, 5.1, 1.0)  # the first is forgotten by then
+    quick = ClutterMap(span_ns=200 * MS)
+    for k in range(5):
+        quick.add(k * 10 * MS, 0.0, 0.0)  # five within 40 ms: a burst, not a still object
+    assert not quick.covers(50 * MS, 0.0, 0.0)
+
+
+def test_a_box_two_robots_take_for_the_ball_at_once_does_not_displace_it() -> None:
+    # from 0.5 s robots 1 and 2 lose the ball and both report the same box, 8 ms apart
+    # (their two estimates "move" by centimetres of noise: metres per second); robot3 still
+    # sees the ball rolling at 1.5 m/s
+    def roll(t: float) -> tuple[float, float]:
+        return (1.0 + 1.5 * t, 2.0 - 0.5 * t)
+
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot != "robot3" and t >= 0.5 else roll(t)
+
+    steps = feed(BallTracker(), seen, frames=20, seed=4)
+    assert not any(a for t, robot, a, _ in steps if robot != "robot3" and t >= 0.5)
+    assert max(off(state, roll(t)) for t, _, _, state in steps[3:]) < 0.05
+
+
+def test_two_robots_taking_a_box_for_the_ball_at_the_start_never_confirm_it() -> None:
+    # the ball is kicked at t = 0; robot3 sees it first, robots 1 and 2 each take the same
+    # box for it at their first image (38 ms apart), then see the ball
+    def seen(robot: str, t: float) -> tuple[float, float] | None:
+        return BOX if robot != "robot3" and t < 0.06 else kicked(t)
+
+    runs = {ns: feed(BallTracker(TrackerParams(confirm_ns=ns)), seen, frames=6)
+            for ns in (40 * MS, 0)}
+    for confirm_ns, boxed in ((40 * MS, False), (0, True)):
+        on_box = [s for _, _, _, s in runs[confirm_ns]
+                  if s is not None and s.confirmed and off(s, BOX) < 1]
+        assert bool(on_box) is boxed
+    ball = [(t, s) for t, _, _, s in runs[40 * MS] if t > 0.14]
+    assert ball and all(s is not None and s.confirmed and off(s, kicked(t)) < 0.05
+                        for t, s in ball)

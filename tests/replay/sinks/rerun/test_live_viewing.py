@@ -1,0 +1,149 @@
+"""Live viewing without a display: --connect to nothing and --rerun without a display fail
+in seconds with one line; --serve binds 127.0.0.1, prints the URL, serves the web viewer
+until SIGINT and then ends cleanly; a viewer that goes away mid-replay costs one line, and
+the results are still written."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from replay.options import ReplayOptions, RerunTarget
+from replay.records import FrameResult
+from replay.runner import replay
+from replay.sink import SinkBase
+from replay.sinks.rerun.live import ViewerServer, grpc_address, reachable
+
+ROLLING = Path(__file__).resolve().parents[4] / "logs" / "golden" / "rolling.mcap"
+
+
+def _run(*args: str, env: dict[str, str] | None = None) -> tuple[subprocess.CompletedProcess[str],
+                                                              float]:
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-m", "replay.cli", str(ROLLING), *args],
+                          capture_output=True, text=True, timeout=60, env=env)
+    return proc, time.monotonic() - t0
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_connect_to_nothing_fails_fast_in_one_line() -> None:
+    port = _free_port()
+    proc, took = _run("--connect", f"rerun+http://127.0.0.1:{port}/proxy")
+    assert proc.returncode == 1 and took < 20
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"no Rerun viewer is listening at 127.0.0.1:{port}" in lines[0]
+    assert "Traceback" not in proc.stderr
+
+
+def test_a_bad_connect_url_is_a_usage_error() -> None:
+    proc, _ = _run("--connect", "http://127.0.0.1:9876")
+    assert proc.returncode == 2 and "give a Rerun gRPC URL" in proc.stderr
+
+
+def test_rerun_without_a_display_suggests_serve_or_save() -> None:
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    proc, took = _run("--rerun", env=env)
+    assert proc.returncode == 1 and took < 20
+    assert proc.stderr.count("\n") == 1
+    assert "no display" in proc.stderr and "--serve" in proc.stderr and "--save" in proc.stderr
+
+
+def test_bind_and_port_go_with_serve_only() -> None:
+    proc, _ = _run("--port", "9000")
+    assert proc.returncode == 2 and "--port only go with --serve" in proc.stderr
+
+
+def _listening_address(port: int) -> str | None:
+    """The local address a TCP socket listens on at ``port`` (Linux /proc/net/tcp)."""
+    for line in Path("/proc/net/tcp").read_text().splitlines()[1:]:
+        local, state = line.split()[1], line.split()[3]
+        address, hex_port = local.split(":")
+        if state == "0A" and int(hex_port, 16) == port:
+            return ".".join(str(b) for b in reversed(bytes.fromhex(address)))
+    return None
+
+
+@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's socket table")
+def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path) -> None:
+    web, grpc = _free_port(), _free_port()
+    out = tmp_path / "r.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "replay.cli", str(ROLLING), "--serve", "--port", str(web),
+         "--grpc-port", str(grpc), "--out", str(out), "-q"],
+        stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stderr is not None
+        first = proc.stderr.readline()
+        url = f"http://127.0.0.1:{web}/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A{grpc}%2Fproxy"
+        assert url in first and "Ctrl-C" in first, first
+        assert _listening_address(web) == "127.0.0.1"
+        assert _listening_address(grpc) == "127.0.0.1"
+        with urllib.request.urlopen(url, timeout=60) as page:
+            assert page.status == 200 and b"<html" in page.read(4096).lower()
+        done = proc.stderr.readline()
+        while done.startswith("warning: "):  # robot1 of the rolling log never sees the ball
+            done = proc.stderr.readline()
+        assert "replay done; still serving" in done, done
+        assert out.exists()
+        time.sleep(0.5)
+        assert proc.poll() is None, "it serves until Ctrl-C"
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=60) == 0
+        assert "stopped serving" in proc.stderr.read()
+        assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
+    finally:
+        if proc.poll() is None:  # a failed check: Ctrl-C first, so its server stops too
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        for stream in (proc.stdout, proc.stderr):
+            if stream is not None:
+                stream.close()
+
+
+class _StopViewer(SinkBase):
+    """Stops the viewer after the first frame, then lets the liveness check come due."""
+
+    def __init__(self, server: ViewerServer) -> None:
+        self.server = server
+
+    def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
+        if result.frame == 0:
+            self.server.stop()
+            time.sleep(1.1)
+
+
+def test_a_viewer_that_goes_away_costs_one_line_and_the_results_are_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    server = ViewerServer(web_port=0, grpc_port=0).start()
+    assert reachable(*grpc_address(server.grpc_url))
+    out = tmp_path / "r.json"
+    t0 = time.monotonic()
+    summary = replay(ROLLING, ReplayOptions(rerun=RerunTarget("connect", server.grpc_url),
+                                            out=out, progress=False),
+                     sinks=[_StopViewer(server)])
+    assert time.monotonic() - t0 < 30
+    err = capsys.readouterr().err
+    assert err.count("the Rerun viewer went away") == 1, err
+    assert summary.frames == 12
+    assert len(json.loads(out.read_text())["frames"]) == 12

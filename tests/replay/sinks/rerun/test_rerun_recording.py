@@ -1,0 +1,90 @@
+"""The Rerun recording as docs/viewer.md lists it: a saved .rrd, read back with rerun's own
+reader, has exactly the documented entities on the documented timelines, no wall clock, and
+gaps (Clear) in its plots where there is no value."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from replay.options import ReplayOptions, RerunTarget
+from replay.runner import replay
+from replay.sinks.rerun.sink import ENTITY_PATHS, TIMELINES
+
+chunk = pytest.importorskip("rerun.chunk")
+ROOT = Path(__file__).resolve().parents[4]
+DOC = (ROOT / "docs" / "viewer.md").read_text()
+ROBOTS = ("robot1", "robot2", "robot3")
+
+
+def _documented() -> dict[str, set[str]]:
+    """Entity path -> its timelines (empty: static), from the doc's Entities table."""
+    rows = re.findall(r"^\| `(/[^`]+)` \| \w+ \| ([^|]+) \|", DOC, flags=re.MULTILINE)
+    return {path: set() if when.strip() == "static" else
+            {t.strip() for t in when.split(",")} for path, when in rows}
+
+
+@pytest.fixture(scope="module")
+def chunks(tmp_path_factory: pytest.TempPathFactory) -> list[object]:
+    rrd = tmp_path_factory.mktemp("rrd") / "rolling.rrd"
+    replay(ROOT / "logs" / "golden" / "rolling.mcap",
+           ReplayOptions(rerun=RerunTarget("save", str(rrd)), progress=False))
+    reader = chunk.RrdReader(rrd)
+    assert [r.application_id for r in reader.recordings()] == ["dual_sight_replay"]
+    assert reader.blueprints(), "the recording carries its layout"
+    return list(reader.stream())
+
+
+def test_the_doc_lists_exactly_the_sinks_entities() -> None:
+    documented = _documented()
+    assert list(documented) == list(ENTITY_PATHS)
+    timelines = set().union(*documented.values())
+    assert timelines == set(TIMELINES)
+    assert re.findall(r"^\| `(\w+)` \| (?:duration|sequence)", DOC, re.MULTILINE) == list(TIMELINES)
+
+
+def _pattern(path: str) -> re.Pattern[str]:
+    return re.compile("^" + re.escape(path).replace(r"\{robot\}", "(robot[0-9]+)") + "$")
+
+
+def test_every_entity_in_the_rrd_is_documented_on_its_timelines(chunks: list) -> None:
+    documented = _documented()
+    patterns = [(_pattern(p), p) for p in documented]
+    seen: set[str] = set()
+    for ch in chunks:
+        path = ch.entity_path
+        if path == "/__properties":
+            continue
+        match = [doc for rx, doc in patterns if rx.match(path)]
+        assert match, f"{path} is not in docs/viewer.md"
+        seen.add(match[0])
+        if ch.is_static:
+            # static: documented as such, or a plot's name and colour
+            assert not documented[match[0]] or path.startswith("/plots/"), path
+            assert ch.timeline_names == []
+        else:
+            assert set(ch.timeline_names) == documented[match[0]], path
+    assert "log_time" not in {t for ch in chunks for t in ch.timeline_names}
+    # the default fusion tracks the ball: every documented entity is there but the Clear of
+    # a track that never was lost
+    assert set(documented) - seen <= {"/field/track"}
+    assert {"/field/track/trail", "/field/track/velocity"} <= seen
+
+
+def test_a_robot_that_never_sees_the_ball_has_gaps_not_values(chunks: list) -> None:
+    def columns(path: str) -> set[str]:
+        return {name for ch in chunks if ch.entity_path == path and not ch.is_static
+                for name in ch.to_record_batch().schema.names}
+
+    # in the rolling log robot1 never sees the ball; robot2 always does
+    assert "Clear:is_recursive" in columns("/plots/error/robot1")
+    assert "Scalars:scalars" not in columns("/plots/error/robot1")
+    assert "Scalars:scalars" in columns("/plots/error/robot2")
+    assert "Clear:is_recursive" not in columns("/plots/error/robot2")
+    for robot in ROBOTS:
+        assert columns(f"/robots/{robot}/camera/image")
+    # the tracker's speed (the golden log predates the true velocity: no truth speed)
+    assert "Scalars:scalars" in columns("/plots/speed/track")
+    assert not columns("/plots/speed/truth")

@@ -14,6 +14,8 @@ and the field. The models are fitted on someone's labelled images: the file says
 from __future__ import annotations
 
 import json
+import os
+import stat
 from functools import cache
 from importlib.resources import files
 from pathlib import Path
@@ -23,10 +25,13 @@ from dsp.textfile import read_text_file
 from estimator.detection.real import BallModel, model_from_dict, model_to_dict
 from estimator.errors import BallModelError
 
-__all__ = ["MAX_BALL_FILE_BYTES", "ball_file_text", "read_ball_file", "shipped_check"]
+__all__ = ["MAX_BALL_FILE_BYTES", "MAX_CHECK_BYTES", "ball_file_text", "read_ball_file",
+           "read_check_file", "shipped_check"]
 
 MAX_BALL_FILE_BYTES = 1 << 20
 """A fitted model is about 13 kB."""
+MAX_CHECK_BYTES = 16 << 20
+"""The shipped check is 81 kB."""
 
 
 def read_ball_file(path: Path) -> BallModel:
@@ -52,3 +57,18 @@ def ball_file_text(model: BallModel) -> str:
 def shipped_check() -> bytes:
     """The shared check's ONNX bytes (``estimator/detection/real/ball_check.onnx``)."""
     return files("estimator.detection.real").joinpath("ball_check.onnx").read_bytes()
+
+
+def read_check_file(path: Path) -> bytes:
+    """A learned check's ONNX bytes (``train/train.py`` makes one): a regular file, bounded;
+    that it loads is checked where it is used."""
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise InputError(f"{path}: not a regular file")
+        with path.open("rb") as f:
+            data = f.read(MAX_CHECK_BYTES + 1)
+    except OSError as err:
+        raise InputError(f"{path}: cannot read: {err.strerror or err}") from err
+    if len(data) > MAX_CHECK_BYTES:
+        raise InputError(f"{path}: more than {MAX_CHECK_BYTES} bytes; not a ball check")
+    return data

@@ -276,6 +276,7 @@ class _Stream:
             pose_gap_ns=None if pose is None else pose.gap_ns,
             pose_interpolated=False if pose is None else pose.interpolated,
             estimate=est, truth=truth, error_m=err, estimator_s=elapsed,
+            candidates=outcome.candidates,
         )
         self.frames += 1
         self._emit_frame(result, image)

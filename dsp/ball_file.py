@@ -14,14 +14,12 @@ and the field. The models are fitted on someone's labelled images: the file says
 from __future__ import annotations
 
 import json
-import os
-import stat
 from functools import cache
 from importlib.resources import files
 from pathlib import Path
 
 from dsp.errors import InputError
-from dsp.textfile import read_text_file
+from dsp.textfile import read_bytes_file, read_text_file
 from estimator.detection.real import BallModel, model_from_dict, model_to_dict
 from estimator.errors import BallModelError
 
@@ -62,13 +60,4 @@ def shipped_check() -> bytes:
 def read_check_file(path: Path) -> bytes:
     """A learned check's ONNX bytes (``train/train.py`` makes one): a regular file, bounded;
     that it loads is checked where it is used."""
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            raise InputError(f"{path}: not a regular file")
-        with path.open("rb") as f:
-            data = f.read(MAX_CHECK_BYTES + 1)
-    except OSError as err:
-        raise InputError(f"{path}: cannot read: {err.strerror or err}") from err
-    if len(data) > MAX_CHECK_BYTES:
-        raise InputError(f"{path}: more than {MAX_CHECK_BYTES} bytes; not a ball check")
-    return data
+    return read_bytes_file(path, MAX_CHECK_BYTES, what="a ball check")

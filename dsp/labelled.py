@@ -13,7 +13,6 @@ Everything is read bounded and checked first: a label file of at most
 from __future__ import annotations
 
 import os
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from dsp.errors import InputError
-from dsp.textfile import read_text_file
+from dsp.textfile import read_bytes_file, read_text_file
 
 __all__ = ["IMAGE_SUFFIXES", "Labelled", "find_labelled", "labelled_folders", "read_boxes",
            "read_image"]
@@ -81,17 +80,7 @@ def read_boxes(path: Path, width: int, height: int, ball_class: int) -> list[Box
 
 def read_image(path: Path) -> npt.NDArray[np.uint8]:
     """A BGR image from a JPEG or PNG file, bounded in bytes and pixels."""
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            raise InputError(f"{path}: not a regular file")
-        with path.open("rb") as f:
-            size = os.fstat(f.fileno()).st_size
-            if size > MAX_IMAGE_BYTES:
-                raise InputError(f"{path}: {size} bytes; an image holds at most "
-                                 f"{MAX_IMAGE_BYTES} bytes")
-            data = f.read(MAX_IMAGE_BYTES + 1)
-    except OSError as err:
-        raise InputError(f"{path}: cannot read: {err.strerror or err}") from err
+    data = read_bytes_file(path, MAX_IMAGE_BYTES, what="an image file")
     buf = np.frombuffer(data, np.uint8)
     # the header first: a small file may still claim a huge image
     probe = cv2.imdecode(buf, cv2.IMREAD_REDUCED_GRAYSCALE_8) if buf.size else None

@@ -132,3 +132,16 @@ def test_a_replay_with_the_real_detector_records_it_and_is_the_same_bytes(
     paper = tmp_path / "paper.json"
     replay(log, ReplayOptions(out=paper, progress=False, quiet=True))
     assert "detector" not in json.loads(paper.read_text())["options"]
+
+
+def test_an_image_that_does_not_decode_is_named(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "venue"
+    folder.mkdir()
+    (folder / "a.jpg").write_bytes(b"\xff\xd8 not really a JPEG" * 10)
+    (folder / "a.txt").write_text("0 0.5 0.5 0.1 0.1\n")
+    out = tmp_path / "b.json"
+    code, _, err = _run(["--ball-from", folder, "-o", out], capsys)
+    assert code != 0 and not out.exists()
+    assert err.strip().splitlines() == [f"dsp-calibrate: error: {folder / 'a.jpg'}: not a "
+                                        "readable JPEG or PNG image"]

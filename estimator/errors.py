@@ -7,6 +7,7 @@ Every message names the offending value and says how to fix it. All errors deriv
 from __future__ import annotations
 
 __all__ = [
+    "BallModelError",
     "CalibrationError",
     "CalibrationFormatError",
     "DetectionError",
@@ -25,6 +26,11 @@ class EstimatorError(ValueError):
 
 class DetectionError(EstimatorError):
     """A bad image or bad detection parameters (wrong dtype, shape, HSV range)."""
+
+
+class BallModelError(DetectionError):
+    """A ball model (its dict / JSON form) that cannot be read, or labelled samples that
+    cannot be fitted."""
 
 
 class GeometryError(EstimatorError):

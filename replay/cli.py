@@ -28,6 +28,7 @@ from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
 from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import METHODS, NOISE_MODELS, ReplayOptions, RerunTarget
+from replay.real_ball import DETECTORS
 from replay.runner import replay
 from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.stats import ReplaySummary
@@ -127,6 +128,12 @@ def _input(text: str | None) -> Path | str | None:
 
 def _add_input_arguments(p: argparse.ArgumentParser) -> None:
     """What describes the log: its cameras, its topics, the robots and times to replay."""
+    p.add_argument("--detector", choices=DETECTORS, default=None,
+                   help="how the ball is found in an image: 'paper' (the paper's colour "
+                   "chain, the default) or 'real' (the real-ball detector of --ball)")
+    p.add_argument("--ball", type=Path, metavar="BALL.json",
+                   help="a ball model (dsp-calibrate --ball-from DIR writes one): the real "
+                   "detector, fitted to the venue's ball, light and look-alikes")
     p.add_argument("--cameras", metavar="FILE",
                    help="camera file, .yaml or .json: each robot's camera (model, size, centre, "
                    "mounting, calibration, map-to-field; dsp-info --cameras-template writes "
@@ -173,7 +180,8 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     start, start_absolute = args.start or (None, False)
     end, end_absolute = args.end or (None, False)
     return ReplayOptions(
-        method=args.method, fusion=args.fusion, calibration=_input(args.calibration),
+        method=args.method, detector=args.detector, ball=args.ball,
+        fusion=args.fusion, calibration=_input(args.calibration),
         cameras=_input(args.cameras), smooth=args.smooth, noise=args.noise,
         clock_hz=args.clock_hz, image_topic=args.image_topic, pose_topic=args.pose_topic,
         truth_topic=args.truth_topic, robots=robots, start_s=start, end_s=end,

@@ -35,12 +35,14 @@ import numpy as np
 
 from estimator import corrected, fusion, paper
 from estimator.detection import Detection, detect_ball
+from estimator.detection.real import Candidate
 from estimator.errors import EstimatorError
 from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covariance_rows
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
+from replay.real_ball import BallFinder
 from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
 from replay.sink import Sink
 from replay.smoothing import SmoothedSteps
@@ -59,6 +61,8 @@ class FrameOutcome:
     """Pixel radius of the blob from the image centre (eq. 3)."""
     pose: PoseMatch | None = None
     estimate: RobotEstimate | None = None
+    candidates: tuple[Candidate, ...] = ()
+    """The real detector's checked candidates, the winner first (none from the paper's)."""
 
 
 @dataclass(frozen=True)
@@ -68,13 +72,19 @@ class Detected:
     status: FrameStatus | None
     """BAD_IMAGE or DETECT_ERROR when detection could not run; None when it ran."""
     detection: Detection | None = None
+    candidates: tuple[Candidate, ...] = ()
+    """The real detector's checked candidates, the winner first (none from the paper's)."""
 
 
-def detect(image: np.ndarray | None) -> Detected:
-    """The ball in a decoded image (None: the image did not decode). Pure and thread-safe."""
+def detect(image: np.ndarray | None, finder: BallFinder | None = None) -> Detected:
+    """The ball in a decoded image (None: the image did not decode), by the paper's chain
+    or, with a ``finder``, the real-ball detector. Pure and thread-safe."""
     if image is None:
         return Detected(FrameStatus.BAD_IMAGE)
     try:
+        if finder is not None:
+            found = finder(image)
+            return Detected(None, found.detection, found.candidates)
         return Detected(None, detect_ball(image))
     except EstimatorError:
         return Detected(FrameStatus.DETECT_ERROR)
@@ -124,8 +134,10 @@ class FrameEstimator:
     """The estimator as the options choose it: detection, the method's locator, the fusion."""
 
     def __init__(self, *, method: str, fusion_method: str, cameras: Cameras,
-                 smooth: bool = False, noise: str = "cambada") -> None:
+                 smooth: bool = False, noise: str = "cambada",
+                 finder: BallFinder | None = None) -> None:
         self.cameras = cameras
+        self.finder = finder
         self._centres = dict(cameras.centres)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
@@ -154,7 +166,13 @@ class FrameEstimator:
         robot's pose at the image's stamp (None: none within the tolerance); ``detected``
         is :func:`detect` of the image when it ran already (e.g. ahead, in a thread)."""
         if detected is None:
-            detected = detect(image)
+            detected = detect(image, self.finder)
+        outcome = self._locate(robot, detected, pose_at)
+        return replace(outcome, candidates=detected.candidates) if detected.candidates \
+            else outcome
+
+    def _locate(self, robot: str, detected: Detected,
+                pose_at: Callable[[], PoseMatch | None]) -> FrameOutcome:
         if detected.status is not None:
             return FrameOutcome(detected.status)
         det = detected.detection

@@ -22,6 +22,7 @@ from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
 from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
+from replay.real_ball import DETECTORS
 
 __all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
            "Timing"]
@@ -83,6 +84,11 @@ class ReplayOptions:
     Raises :class:`~replay.errors.UsageError` when made with a value out of range."""
 
     method: str = "corrected"
+    detector: str | None = None
+    """How the ball is found in an image: "paper" (the paper's chain) or "real" (the
+    real-ball detector of ``ball``); None: "real" with a ball model, else "paper"."""
+    ball: Path | None = None
+    """A ball model file (``dsp-calibrate --ball-from``) for the real detector."""
     fusion: str | None = None
     """None: the method's own (:data:`DEFAULT_FUSION`)."""
     calibration: Path | str | None = None
@@ -146,6 +152,14 @@ class ReplayOptions:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise UsageError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
+        if self.detector not in (None, *DETECTORS):
+            raise UsageError(f"--detector {self.detector!r}; choose one of "
+                             f"{', '.join(DETECTORS)}")
+        if self.detector_name == "real" and self.ball is None:
+            raise UsageError("--detector real needs --ball ball.json (dsp-calibrate "
+                             "--ball-from DIR writes one from labelled images)")
+        if self.detector_name == "paper" and self.ball is not None:
+            raise UsageError("--ball goes with the real detector, not --detector paper")
         if self.fusion_method not in FUSION_METHODS:
             raise UsageError(
                 f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
@@ -237,6 +251,11 @@ class ReplayOptions:
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)
 
+    @property
+    def detector_name(self) -> str:
+        """The detector in use: the one asked for, else "real" with a ball model."""
+        return self.detector or ("real" if self.ball is not None else "paper")
+
     def results_view(self) -> dict[str, Json]:
         """The options that shape the results (no output paths, no display switches)."""
         return {
@@ -259,6 +278,8 @@ class ReplayOptions:
             **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
             **({"start_absolute": True} if self.start_absolute else {}),
             **({"end_absolute": True} if self.end_absolute else {}),
+            **({"detector": "real", "ball": self.ball.name}
+               if self.detector_name == "real" and self.ball is not None else {}),
         }
 
     @property

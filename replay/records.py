@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.detection import Detection
+from estimator.detection.real import Candidate
 from estimator.estimates import Covariance, FusedEstimate
 from estimator.geometry import RobotPose
 
@@ -74,6 +75,9 @@ class FrameResult:
     error_m: float | None = None
     estimator_s: float = 0.0
     """Wall time of detection + estimation [s]: for display only, never in results files."""
+    candidates: tuple[Candidate, ...] = ()
+    """The real detector's checked candidates, the winner first (none from the paper's
+    chain): for the viewer, not in results files."""
 
 
 @dataclass(frozen=True)

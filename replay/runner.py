@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from dsp import contract
+from dsp.ball_file import read_ball_file, shipped_check
 from dsp.errors import UsageError
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
@@ -52,6 +53,7 @@ from replay.log import (
     TruthMessage,
 )
 from replay.options import ReplayOptions, Timing
+from replay.real_ball import BallFinder
 from replay.records import FrameResult, FrameStatus
 from replay.selection import check_selected, check_selection, log_origin_ns
 from replay.sink import Sink
@@ -97,15 +99,17 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         cameras = cameras_for(
             info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
             metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
+        finder = (None if options.ball is None
+                  else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
-            smooth=options.smooth, noise=options.noise)
+            smooth=options.smooth, noise=options.noise, finder=finder)
         stats = ReplayStats(info.robots)
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
-                decode_and_detect, max_pixels=options.max_image_pixels)))
+                decode_and_detect, max_pixels=options.max_image_pixels, finder=finder)))
             stream = _Stream(reader, estimator, options.timing(log_origin_ns(info)),
                              estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead)
             with _progress(options, reader) as bar:
@@ -272,6 +276,7 @@ class _Stream:
             pose_gap_ns=None if pose is None else pose.gap_ns,
             pose_interpolated=False if pose is None else pose.interpolated,
             estimate=est, truth=truth, error_m=err, estimator_s=elapsed,
+            candidates=outcome.candidates,
         )
         self.frames += 1
         self._emit_frame(result, image)

@@ -6,6 +6,7 @@ today, so a change to them must be explained in the commit that regenerates them
     python scripts/make_golden.py                          # refuses: the goldens exist
     python scripts/make_golden.py --force                  # re-record, replay, rewrite all
     python scripts/make_golden.py --force --expected-only  # replay the pinned logs again
+    python scripts/make_golden.py --force --images         # the image suite's scores only
 
 For each scene in :data:`SCENES` it records a small MCAP log with the EGL renderer
 (:data:`RENDERER`), replays it once per configuration in :data:`CONFIGS` and keeps the
@@ -273,6 +274,43 @@ def generate(force: bool = False, *, expected_only: bool = False) -> dict[str, A
     return manifest
 
 
+IMAGE_SETS: dict[str, Path] = {
+    # the committed subset (14 real images of one venue) and, where it is beside the
+    # repository, the whole shared set (326 images, three venues, four folders)
+    "subset": ROOT / "tests" / "data" / "msl-images",
+    "msl": ROOT.parent / "shared" / "real" / "msl-images",
+}
+IMAGES_TRAIN_COUNT = 10
+
+
+def images_golden(root: Path) -> dict[str, Any]:
+    """``dsp-eval --suite images ROOT --train-count 10``'s summary with the shipped check,
+    less the wall times (the only figures that change from run to run)."""
+    from dsp.ball_file import shipped_check
+    from replay.evaluate.images import run_images_suite
+
+    doc, _ = run_images_suite([root], train_count=IMAGES_TRAIN_COUNT, check=shipped_check())
+    for row in [*doc["folders"].values(), doc["total"]]:
+        row.pop("ms_per_image")
+    return doc
+
+
+def generate_images(force: bool = False) -> list[Path]:
+    """Write GOLDEN_DIR/images-<set>.json for every image set on this machine."""
+    written = []
+    for name, root in IMAGE_SETS.items():
+        path = GOLDEN_DIR / f"images-{name}.json"
+        if not root.is_dir():
+            print(f"{root}: absent; {path.name} left as it is")
+            continue
+        if path.exists() and not force:
+            raise FileExistsError(f"{path} exists; pass --force and explain why in the commit")
+        path.write_text(dumps(images_golden(root)), encoding="ascii", newline="\n")
+        written.append(path)
+    print(f"wrote {', '.join(p.name for p in written) or 'nothing'}")
+    return written
+
+
 def load_manifest() -> dict[str, Any]:
     manifest: dict[str, Any] = json.loads((GOLDEN_DIR / MANIFEST).read_text(encoding="ascii"))
     return manifest
@@ -285,9 +323,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--expected-only", action="store_true",
                         help="keep the pinned logs; replay them and rewrite only the expected "
                              "outputs and the manifest")
+    parser.add_argument("--images", action="store_true",
+                        help="only the image suite's golden scores (images-*.json)")
     args = parser.parse_args(argv)
     try:
-        generate(force=args.force, expected_only=args.expected_only)
+        if args.images:
+            generate_images(force=args.force)
+        else:
+            generate(force=args.force, expected_only=args.expected_only)
     except FileExistsError as err:
         print(f"make_golden: {err}", file=sys.stderr)
         return 2

@@ -20,12 +20,14 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.atomic import atomic_output, check_distinct
+from dsp.ball_file import ball_file_text
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_number, check_suffix, check_topic_pattern
 from dsp.cli import echo, run_main
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES, save
 from recorder import calibrate_cli as simulated
+from replay.calibrate.ball import fit_from_folder, format_fit
 from replay.calibrate.figure import measured_figure
 from replay.calibrate.from_log import samples_from_log
 from replay.calibrate.measurements import read_measurements
@@ -82,7 +84,30 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--map-to-field", metavar="X,Y,YAW",
                       help="the poses' frame in the field (m, m, deg), written to the file "
                       "(and, with --from-log, applied to the poses)")
+    ball = p.add_argument_group("a ball model (the real-ball detector)")
+    ball.add_argument("--ball-from", type=Path, metavar="DIR",
+                      help="fit the ball model (-o ball.json, dsp-replay --ball reads it) from "
+                      "a folder of images with YOLO labels beside them (NAME.txt)")
+    ball.add_argument("--ball-class", type=int, default=0, metavar="N",
+                      help="with --ball-from: the labels' class of the ball (default 0)")
+    ball.add_argument("--train-count", type=int, metavar="N",
+                      help="with --ball-from: the first N labelled images by name (default all)")
+    ball.add_argument("--no-head", action="store_true",
+                      help="with --ball-from: no venue head on the shared check")
     return p
+
+
+def _run_ball(args: argparse.Namespace) -> int:
+    out: Path = args.out
+    check_suffix("-o/--out", out, (".json",))
+    check_distinct([("--out", out)], [("the input", args.ball_from)])
+    with atomic_output(out, force=args.force, label="--out") as tmp:
+        model = fit_from_folder(args.ball_from, ball_class=args.ball_class,
+                                train_count=args.train_count, head=not args.no_head)
+        tmp.write_text(ball_file_text(model), encoding="utf-8")
+    echo(args, format_fit(model))
+    echo(args, f"wrote {out}")
+    return 0
 
 
 def _image_size(text: str | None) -> tuple[int, int] | None:
@@ -147,6 +172,12 @@ def _run_measured(args: argparse.Namespace) -> int:
 
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
+    if args.ball_from is not None:
+        if args.from_measurements is not None or args.from_log is not None:
+            raise UsageError("--ball-from fits a ball model; calibrate the camera apart")
+        return _run_ball(args)
+    if args.train_count is not None or args.no_head:
+        raise UsageError("--train-count and --no-head go with --ball-from")
     if args.from_measurements is None and args.from_log is None:
         given = [f"--{k.replace('_', '-')}" for k in ("ball_at", "truth_topic", "image_size",
                                                        "centre", "usable_radius", "map_to_field")

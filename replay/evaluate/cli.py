@@ -3,6 +3,7 @@
     dsp-eval [--camera ideal] [--calibration calib.json] [--out-dir eval/]
     dsp-eval --suite random --count 200 --seed 1 [--workers N | --ray]
     dsp-eval --suite match --count 20 [--workers N | --ray]
+    dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
@@ -22,6 +23,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from dsp.atomic import atomic_output, check_distinct
+from dsp.ball_file import read_check_file, shipped_check
 from dsp.checks import check_int, check_number
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import CalibrationError, InputError, UsageError
@@ -30,6 +32,7 @@ from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
+from replay.evaluate.images import images_csv, images_markdown, run_images_suite
 from replay.evaluate.match import (
     MatchLogScore,
     MatchOptions,
@@ -47,6 +50,7 @@ from replay.evaluate.suites import (
 )
 from replay.parallel import Outcome, Workers, map_tasks
 from replay.parallel.cli import add_worker_arguments, workers_from_args
+from replay.real_ball import DETECTORS
 
 __all__ = ["SimRecorder", "build_parser", "main"]
 
@@ -64,9 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
-    p.add_argument("--suite", choices=("paper", "random", "match"), default="paper",
-                   help="the paper's four scenarios (default), random scenes or seeded "
-                   "matches (the tracker against window fusion)")
+    p.add_argument("--suite", choices=("paper", "random", "match", "images"), default="paper",
+                   help="the paper's four scenarios (default), random scenes, seeded "
+                   "matches (the tracker against window fusion), or the ball detector on "
+                   "folders of labelled real images (DIR ...)")
     p.add_argument("--count", type=int, default=None,
                    help="random scenes (default 200) or matches (default 20)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first scene (default 0)")
@@ -76,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out-dir", type=Path, default=Path("eval"), metavar="DIR",
                    help="logs and tables go here (default ./eval)")
     _add_match_arguments(p)
+    _add_images_arguments(p)
     add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
     return p
@@ -94,6 +100,24 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
                    help="render resolution (default: the recorder's, 1024)")
     g.add_argument("--distractors", type=int, default=3, metavar="N",
                    help="orange boxes beside the field per match (default %(default)s)")
+
+
+def _add_images_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("--suite images")
+    g.add_argument("dirs", nargs="*", type=Path, metavar="DIR",
+                   help="folders of images with YOLO labels; each folder under them that holds "
+                   "labelled images is fitted and scored apart")
+    g.add_argument("--train-count", type=int, default=10, metavar="N",
+                   help="fit on each folder's first N labelled images by name, score the rest "
+                   "(default %(default)s)")
+    g.add_argument("--ball-class", type=int, default=0, metavar="N",
+                   help="the labels' class of the ball (default 0)")
+    g.add_argument("--detector", choices=DETECTORS, default="real",
+                   help="the real-ball detector (default) or the paper's chain")
+    g.add_argument("--check", type=Path, metavar="ONNX",
+                   help="the learned check to use (default: the shipped one; train/train.py "
+                   "makes others, e.g. one that never saw the venue)")
+    g.add_argument("--no-head", action="store_true", help="fit no venue head")
 
 
 @dataclass(frozen=True)
@@ -199,8 +223,38 @@ def _run_match_suite(args: argparse.Namespace,
     return _stem(args), match_markdown(suite), suite.to_dict()
 
 
+def _run_images(args: argparse.Namespace) -> int:
+    out_dir: Path = args.out_dir
+    if not args.dirs:
+        raise UsageError("--suite images needs one or more folders of labelled images (DIR)")
+    check_int("--train-count", args.train_count, low=1, high=MAX_COUNT)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"--out-dir {out_dir}: is not a folder")
+    check = shipped_check() if args.check is None else read_check_file(args.check)
+    t0 = time.perf_counter()
+    doc, rows = run_images_suite(args.dirs, train_count=args.train_count,
+                                 detector=args.detector, ball_class=args.ball_class,
+                                 check=check, head=not args.no_head)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    text = images_markdown(doc)
+    doc["check"] = "shipped" if args.check is None else args.check.name
+    for name, content in (("images-summary.json", strict_json(doc, sort_keys=True, indent=2)
+                           + "\n"), ("images-summary.md", text),
+                          ("images.csv", images_csv(rows))):
+        with atomic_output(out_dir / name, force=True) as tmp:
+            tmp.write_text(content, encoding="utf-8")
+    echo(args, text)
+    echo(args, f"wrote {out_dir / 'images-summary.json'}, .md and images.csv in "
+         f"{time.perf_counter() - t0:.0f} s")
+    return 0
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
+    if args.suite == "images":
+        return _run_images(args)
+    if args.dirs:
+        raise UsageError("folders (DIR) go with --suite images")
     out_dir: Path = args.out_dir
     t0 = time.perf_counter()
     _check(args)

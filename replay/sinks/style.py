@@ -16,6 +16,7 @@ from estimator.constants import BALL_RADIUS_M
 __all__ = [
     "BALL_COLOUR",
     "BALL_RADIUS_M",
+    "CANDIDATE_COLOUR",
     "FIELD_BACKGROUND",
     "FIELD_LINE_COLOUR",
     "FUSED_COLOUR",
@@ -50,6 +51,8 @@ BALL_COLOUR: Rgb = (255, 140, 0)
 """The detected ball's centroid in the camera images."""
 OUTLINE_COLOUR: Rgb = (0, 230, 255)
 RADIUS_COLOUR: Rgb = (255, 60, 255)
+CANDIDATE_COLOUR: Rgb = (200, 200, 200)
+"""The real detector's candidates that did not win (grey boxes)."""
 FIELD_BACKGROUND: Rgb = (38, 102, 56)
 """The field view's background: grass, whatever the viewer's theme."""
 FIELD_LINE_COLOUR: Rgb = (245, 245, 245)

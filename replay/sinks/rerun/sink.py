@@ -47,6 +47,7 @@ from replay.sinks.rerun.live import (
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
+    CANDIDATE_COLOUR,
     FIELD_LINE_COLOUR,
     FUSED_COLOUR,
     OUTLINE_COLOUR,
@@ -73,7 +74,7 @@ ENTITY_PATHS = (
     "/robots/{robot}/camera/image", "/robots/{robot}/camera/centre",
     "/robots/{robot}/camera/detection",
     "/robots/{robot}/camera/detection/centroid", "/robots/{robot}/camera/detection/outline",
-    "/robots/{robot}/camera/detection/radius",
+    "/robots/{robot}/camera/detection/radius", "/robots/{robot}/camera/candidates",
     "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
     "/plots/blob_area/{robot}", "/plots/estimator_ms/{robot}",
 )
@@ -131,6 +132,7 @@ class RerunSink(SinkBase):
         self.colours = {r: robot_colour(i) for i, r in enumerate(info.robots)}
         name = info.scenario.name if info.scenario is not None else None
         self.kind = scenario_kind(name, tracked=options.fusion_method == "track")
+        self.candidates = options.detector_name == "real"
         self._trail: deque[tuple[int, float, float]] = deque()
         self._open(force=options.force)
 
@@ -247,6 +249,27 @@ class RerunSink(SinkBase):
                                     radii=2.0, labels=[label] if label else None))
             self._scalar(f"/plots/blob_area/{robot}", float(det.area_px))
         rec.log(f"/plots/estimator_ms/{robot}", rr.Scalars(1e3 * result.estimator_s))
+        self._candidates(result)
+
+    def _candidates(self, result: FrameResult) -> None:
+        """The real detector's candidates: a box each, labelled with the check's P(ball),
+        the one that won (reported as the ball) in the ball's colour (nothing from the
+        paper's chain, whose logs keep their entities)."""
+        if not self.candidates:
+            return
+        path = f"/robots/{result.robot}/camera/candidates"
+        if not result.candidates:
+            self.rec.log(path, rr.Clear(recursive=True))
+            return
+        won = result.detection is not None
+        boxes = [c.detection.bbox_px for c in result.candidates]
+        colours = [BALL_COLOUR if i == 0 and won else CANDIDATE_COLOUR
+                   for i in range(len(boxes))]
+        labels = [f"{'ball ' if i == 0 and won else ''}P {c.check_score:.2f}"
+                  for i, c in enumerate(result.candidates)]
+        self.rec.log(path, rr.Boxes2D(mins=[(b[0], b[1]) for b in boxes],
+                                      sizes=[(b[2], b[3]) for b in boxes], colors=colours,
+                                      labels=labels, show_labels=False))
 
     def _robot(self, result: FrameResult) -> None:
         rec, robot = self.rec, result.robot

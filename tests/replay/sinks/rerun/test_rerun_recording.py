@@ -68,8 +68,8 @@ def test_every_entity_in_the_rrd_is_documented_on_its_timelines(chunks: list) ->
             assert set(ch.timeline_names) == documented[match[0]], path
     assert "log_time" not in {t for ch in chunks for t in ch.timeline_names}
     # the default fusion tracks the ball: every documented entity is there but the Clear of
-    # a track that never was lost
-    assert set(documented) - seen <= {"/field/track"}
+    # a track that never was lost, and the real detector's candidates (the paper's chain here)
+    assert set(documented) - seen <= {"/field/track", "/robots/{robot}/camera/candidates"}
     assert {"/field/track/trail", "/field/track/velocity"} <= seen
 
 
@@ -88,3 +88,22 @@ def test_a_robot_that_never_sees_the_ball_has_gaps_not_values(chunks: list) -> N
     # the tracker's speed (the golden log predates the true velocity: no truth speed)
     assert "Scalars:scalars" in columns("/plots/speed/track")
     assert not columns("/plots/speed/truth")
+
+
+def test_the_real_detector_logs_its_candidates_under_the_camera(
+        tmp_path: Path) -> None:
+    from replay.calibrate.cli import main as calibrate
+
+    ball = tmp_path / "ball.json"
+    subset = ROOT / "tests" / "data" / "msl-images" / "20220715" / "r7"
+    assert calibrate(["--ball-from", str(subset), "--train-count", "10", "-o", str(ball),
+                      "-q"]) == 0
+    rrd = tmp_path / "real.rrd"
+    replay(ROOT / "logs" / "golden" / "match.mcap",
+           ReplayOptions(ball=ball, rerun=RerunTarget("save", str(rrd)), progress=False))
+    found = [ch for ch in chunk.RrdReader(rrd).stream()
+             if _pattern("/robots/{robot}/camera/candidates").match(ch.entity_path)]
+    assert found and all(set(ch.timeline_names) == {"sim_time", "frame"} for ch in found)
+    names = {n for ch in found for n in ch.to_record_batch().schema.names}
+    assert any("Boxes2D:half_sizes" in n for n in names), names
+    assert any("Boxes2D:labels" in n for n in names), names

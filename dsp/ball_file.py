@@ -1,0 +1,63 @@
+"""Ball model files (``ball.json``): a venue's real-ball model, and the shipped learned check.
+
+``dsp-calibrate --ball-from DIR`` writes one (:func:`ball_file_text`); ``dsp-replay --ball``
+and ``dsp-eval --suite images`` read one (:func:`read_ball_file`): bounded, a regular file,
+JSON through the standard library (no pickle, no eval), every field checked by
+:func:`estimator.detection.real.model_from_dict`; a bad one is one line naming the file
+and the field. The models are fitted on someone's labelled images: the file says which
+(``fit``), and a model fitted on the robocup_ml images keeps their notice (Apache-2.0,
+``estimator/detection/real/NOTICE``).
+
+:func:`shipped_check` is the shared check's ONNX bytes, read from the installed package.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from importlib.resources import files
+from pathlib import Path
+
+from dsp.errors import InputError
+from dsp.textfile import read_bytes_file, read_text_file
+from estimator.detection.real import BallModel, model_from_dict, model_to_dict
+from estimator.errors import BallModelError
+
+__all__ = ["MAX_BALL_FILE_BYTES", "MAX_CHECK_BYTES", "ball_file_text", "read_ball_file",
+           "read_check_file", "shipped_check"]
+
+MAX_BALL_FILE_BYTES = 1 << 20
+"""A fitted model is about 13 kB."""
+MAX_CHECK_BYTES = 16 << 20
+"""The shipped check is 81 kB."""
+
+
+def read_ball_file(path: Path) -> BallModel:
+    """The ball model of a ``ball.json``; :class:`InputError` naming the file and problem."""
+    text = read_text_file(path, MAX_BALL_FILE_BYTES, what="a ball model file")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: not JSON ({err.msg} at line {err.lineno})") from err
+    try:
+        return model_from_dict(data)
+    except BallModelError as err:
+        raise InputError(f"{path}: {err}") from err
+
+
+def ball_file_text(model: BallModel) -> str:
+    """The JSON text of a model (sorted keys, one item per line: the same model, the same
+    bytes)."""
+    return json.dumps(model_to_dict(model), indent=1, sort_keys=True) + "\n"
+
+
+@cache
+def shipped_check() -> bytes:
+    """The shared check's ONNX bytes (``estimator/detection/real/ball_check.onnx``)."""
+    return files("estimator.detection.real").joinpath("ball_check.onnx").read_bytes()
+
+
+def read_check_file(path: Path) -> bytes:
+    """A learned check's ONNX bytes (``train/train.py`` makes one): a regular file, bounded;
+    that it loads is checked where it is used."""
+    return read_bytes_file(path, MAX_CHECK_BYTES, what="a ball check")

@@ -1,0 +1,42 @@
+"""Fitting a venue's use of the shared check on its labelled frames (pure: arrays in).
+
+:func:`adapt` gives a colour model (:func:`fit.fit_ball_model`) its venue head
+(:mod:`head`), fitted on the same few labelled frames, on the candidates of the
+search the detector will use there: the check's logit corrected for the venue, with the
+penalty chosen by two-fold cross-validation over the frames.
+
+The centroid's blend (``BallModel.centre_blend``, the weight of the check's centre against
+the colour blob box's centre) is not fitted here: chosen on a venue's ten frames it picked
+the check alone where the mean of the two erred less on the venue's other frames (the
+check's centre is at its best on frames it was trained on), so it stays at its default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from estimator.detection.real.check import BallCheck
+from estimator.detection.real.detector import Search
+from estimator.detection.real.head import fit_head, head_samples
+from estimator.detection.real.model import BallModel
+
+__all__ = ["adapt"]
+
+Box = tuple[float, float, float, float]
+Sample = tuple[npt.NDArray[np.uint8], Sequence[Box]]
+
+
+def adapt(model: BallModel, samples: Sequence[Sample], check: BallCheck, *,
+          search: Search | None = None) -> BallModel:
+    """The model with its venue head fitted on the labelled frames (unchanged when the
+    cross-validation keeps the shared check, or the frames hold too few candidates)."""
+    search = search or Search()
+    head, lam = fit_head(head_samples(samples, model, check, max_count=search.max_candidates,
+                                      step=search.step))
+    fit = {**model.fit, "head_lambda": None if head is None else lam}
+    return dataclasses.replace(model, fit=fit, check_head=None if head is None else tuple(
+        round(float(v), 6) for v in head))

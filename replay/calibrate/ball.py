@@ -1,0 +1,49 @@
+"""``dsp-calibrate --ball-from DIR``: a venue's ball model from a folder of labelled images.
+
+What a team does at a new venue: label the ball in a few frames (YOLO labels, any
+labelling tool writes them), then fit. The colour table, field mask and size line come
+from the first N labelled images by file name (:func:`estimator.detection.real.fit_ball_model`)
+and, unless ``no_head``, the venue's head on the shared check is fitted on the same images
+(:func:`estimator.detection.real.adapt`). Reads those files only; returns the model.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from dsp.ball_file import shipped_check
+from dsp.errors import InputError, UsageError
+from dsp.labelled import find_labelled
+from estimator.detection.real import BallCheck, BallModel, adapt, fit_ball_model
+from estimator.errors import EstimatorError
+
+__all__ = ["fit_from_folder", "format_fit"]
+
+
+def fit_from_folder(folder: Path, *, ball_class: int = 0, train_count: int | None = None,
+                    head: bool = True, check: bytes | None = None) -> BallModel:
+    """The ball model of ``folder``'s first ``train_count`` labelled images (None: all)."""
+    if train_count is not None and train_count < 1:
+        raise UsageError(f"--train-count {train_count}: use 1 or more")
+    labelled = find_labelled(folder)
+    if not labelled:
+        raise InputError(f"{folder}: no image with a YOLO label file (NAME.txt) beside it")
+    chosen = labelled if train_count is None else labelled[:train_count]
+    samples = [item.read(ball_class) for item in chosen]
+    info = {"images": len(chosen), "first": chosen[0].image.name,
+            "last": chosen[-1].image.name, "ball_class": ball_class}
+    try:
+        model = fit_ball_model(samples, info=info)
+        return adapt(model, samples, BallCheck(check or shipped_check())) if head else model
+    except EstimatorError as err:
+        raise InputError(f"{folder}: {err}") from err
+
+
+def format_fit(model: BallModel) -> str:
+    """One line: what the model was fitted from."""
+    fit = model.fit
+    head = ("no venue head" if model.check_head is None
+            else f"venue head (penalty {fit.get('head_lambda')})")
+    return (f"ball model from {fit.get('images')} images ({fit.get('first')} .. "
+            f"{fit.get('last')}), {fit.get('balls')} balls, diameters "
+            f"{model.min_diameter_px:.0f}-{model.max_diameter_px:.0f} px, {head}")

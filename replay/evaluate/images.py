@@ -1,0 +1,199 @@
+"""``dsp-eval --suite images``: the ball detector scored on folders of labelled real images.
+
+For each folder that holds labelled images (each venue-day apart), a venue's ball model is
+fitted on its first ``train_count`` labelled images by file name (as a team would,
+:func:`replay.calibrate.ball.fit_from_folder`) and every other labelled image is scored:
+
+- per image the detector reports at most one ball; a hit (tp) is a reported centroid
+  inside a labelled ball box grown by ``MARGIN_PX`` on each side; a report anywhere else is
+  a false hit (fp); an image with a labelled ball and no hit is a miss (fn);
+- precision = tp / (tp + fp); recall = tp / (images with a labelled ball); the centroid
+  error of a hit is its distance to the centre of the box it hit (the nearest, when it lies
+  in several), summarised by its median and 95th percentile;
+- ``ms_per_image``: the median wall time of the detector on one image (decoded already),
+  the only figure that differs from run to run.
+
+``detector`` "paper" scores the paper's chain (default parameters, no fit) on the same
+images, for comparison.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dsp.errors import InputError
+from dsp.jsonio import Json
+from dsp.labelled import Labelled, find_labelled, labelled_folders
+from estimator.detection import detect_ball
+from estimator.detection.real import BallCheck, RealBallDetector
+from replay.calibrate.ball import fit_from_folder
+
+__all__ = ["KEYS", "MARGIN_PX", "ImageRow", "images_csv", "images_markdown", "judge",
+           "run_images_suite", "summarise"]
+
+MARGIN_PX = 2.0
+KEYS = ("test_images", "with_ball", "tp", "fp", "fn", "precision", "recall",
+        "centroid_median_px", "centroid_p95_px", "ms_per_image")
+Box = tuple[float, float, float, float]
+Report = tuple[float, float, float] | None
+"""(cx, cy, P(ball)) of the reported ball, or None."""
+
+
+@dataclass(frozen=True)
+class ImageRow:
+    """One scored test image."""
+
+    folder: str
+    image: str
+    balls: int
+    outcome: str
+    """tp, fp, fn or tn (no ball labelled, none reported)."""
+    report: Report
+    error_px: float | None
+    ms: float
+
+
+def judge(report: tuple[float, float] | None, balls: Sequence[Box]
+          ) -> tuple[str, float | None]:
+    """(outcome, centroid error) of one image's report by the scoring rule."""
+    if report is None:
+        return ("fn" if balls else "tn"), None
+    cx, cy = report
+    errors = [math.hypot(cx - (x0 + x1) / 2.0, cy - (y0 + y1) / 2.0)
+              for x0, y0, x1, y1 in balls
+              if x0 - MARGIN_PX <= cx <= x1 + MARGIN_PX and y0 - MARGIN_PX <= cy <= y1 + MARGIN_PX]
+    return ("tp", min(errors)) if errors else ("fp", None)
+
+
+def summarise(rows: Sequence[ImageRow]) -> dict[str, Json]:
+    """The summary of scored images (:data:`KEYS`; None where a ratio has no denominator)."""
+    tp = sum(r.outcome == "tp" for r in rows)
+    fp = sum(r.outcome == "fp" for r in rows)
+    with_ball = sum(r.balls > 0 for r in rows)
+    errors = [r.error_px for r in rows if r.error_px is not None]
+    ms = [r.ms for r in rows]
+    return {
+        "test_images": len(rows), "with_ball": with_ball, "tp": tp, "fp": fp,
+        "fn": with_ball - tp,
+        "precision": round(tp / (tp + fp), 4) if tp + fp else None,
+        "recall": round(tp / with_ball, 4) if with_ball else None,
+        "centroid_median_px": round(float(np.median(errors)), 3) if errors else None,
+        "centroid_p95_px": round(float(np.percentile(errors, 95)), 3) if errors else None,
+        "ms_per_image": round(float(np.median(ms)), 3) if ms else None,
+    }
+
+
+def _paper(image: np.ndarray) -> Report:
+    det = detect_ball(image)
+    return None if det is None else (det.cx_px, det.cy_px, 1.0)
+
+
+def _scorer(folder: Path, *, detector: str, train_count: int, ball_class: int,
+            check: bytes, head: bool) -> Callable[[np.ndarray], Report]:
+    if detector == "paper":
+        return _paper
+    model = fit_from_folder(folder, ball_class=ball_class, train_count=train_count,
+                            head=head, check=check)
+    real = RealBallDetector(model, BallCheck(check))
+
+    def score(image: np.ndarray) -> Report:
+        ranked = real.candidates(image)
+        if ranked and ranked[0].check_score >= model.threshold:
+            d = ranked[0].detection
+            return d.cx_px, d.cy_px, ranked[0].check_score
+        return None
+
+    return score
+
+
+def _score_folder(key: str, tests: Sequence[Labelled], score: Callable[[np.ndarray], Report],
+                  ball_class: int) -> list[ImageRow]:
+    rows = []
+    if tests:  # untimed: the first call sets the network up
+        score(tests[0].read(ball_class)[0])
+    for item in tests:
+        image, balls = item.read(ball_class)
+        t0 = time.perf_counter()
+        report = score(image)
+        ms = (time.perf_counter() - t0) * 1000.0
+        outcome, error = judge(None if report is None else report[:2], balls)
+        rows.append(ImageRow(key, item.image.name, len(balls), outcome, report, error, ms))
+    return rows
+
+
+def _folders(roots: Sequence[Path]) -> list[tuple[str, Path]]:
+    found = []
+    for root in roots:
+        for folder in labelled_folders(root):
+            rel = folder.relative_to(root).as_posix()
+            key = rel if len(roots) == 1 else f"{root.name}/{rel}".removesuffix("/.")
+            found.append((key, folder))
+    if not found:
+        raise InputError(f"{', '.join(map(str, roots))}: no folder of images with YOLO labels")
+    return found
+
+
+def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str = "real",
+                     ball_class: int = 0, check: bytes, head: bool = True,
+                     on_folder: Callable[[str], None] | None = None
+                     ) -> tuple[dict[str, Json], list[ImageRow]]:
+    """The summary document (per folder and "total") and the per-image rows."""
+    folders: dict[str, Json] = {}
+    every: list[ImageRow] = []
+    for key, folder in _folders(roots):
+        labelled = find_labelled(folder)
+        if len(labelled) <= train_count:
+            raise InputError(f"{folder}: {len(labelled)} labelled images; fitting on "
+                             f"{train_count} leaves none to score")
+        score = _scorer(folder, detector=detector, train_count=train_count,
+                        ball_class=ball_class, check=check, head=head)
+        rows = _score_folder(key, labelled[train_count:], score, ball_class)
+        folders[key] = summarise(rows)
+        every += rows
+        if on_folder is not None:
+            on_folder(key)
+    doc: dict[str, Json] = {
+        "format": "dsp-eval images", "version": 1, "detector": detector,
+        "train_count": train_count, "ball_class": ball_class,
+        "venue_head": head if detector == "real" else None,
+        "margin_px": MARGIN_PX, "folders": folders, "total": summarise(every)}
+    return doc, every
+
+
+def _cell(v: Json) -> str:
+    return "-" if v is None else str(v)
+
+
+def images_markdown(doc: dict[str, Json]) -> str:
+    """The summary as a Markdown table, a row per folder and the total."""
+    folders = doc["folders"]
+    assert isinstance(folders, dict)
+    lines = [f"Detector: {doc['detector']}; fitted on each folder's first "
+             f"{doc['train_count']} labelled images, scored on the rest.", "",
+             "| folder | " + " | ".join(KEYS) + " |", "|---" * (len(KEYS) + 1) + "|"]
+    for key, row in [*folders.items(), ("total", doc["total"])]:
+        assert isinstance(row, dict)
+        lines.append(f"| {key} | " + " | ".join(_cell(row[k]) for k in KEYS) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def images_csv(rows: Sequence[ImageRow]) -> str:
+    """One line per test image: folder, image, balls, outcome, cx, cy, p, error_px, ms."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["folder", "image", "balls", "outcome", "cx_px", "cy_px", "p_ball",
+                     "error_px", "ms"])
+    for r in rows:
+        cx, cy, p = (("", "", "") if r.report is None
+                     else (f"{r.report[0]:.3f}", f"{r.report[1]:.3f}", f"{r.report[2]:.4f}"))
+        err = "" if r.error_px is None else f"{r.error_px:.3f}"
+        writer.writerow([r.folder, r.image, r.balls, r.outcome, cx, cy, p, err, f"{r.ms:.2f}"])
+    return buf.getvalue()

@@ -1,0 +1,117 @@
+"""dsp-eval --suite images: the scoring rule, the files it writes, and its scores on real
+images against the golden ones (scripts/make_golden.py --images regenerates them): on the
+committed subset always, on the whole shared set where it is beside the repository."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from replay.evaluate.cli import main
+from replay.evaluate.images import ImageRow, judge, summarise
+
+ROOT = Path(__file__).resolve().parents[3]
+_spec = importlib.util.spec_from_file_location("make_golden", ROOT / "scripts" / "make_golden.py")
+assert _spec is not None and _spec.loader is not None
+mg = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(mg)
+
+BOX = (10.0, 20.0, 30.0, 40.0)
+
+
+def test_the_scoring_rule() -> None:
+    assert judge(None, []) == ("tn", None)
+    assert judge(None, [BOX]) == ("fn", None)
+    assert judge((20.0, 30.0), [BOX]) == ("tp", 0.0)
+    assert judge((8.0, 18.0), [BOX]) == ("tp", pytest.approx(2**0.5 * 12))  # in the 2 px
+    assert judge((7.9, 30.0), [BOX]) == ("fp", None)  # just outside it
+    assert judge((20.0, 30.0), []) == ("fp", None)
+    two = [BOX, (18.0, 28.0, 24.0, 34.0)]  # in both: the error to the nearer centre
+    assert judge((21.0, 31.0), two) == ("tp", pytest.approx(0.0))
+
+
+def test_the_summary_counts_and_ratios() -> None:
+    rows = [ImageRow("f", "a", 1, "tp", (1, 1, 0.9), 1.0, 5.0),
+            ImageRow("f", "b", 1, "tp", (1, 1, 0.9), 3.0, 7.0),
+            ImageRow("f", "c", 2, "fp", (1, 1, 0.8), None, 9.0),
+            ImageRow("f", "d", 0, "fp", (1, 1, 0.7), None, 1.0),
+            ImageRow("f", "e", 1, "fn", None, None, 2.0),
+            ImageRow("f", "g", 0, "tn", None, None, 3.0)]
+    s = summarise(rows)
+    assert (s["test_images"], s["with_ball"], s["tp"], s["fp"], s["fn"]) == (6, 4, 2, 2, 2)
+    assert (s["precision"], s["recall"], s["centroid_median_px"]) == (0.5, 0.5, 2.0)
+    assert s["ms_per_image"] == 4.0
+    assert summarise([rows[-1]])["precision"] is None
+
+
+def _without_times(doc: dict[str, Any]) -> dict[str, Any]:
+    doc = json.loads(json.dumps(doc))
+    doc.pop("check", None)
+    for row in [*doc["folders"].values(), doc["total"]]:
+        assert row.pop("ms_per_image") > 0
+    return doc
+
+
+def _golden(name: str) -> dict[str, Any]:
+    loaded: dict[str, Any] = json.loads((mg.GOLDEN_DIR / f"images-{name}.json").read_text())
+    return loaded
+
+
+def test_the_subset_scores_as_the_golden_and_writes_every_file(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--out-dir", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "| 20220715/r7 | 4 | 4 |" in printed
+    doc = json.loads((out / "images-summary.json").read_text())
+    assert doc["check"] == "shipped"
+    assert _without_times(doc) == _golden("subset")
+    assert "| total |" in (out / "images-summary.md").read_text()
+    rows = list(csv.DictReader((out / "images.csv").read_text().splitlines()))
+    assert [r["outcome"] for r in rows].count("tp") == doc["total"]["tp"]
+    assert {r["folder"] for r in rows} == {"20220715/r7"}
+
+
+def test_the_paper_chain_on_the_subset(tmp_path: Path,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "paper"
+    assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--detector", "paper",
+                 "--out-dir", str(out), "-q"]) == 0
+    total = json.loads((out / "images-summary.json").read_text())["total"]
+    assert total["tp"] < 4  # a fixed orange box misses a yellow ball
+
+
+def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--suite", "images", "--out-dir", str(tmp_path / "o")]) != 0
+    assert "needs one or more folders" in capsys.readouterr().err
+    few = tmp_path / "few"
+    few.mkdir()
+    for image in sorted(mg.IMAGE_SETS["subset"].rglob("*.jpg"))[:3]:
+        shutil.copy(image, few / image.name)
+        shutil.copy(image.with_suffix(".txt"), few / image.with_suffix(".txt").name)
+    assert main(["--suite", "images", str(few), "--out-dir", str(tmp_path / "o")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "3 labelled images; fitting on 10 leaves none" in err[0]
+    assert main(["--suite", "images", str(few), "--check", str(few)]) != 0
+    assert "not a regular file" in capsys.readouterr().err
+    assert main([str(few)]) != 0
+    assert "go with --suite images" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.skipif(not mg.IMAGE_SETS["msl"].is_dir(),
+                    reason="../shared/real/msl-images is not beside the repository")
+def test_the_shared_real_images_score_as_the_golden(tmp_path: Path) -> None:
+    out = tmp_path / "msl"
+    assert main(["--suite", "images", str(mg.IMAGE_SETS["msl"]), "--out-dir", str(out),
+                 "-q"]) == 0
+    doc = json.loads((out / "images-summary.json").read_text())
+    assert list(doc["folders"]) == ["20190606/r2", "20190606/r4", "20220715/r7",
+                                    "20230709/r5"]
+    assert _without_times(doc) == _golden("msl")

@@ -1,0 +1,117 @@
+"""Training samples for the real-ball detector's learned check, from labelled folders.
+
+Offline (not the detector's run time). Per folder: the venue's ball model is fitted on the
+folder's first ``TRAIN_COUNT`` labelled images by name (as a team would, and as
+``dsp-eval --suite images`` does); then on every image of the folder the detector's own
+candidates (up to ``MAX_CANDIDATES``) are cut out as the check sees them at run time,
+labelled 1 when the candidate's centre lies in a ball box grown by 2 px (the scoring's
+rule), with the box's centre and size as the regression target. Each ball box also gives
+``LABEL_COPIES`` crops centred near it (jittered in place, size and light), so every ball,
+even one the colour map cut badly, is a positive. Which images a model may learn from is
+chosen in ``train.py`` from each sample's folder and image index. Seeded: the same
+folders give the same samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from dsp.labelled import find_labelled
+from estimator.detection.real.candidates import find_coarse
+from estimator.detection.real.check import SPEC, crop_input, field_share
+from estimator.detection.real.colour import ColourTables
+from estimator.detection.real.fit import fit_ball_model
+from estimator.detection.real.head import context
+
+TRAIN_COUNT = 10
+MAX_CANDIDATES = 48
+LABEL_COPIES = 6
+MARGIN_PX = 2.0
+Box = tuple[float, float, float, float]
+
+
+@dataclass
+class Samples:
+    x: np.ndarray  # N x 5 x 24 x 24 float32
+    y: np.ndarray  # N float32 (1: a ball)
+    offset: np.ndarray  # N x 3 float32: (ball centre - crop centre) / side, log size
+    image: np.ndarray  # N int: image index within its folder (by name)
+    label_crop: np.ndarray  # N bool: made from a label box, not a candidate
+    ctx: np.ndarray  # N x 3 float32: the context features of the sample
+
+
+def _inside(cx: float, cy: float, balls: Sequence[Box]) -> Box | None:
+    best: tuple[float, Box] | None = None
+    for box in balls:
+        x0, y0, x1, y1 = box
+        if x0 - MARGIN_PX <= cx <= x1 + MARGIN_PX and y0 - MARGIN_PX <= cy <= y1 + MARGIN_PX:
+            d = (cx - (x0 + x1) / 2) ** 2 + (cy - (y0 + y1) / 2) ** 2
+            if best is None or d < best[0]:
+                best = (d, box)
+    return None if best is None else best[1]
+
+
+def _target(box: Box, cx: float, cy: float, side: float) -> tuple[float, float, float]:
+    """The box's centre from the crop's in crop sides, and the log of the box's larger side
+    over side / context (0 when the crop is framed as the check frames a ball)."""
+    x0, y0, x1, y1 = box
+    return (((x0 + x1) / 2 - cx) / side, ((y0 + y1) / 2 - cy) / side,
+            float(np.log(max(x1 - x0, y1 - y0, 1.0) * SPEC.context / side)))
+
+
+def _label_squares(balls: Sequence[Box], rng: np.random.Generator) -> list[tuple]:
+    out = []
+    for x0, y0, x1, y1 in balls:
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        side0 = max(SPEC.min_side_px, SPEC.context * max(x1 - x0, y1 - y0))
+        for _ in range(LABEL_COPIES):
+            side = side0 * float(np.exp(rng.uniform(-0.25, 0.25)))
+            jx, jy = rng.uniform(-0.12, 0.12, 2) * side
+            out.append((cx + jx, cy + jy, side, (x0, y0, x1, y1)))
+    return out
+
+
+def _image_samples(image: np.ndarray, balls: list[Box], model, tables: ColourTables,
+                   rng: np.random.Generator) -> list[tuple]:
+    rows = []
+    for c in find_coarse(image, tables, model, max_count=MAX_CANDIDATES):
+        cx, cy, side = SPEC.square(*c.centre())
+        box = _inside(cx, cy, balls)
+        target = (0.0, 0.0, 0.0) if box is None else _target(box, cx, cy, side)
+        rows.append(((cx, cy, side), float(box is not None), target, False, image,
+                     c.full_box()))
+    for cx, cy, side, box in _label_squares(balls, rng):
+        gain = float(rng.uniform(0.75, 1.3))
+        bias = float(rng.uniform(-15, 15))
+        lit = np.clip(image.astype(np.float32) * gain + bias, 0, 255).astype(np.uint8) \
+            if abs(gain - 1) > 0.02 else image
+        rows.append(((cx, cy, side), 1.0, _target(box, cx, cy, side), True, lit, box))
+    return rows
+
+
+def build_folder(folder: Path, seed: int = 0, ball_class: int = 0) -> Samples:
+    """Every sample of one folder of labelled images."""
+    cv2.setNumThreads(1)
+    items = [it.read(ball_class) for it in find_labelled(folder)]
+    model = fit_ball_model(items[:TRAIN_COUNT], info={"images": TRAIN_COUNT})
+    tables = ColourTables.of(model)
+    rng = np.random.default_rng(seed)
+    xs, ys, offs, idx, lab, ctx = [], [], [], [], [], []
+    for index, (image, balls) in enumerate(items):
+        for square, y, off, from_label, img, box in _image_samples(image, balls, model,
+                                                                   tables, rng):
+            x = crop_input(img, [square], tables).crops
+            xs.append(x[0])
+            ctx.append(context(np.asarray([box], np.float64), field_share(x), model)[0])
+            ys.append(y)
+            offs.append(off)
+            idx.append(index)
+            lab.append(from_label)
+    return Samples(np.asarray(xs, np.float32), np.asarray(ys, np.float32),
+                   np.asarray(offs, np.float32), np.asarray(idx, np.int32),
+                   np.asarray(lab, bool), np.asarray(ctx, np.float32))

@@ -1,0 +1,213 @@
+"""Train the real-ball detector's learned check (seeded, CPU, deterministic), export to ONNX.
+
+    pip install -e '.[train]'
+    python train/train.py ../shared/real/msl-images -o estimator/detection/real/ball_check.onnx
+    python train/train.py ../shared/real/msl-images --split lovo:20220715 -o lovo-20220715.onnx
+
+ROOT holds labelled folders (images with YOLO label files, class 0 the ball), each one
+venue-day; a folder's venue is its first path part under ROOT. Splits (which samples of
+``dataset.py`` a model may learn from):
+  all             every image of every folder (the shipped model)
+  lovo:VENUE      every image of the other venues' folders (leave one venue out)
+  infolder:F      every image except folder F's test images (those after its first 10)
+
+Determinism: one thread, ``torch.use_deterministic_algorithms``, the seed for torch and for
+the NumPy generator that shuffles and augments: the same images, split and seed give the
+same ONNX bytes on the same torch build. After export, OpenCV's dnn must give torch's
+outputs on the exported bytes (the detector runs them through OpenCV only).
+
+The images' licence (Apache-2.0) goes with the weights: keep estimator/detection/real/NOTICE
+and LICENSE-images beside any model trained on them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import io
+import os
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+from torch import nn
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from dataset import TRAIN_COUNT, build_folder
+
+from dsp.labelled import labelled_folders
+
+EPOCHS = 32
+NEG_SHARE = 0.5
+"""Share of the negatives drawn afresh for each epoch (all positives every epoch)."""
+BATCH = 128
+LR = 2e-3
+
+
+class CheckNet(nn.Module):
+    """5 x 24 x 24 crop and 3 context numbers -> (ball logit, dx, dy, log size). Three
+    conv-ReLU-maxpool stages, a dense layer to 32 features, the context beside them, and
+    a dense layer out."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.features = nn.Sequential(
+            nn.Conv2d(5, 12, 3, padding=1), nn.ReLU(), nn.MaxPool2d(2),
+            nn.Conv2d(12, 24, 3, padding=1), nn.ReLU(), nn.MaxPool2d(2),
+            nn.Conv2d(24, 32, 3, padding=1), nn.ReLU(), nn.MaxPool2d(2),
+        )
+        self.embed = nn.Sequential(nn.Flatten(), nn.Linear(32 * 3 * 3, 32), nn.ReLU())
+        self.head = nn.Linear(32 + 3, 4)
+
+    def forward(self, x: torch.Tensor, ctx: torch.Tensor) -> torch.Tensor:
+        return self.head(torch.cat([self.embed(self.features(x)), ctx], dim=1))
+
+
+class Exported(nn.Module):
+    """The net with its 32 features as a second output (for a venue's own ball/not head)."""
+
+    def __init__(self, net: CheckNet) -> None:
+        super().__init__()
+        self.net = net
+
+    def forward(self, x: torch.Tensor, ctx: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        feat = self.net.embed(self.net.features(x))
+        return self.net.head(torch.cat([feat, ctx], dim=1)), feat
+
+
+def venue_of(folder: str) -> str:
+    """A folder's venue: its first path part (a venue-day: r2 and r4 of 20190606 are one)."""
+    return folder.split("/")[0]
+
+
+def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
+    """x, y, offset, context of the samples of the folders under root the split allows."""
+    kind, _, name = split.partition(":")
+    if kind not in ("all", "lovo", "infolder"):
+        raise SystemExit(f"unknown split {split!r}: all, lovo:VENUE or infolder:FOLDER")
+    xs, ys, offs, ctxs = [], [], [], []
+    for path in labelled_folders(root):
+        folder = path.relative_to(root).as_posix()
+        s = build_folder(path)
+        if kind == "all":
+            keep = np.ones(len(s.y), bool)
+        elif kind == "lovo":
+            keep = np.full(len(s.y), venue_of(folder) != name)
+        else:
+            keep = np.ones(len(s.y), bool) if folder != name else s.image < TRAIN_COUNT
+        xs.append(s.x[keep])
+        ys.append(s.y[keep])
+        offs.append(s.offset[keep])
+        ctxs.append(s.ctx[keep])
+    return (np.concatenate(xs), np.concatenate(ys), np.concatenate(offs),
+            np.concatenate(ctxs))
+
+
+def augment(x: np.ndarray, off: np.ndarray, rng: np.random.Generator
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Mirror left-right; swap the colour channels or grey them (another ball colour the
+    venue's model would call ball-like); small gain on the pixels."""
+    x, off = x.copy(), off.copy()
+    n = len(x)
+    flip = rng.random(n) < 0.5
+    x[flip] = x[flip, :, :, ::-1]
+    off[flip, 0] *= -1
+    perm = rng.random(n) < 0.3
+    for i in np.flatnonzero(perm):
+        x[i, :3] = x[i, rng.permutation(3)]
+    grey = rng.random(n) < 0.1
+    x[grey, :3] = x[grey, :3].mean(axis=1, keepdims=True)
+    x[:, :3] *= rng.uniform(0.85, 1.15, (n, 1, 1, 1)).astype(np.float32)
+    np.clip(x, 0.0, 1.0, out=x)
+    return x, off
+
+
+def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS) -> CheckNet:
+    torch.manual_seed(seed)
+    torch.set_num_threads(1)
+    torch.use_deterministic_algorithms(True)
+    rng = np.random.default_rng(seed)
+    x, y, off, ctx = select(root, split)
+    net = CheckNet()
+    opt = torch.optim.Adam(net.parameters(), lr=LR, weight_decay=1e-4)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
+    pos_weight = torch.tensor(min(8.0, float((y == 0).sum()) / max(1.0, float(y.sum()))))
+    bce = nn.BCEWithLogitsLoss(pos_weight=pos_weight)
+    for epoch in range(epochs):
+        neg = np.flatnonzero(y == 0)
+        keep = np.concatenate([np.flatnonzero(y > 0),
+                               rng.choice(neg, int(NEG_SHARE * len(neg)), replace=False)])
+        order = keep[rng.permutation(len(keep))]
+        total = 0.0
+        for start in range(0, len(order), BATCH):
+            idx = order[start:start + BATCH]
+            xb, ob = augment(x[idx], off[idx], rng)
+            out = net(torch.from_numpy(xb), torch.from_numpy(ctx[idx]))
+            yb = torch.from_numpy(y[idx])
+            loss = bce(out[:, 0], yb)
+            pos = yb > 0.5
+            if bool(pos.any()):
+                loss = loss + 4.0 * nn.functional.smooth_l1_loss(
+                    out[pos, 1:], torch.from_numpy(ob)[pos], beta=0.05)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += float(loss) * len(idx)
+        sched.step()
+        print(f"  epoch {epoch + 1}/{epochs} loss {total / len(order):.4f}", flush=True)
+    return net.eval()
+
+
+def export(net: CheckNet, path: str) -> bytes:
+    buf = io.BytesIO()
+    torch.onnx.export(Exported(net), (torch.zeros(1, 5, 24, 24), torch.zeros(1, 3)), buf,
+                      input_names=["crops", "context"], output_names=["out", "feat"],
+                      dynamic_axes={"crops": {0: "n"}, "context": {0: "n"}, "out": {0: "n"},
+                                    "feat": {0: "n"}},
+                      opset_version=13, dynamo=False)
+    data = buf.getvalue()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "wb") as f:
+        f.write(data)
+    return data
+
+
+def verify(net: CheckNet, data: bytes, x: np.ndarray, ctx: np.ndarray) -> float:
+    """Largest difference between torch's outputs and OpenCV dnn's on the ONNX bytes, over
+    up to 256 of the split's samples (raises when they disagree beyond float rounding)."""
+    x, ctx = x[:256], ctx[:256]
+    with torch.no_grad():
+        ref_out, ref_feat = Exported(net)(torch.from_numpy(x), torch.from_numpy(ctx))
+    cvnet = cv2.dnn.readNetFromONNX(np.frombuffer(data, np.uint8))
+    cvnet.setInput(x, "crops")
+    cvnet.setInput(ctx, "context")
+    out, feat = cvnet.forward(["out", "feat"])
+    diff = max(float(np.abs(out - ref_out.numpy()).max()),
+               float(np.abs(feat - ref_feat.numpy()).max()))
+    if diff > 1e-3:
+        raise SystemExit(f"OpenCV dnn and torch differ by {diff} on the exported model")
+    return diff
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("root", type=Path, help="folder of labelled folders (each venue-day one)")
+    ap.add_argument("--split", default="all")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--epochs", type=int, default=EPOCHS)
+    ap.add_argument("-o", "--output", required=True)
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    net = train(args.root, args.split, args.seed, args.epochs)
+    data = export(net, args.output)
+    x, _, _, ctx = select(args.root, args.split)
+    diff = verify(net, data, x, ctx)
+    print(f"{args.output}: {len(data)} bytes, sha256 {hashlib.sha256(data).hexdigest()[:16]}, "
+          f"OpenCV dnn vs torch max |diff| {diff:.2e}, {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -63,6 +63,8 @@ class LogSummary:
     """"indexed" (a summary with chunk indexes), "summary", or "none"."""
     checked: bool = False
     problems: list[str] = field(default_factory=list)
+    salvaged: list[str] = field(default_factory=list)
+    """``check``: what was kept of each cut or damaged chunk (what ``--recover`` replays)."""
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=1, sort_keys=True, allow_nan=False) + "\n"
@@ -115,6 +117,8 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         uncompressed_bytes=sum(c.uncompressed_size for c in chunks),
         metadata=sorted(_shown(n) for n in cat.metadata), summary=summary, checked=check,
         problems=[_shown(p, limit=300) for p in problems],
+        salvaged=[_shown(s.describe().strip(), limit=400) for s in cat.salvaged] if check
+        else [],
     )
 
 
@@ -178,6 +182,7 @@ def format_info(s: LogSummary) -> str:
         if s.problems:
             lines.append(f"check:       {len(s.problems)} problem(s)")
             lines.extend(f"  {p}" for p in s.problems)
+            lines.extend(f"  {k}" for k in s.salvaged)
         else:
             lines.append("check:       intact (every CRC the log carries matches; the "
                          "summary agrees with the data)")

@@ -24,6 +24,7 @@ from mcap.records import Channel, Schema
 from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from replay.errors import CorruptLogError, TruncatedLogError
+from replay.log.mcap_chunks import COMPRESSIONS
 from replay.log.mcap_records import (
     MAGIC,
     ChunkHeader,
@@ -32,9 +33,12 @@ from replay.log.mcap_records import (
     Op,
     parse_channel,
     parse_chunk_header,
+    parse_data_end,
+    parse_header,
     parse_message,
     parse_metadata,
     parse_schema,
+    record_name,
 )
 
 __all__ = ["Block", "Damage", "DataScan", "scan_data"]
@@ -42,7 +46,6 @@ __all__ = ["Block", "Damage", "DataScan", "scan_data"]
 _RUN_BYTES = 4 * 1024 * 1024
 """Messages outside chunks are streamed in runs of about this many bytes."""
 _RUN_MESSAGES = 4096
-_COMPRESSIONS = ("", "zstd", "lz4")
 
 
 @dataclass
@@ -56,6 +59,9 @@ class Block:
     chunk: ChunkHeader | None = None
     messages: int | None = None
     """How many messages: counted for a run; from the message index records for a chunk."""
+    salvage: bool = False
+    """The decodable prefix of a cut or damaged chunk (``--recover``): its records are
+    salvaged (:func:`replay.log.mcap_chunks.salvage`), not decompressed whole."""
 
 
 @dataclass(frozen=True)
@@ -99,6 +105,9 @@ class DataScan:
     data_crc_ok: bool | None = None
     damage: list[Damage] = field(default_factory=list)
     truncated: bool = False
+    cut_chunk: ChunkHeader | None = None
+    """The chunk the end of the file cuts, when its header is whole (``--recover`` salvages
+    the decodable prefix of its data)."""
 
     @property
     def chunks(self) -> list[ChunkHeader]:
@@ -132,8 +141,8 @@ class _Scanner:
         nxt = None if truncated else self.resync(pos + 1)
         end = self.size if nxt is None else nxt
         self.out.damage.append(Damage(
-            pos, end - pos, reason, None if chunk is None else chunk.start_ns,
-            None if chunk is None else chunk.end_ns,
+            pos, end - pos, reason, None if chunk is None else chunk.message_start_time,
+            None if chunk is None else chunk.message_end_time,
             chunks=1 if chunk is not None or in_chunk else 0))
         if nxt is None:
             self.out.truncated = True
@@ -174,7 +183,7 @@ class _Scanner:
         if len(head) < 9:
             return self.fail(pos, "the log ends inside a record header", truncated=True)
         op, length = (int(v) for v in struct.unpack("<BQ", head))
-        name = Op.NAMES.get(op, f"record (opcode {op:#x})")
+        name = record_name(op, f"record (opcode {op:#x})")
         if op == 0:
             return self.fail(pos, "a record with opcode 0")
         if length > self.size - pos - 9:
@@ -205,16 +214,13 @@ class _Scanner:
             msg = parse_message(body)
             self.add_to_run(pos, 9 + length, msg.log_time)
             return False
-        if op != Op.MESSAGE_INDEX:
-            self.close_run()
+        self.close_run()  # a run is messages only, one after the other
         if op == Op.CHUNK:
             self.chunk(pos, length)
         elif op == Op.DATA_END:
             body = self.read(body_pos, length)
-            if len(body) < 4:
-                raise Malformed("too short")
+            self.out.data_crc = parse_data_end(body).data_section_crc
             self.out.data_end = pos
-            self.out.data_crc = int(struct.unpack_from("<I", body)[0])
             if self.out.data_crc and self.crc is not None:
                 self.out.data_crc_ok = self.crc == self.out.data_crc
             return True
@@ -244,13 +250,14 @@ class _Scanner:
             c = parse_channel(body)
             out.channels[c.id] = c
         elif op == Op.METADATA:
-            name, data = parse_metadata(body)
-            out.metadata[name] = data
-            out.metadata_records.append((pos, 9 + length, name))
-        elif op == Op.HEADER:
-            if pos == 8 and len(body) >= 4:
-                n = int(struct.unpack_from("<I", body)[0])
-                out.profile = body[4:4 + n].decode("utf-8", "replace")
+            m = parse_metadata(body)
+            out.metadata[m.name] = m.metadata
+            out.metadata_records.append((pos, 9 + length, m.name))
+        elif op == Op.HEADER and pos == 8:
+            try:  # only shown by dsp-info: a damaged header costs nothing else
+                out.profile = parse_header(body).profile
+            except Malformed:
+                out.profile = None
 
     def message_index(self, head: bytes) -> None:
         """Count a chunk's messages from the message index records after it."""
@@ -259,14 +266,14 @@ class _Scanner:
             entries = int(struct.unpack_from("<I", head, 2)[0]) // 16
             blocks[-1].messages = (blocks[-1].messages or 0) + entries
 
-    def chunk_header(self, pos: int, length: int) -> ChunkHeader:
+    def chunk_header(self, pos: int, length: int, *, whole: bool = True) -> ChunkHeader:
         head = self.read(pos + 9, min(length, 1024))
         if len(head) >= 32 and int(struct.unpack_from("<I", head, 28)[0]) > 64:
             raise Malformed("a compression name of over 64 bytes")
-        chunk = parse_chunk_header(head, pos, length)
-        if chunk.compression not in _COMPRESSIONS:
+        chunk = parse_chunk_header(head, pos, length, whole=whole)
+        if chunk.compression not in COMPRESSIONS:
             raise Malformed(f"unknown compression {chunk.compression[:20]!r}")
-        if chunk.start_ns > chunk.end_ns:
+        if chunk.message_start_time > chunk.message_end_time:
             raise Malformed("its time range ends before it starts")
         if chunk.uncompressed_size > self.limits.max_chunk_bytes:
             raise Malformed(f"it declares {chunk.uncompressed_size} bytes uncompressed, over "
@@ -275,13 +282,18 @@ class _Scanner:
 
     def chunk(self, pos: int, length: int) -> None:
         chunk = self.chunk_header(pos, length)
-        self.out.blocks.append(Block(pos, chunk.length, chunk.start_ns, chunk.end_ns, chunk))
+        self.out.blocks.append(Block(pos, chunk.length, chunk.message_start_time,
+                                     chunk.message_end_time, chunk))
         self.skip_body(pos + 9, length)
 
     def partial_chunk(self, pos: int, length: int) -> ChunkHeader | None:
-        """The header of a chunk cut by the end of the file, if it is all there."""
+        """The header of a chunk cut by the end of the file, if it is all there (kept for
+        salvage when its data would fill the record), else its time range alone."""
         try:
-            return self.chunk_header(pos, self.size - pos - 9)
+            chunk = self.chunk_header(pos, length, whole=False)
+            if chunk.data_offset + chunk.data_length == pos + chunk.length:
+                self.out.cut_chunk = chunk
+            return chunk
         except Malformed:
             head = self.read(pos + 9, 16)
             if len(head) == 16:

@@ -23,6 +23,8 @@ __all__ = ["COMPRESSIONS", "Salvage", "decompress", "salvage"]
 COMPRESSIONS = ("", "zstd", "lz4")
 _STEP = 1 << 20
 """Bytes decompressed (and, for LZ4, fed) per call."""
+_SMALL_STEP = 1 << 13
+"""The same where the data breaks part way: only the call that breaks loses its bytes."""
 
 
 def _check_size(chunk: ChunkHeader, limits: Limits) -> None:
@@ -33,15 +35,16 @@ def _check_size(chunk: ChunkHeader, limits: Limits) -> None:
         raise Malformed(f"unknown chunk compression {chunk.compression[:20]!r}")
 
 
-def _inflate(chunk: ChunkHeader, data: bytes) -> tuple[bytes, str]:
-    """At most one byte more than the header declares, decoded from ``data`` as a stream:
-    the bytes decoded, and why decoding stopped early ("" when it did not break)."""
+def _inflate(chunk: ChunkHeader, data: bytes, step: int = _STEP) -> tuple[bytes, str]:
+    """At most one byte more than the header declares, decoded from ``data`` as a stream
+    ``step`` bytes at a time: the bytes decoded, and why decoding stopped early ("" when it
+    did not break)."""
     size = chunk.uncompressed_size
     if chunk.compression == "":
         return data[:size + 1], ""
     if chunk.compression == "zstd":
-        return _unzstd(data, size + 1)
-    return _unlz4(data, size + 1)
+        return _unzstd(data, size + 1, step)
+    return _unlz4(data, size + 1, step)
 
 
 def decompress(chunk: ChunkHeader, data: bytes, limits: Limits) -> bytes:
@@ -61,7 +64,7 @@ def decompress(chunk: ChunkHeader, data: bytes, limits: Limits) -> bytes:
     return out
 
 
-def _unzstd(data: bytes, most: int) -> tuple[bytes, str]:
+def _unzstd(data: bytes, most: int, step: int) -> tuple[bytes, str]:
     import zstandard
 
     parts: list[bytes] = []
@@ -69,7 +72,7 @@ def _unzstd(data: bytes, most: int) -> tuple[bytes, str]:
     try:
         reader = zstandard.ZstdDecompressor().stream_reader(data)
         while total < most:
-            block = reader.read(min(_STEP, most - total))
+            block = reader.read(min(step, most - total))
             if not block:
                 break
             parts.append(block)
@@ -79,21 +82,22 @@ def _unzstd(data: bytes, most: int) -> tuple[bytes, str]:
     return b"".join(parts), ""
 
 
-def _unlz4(data: bytes, most: int) -> tuple[bytes, str]:
+def _unlz4(data: bytes, most: int, step: int) -> tuple[bytes, str]:
     import lz4.frame
 
     parts: list[bytes] = []
-    total, fed = 0, 0
+    total, fed, idle = 0, 0, 0
     d = lz4.frame.LZ4FrameDecompressor()
     try:
-        while total < most and not d.eof:
+        while total < most and not d.eof and idle < 2:
             feed = b""
             if d.needs_input:
-                feed = data[fed:fed + _STEP]
+                feed = data[fed:fed + step]
+                if not feed:
+                    break  # all fed: what is left is a block the end cuts
                 fed += len(feed)
-            block = bytes(d.decompress(feed, max_length=min(_STEP, most - total)))
-            if not block and not feed:
-                break
+            block = bytes(d.decompress(feed, max_length=min(step, most - total)))
+            idle = idle + 1 if not block and not feed else 0
             parts.append(block)
             total += len(block)
     except RuntimeError as err:
@@ -128,7 +132,11 @@ def salvage(chunk: ChunkHeader, data: bytes, limits: Limits, *, cut: bool) -> Sa
     except Malformed as err:
         return Salvage([], 0, str(err))
     size = chunk.uncompressed_size
-    raw, broke = _inflate(chunk, data)
+    # in one call, the decoder hands over what it holds of the block the end cuts; where
+    # the data breaks, small steps keep what precedes the break
+    raw, broke = _inflate(chunk, data, size + 1)
+    if broke:
+        raw, broke = _inflate(chunk, data, _SMALL_STEP)
     if len(raw) > size:
         return Salvage([], len(raw), "it decompresses to more than the "
                        f"{size} bytes its header declares")

@@ -8,9 +8,10 @@ clock reads the same. A message is absurd when its stamp is more than :data:`FAR
 - the median stamp of the :data:`AROUND` messages before it and the :data:`AROUND` after it
   (every stream, in log-time order: a log the recorder paused, or two recordings a day apart
   in one file, keep every message, since the median moves with the majority at the seam), and
-- the median stamp of the last :data:`OWN` messages of its own stream (a robot's images, its
-  poses, the ground truth: a stream stamped consistently on its own clock, even in reverse,
-  is left to the pairing, which reports what it cannot pair).
+- the median stamp of its own stream's last :data:`OWN` messages and of those among the
+  :data:`AROUND` after it (a robot's images, its poses, the ground truth: a stream stamped
+  consistently on its own clock, even in reverse, is left to the pairing, which reports
+  what it cannot pair).
 
 Ten minutes is beyond any look-ahead, tolerance or window a replay takes (each at most 60 s),
 so no message a replay could use is lost; the one image stamped in the year 2055 of a
@@ -76,18 +77,19 @@ class StampGate(Generic[R]):
             ahead.append(entry)
             around.add(entry[1])
             if len(ahead) > AROUND:
-                yield from self._judge(ahead.popleft(), around, own)
+                yield from self._judge(ahead.popleft(), ahead, around, own)
         while ahead:  # the end: fewer stamps after the head, as many before
             while len(around.order) > len(ahead) + AROUND:
                 around.remove_first()
-            yield from self._judge(ahead.popleft(), around, own)
+            yield from self._judge(ahead.popleft(), ahead, around, own)
 
-    def _judge(self, entry: tuple[str, int, R], around: _Window,
-               own: dict[str, _Window]) -> Iterator[R]:
+    def _judge(self, entry: tuple[str, int, R], ahead: deque[tuple[str, int, R]],
+               around: _Window, own: dict[str, _Window]) -> Iterator[R]:
         stream, stamp, item = entry
         mine = own.setdefault(stream, _Window(OWN))
-        ours = mine.median()  # of the stream's earlier stamps
-        far = self._far(stamp, around.median()) and (ours is None or self._far(stamp, ours))
+        ours = sorted([*mine.order, *(t for s, t, _ in ahead if s == stream)])
+        far = self._far(stamp, around.median()) and (
+            not ours or self._far(stamp, ours[(len(ours) - 1) // 2]))
         mine.add(stamp)
         if far:
             self.on_absurd(item)

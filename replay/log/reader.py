@@ -186,7 +186,14 @@ class LogReader:
             )
         pose_robots = set(contract.robot_names_in(topics, self._pose_pattern))
         missing = [r for r in image_robots if r not in pose_robots]
-        if missing:
+        if missing and self.recover and cat.damage and len(missing) < len(image_robots):
+            # what the damage left of a robot: its images without a pose topic to pair with
+            image_robots = [r for r in image_robots if r in pose_robots]
+            self.loss.problems.append(
+                f"no pose topic {printable(self._pose_pattern, limit=120)!r} in the readable "
+                f"part for {', '.join(printable(r, limit=60) for r in missing)}: their "
+                "images are left out")
+        elif missing:
             raise MissingPosesError(
                 self.path,
                 f"no pose topic {self._pose_pattern!r} for {', '.join(missing)}",

@@ -10,18 +10,15 @@ import random
 import struct
 from pathlib import Path
 
-import lz4.frame
 import pytest
-import zstandard
-from fuzzing import GOLDEN, read_raw, records, write_raw
+from fuzzing import GOLDEN, messages_before_cut, read_raw, records, write_raw
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import EndOfFile
 from mcap.records import Chunk, Message
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import CompressionType
 
 from replay.cli import main
-from replay.errors import CorruptLogError, NoFramesError, TruncatedLogError
+from replay.errors import CorruptLogError, MissingPosesError, NoFramesError, TruncatedLogError
 from replay.info.cli import main as info_main
 from replay.log.catalogue import build_catalogue, load_block
 from replay.log.mcap_records import Limits
@@ -37,48 +34,11 @@ def _found(messages: list[Message]) -> Found:
     return [(m.channel_id, m.sequence, m.log_time, m.data) for m in messages]
 
 
-def _whole_records(raw: bytes) -> bytes:
-    """The whole records at the start of ``raw``, an uncompressed chunk's prefix."""
-    pos = 0
-    while pos + 9 <= len(raw):
-        length = struct.unpack_from("<Q", raw, pos + 1)[0]
-        if pos + 9 + length > len(raw):
-            break
-        pos += 9 + length
-    return raw[:pos]
-
-
 def reference(log: bytes, cut: int) -> Found:
-    """The messages in ``log[:cut]`` as mcap's own reader and the zstandard / lz4 streaming
-    decoders find them: every chunk that ends before the cut, read by ``mcap``; of the chunk
-    the cut falls in, the whole records of what the decoders make of its bytes before the
-    cut; of messages outside chunks, those whose record ends before the cut."""
-    out: list[Message] = []
-    for r in records(log):
-        if r.region != "data" or r.offset + 9 > cut:
-            continue
-        end = r.offset + 9 + r.length
-        if r.op == 0x05 and end <= cut:
-            out.append(Message.read(ReadDataStream(io.BytesIO(log[r.offset + 9:end])),
-                                    r.length))
-        if r.op != 0x06:
-            continue
-        try:
-            chunk = Chunk.read(ReadDataStream(io.BytesIO(log[r.offset + 9:min(end, cut)])))
-        except EndOfFile:  # the cut is inside its header or where its data starts
-            continue
-        if end > cut:
-            data = chunk.data
-            raw = (zstandard.ZstdDecompressor().decompressobj().decompress(data)
-                   if chunk.compression == "zstd" else
-                   lz4.frame.LZ4FrameDecompressor().decompress(data)
-                   if chunk.compression == "lz4" else data)
-            raw = _whole_records(raw)
-            chunk = Chunk(compression="", data=raw, message_end_time=0, message_start_time=0,
-                          uncompressed_crc=0, uncompressed_size=len(raw))
-        out.extend(rec for rec in breakup_chunk(chunk, validate_crc=True)
-                   if isinstance(rec, Message))
-    return _found(out)
+    """The messages an independent reader finds in ``log[:cut]``
+    (:func:`fuzzing.messages_before_cut`: mcap's own reader for the chunks before the cut,
+    the zstandard / lz4 streaming decoders for the one it falls in)."""
+    return _found(messages_before_cut(log, cut)[0])
 
 
 def recovered(log: bytes) -> Found:
@@ -257,3 +217,24 @@ def test_dsp_info_check_lists_the_salvage(tmp_path: Path,
     n = len(reference(data, len(data) * 6 // 10))
     assert f"salvaged from the chunk at byte {records(data)[4].offset}: {n} message(s)" in out
     assert "the rest is lost: the end of the file cuts it" in out
+
+
+def test_a_robot_the_damage_left_without_poses_is_left_out(tmp_path: Path) -> None:
+    """Recovering a damaged log whose readable part has a robot's images but no pose topic
+    for it: the other robots replay, and the report says which robot was left out (an
+    intact log without that pose topic stays an error)."""
+    raw = read_raw(GOLDEN / "rolling.mcap")
+    gone = next(cid for cid, c in raw.channels.items() if c[0] == "/robot3/pose")
+    del raw.channels[gone]
+    raw.messages = [m for m in raw.messages if m[0] != gone]
+    log = write_raw(raw, compression=CompressionType.ZSTD, chunk_size=64 * 1024)
+    path = tmp_path / "cut.mcap"
+    path.write_bytes(log[: len(log) * 2 // 3])
+    summary = replay(path, ReplayOptions(recover=True))
+    assert summary.robots == ("robot1", "robot2") and summary.frames > 0
+    assert summary.recovered is not None and any(
+        "for robot3: their images are left out" in p for p in summary.recovered["problems"])
+    whole = tmp_path / "whole.mcap"
+    whole.write_bytes(log)
+    with pytest.raises(MissingPosesError, match="robot3"):
+        replay(whole, ReplayOptions(recover=True))

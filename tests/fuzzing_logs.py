@@ -111,6 +111,22 @@ def raw_from_reader(reader: Any) -> Raw:
     return Raw(schemas, channels, messages, metadata)
 
 
+def zstd_block_headers(data: bytes) -> list[int]:
+    """The offsets of the block headers of the zstd frame ``data`` (RFC 8878, 3.1.1), to
+    damage one block of a chunk on purpose."""
+    fhd = data[4]
+    single, fcs, did = (fhd >> 5) & 1, fhd >> 6, fhd & 3
+    pos = 5 + (0 if single else 1) + (0, 1, 2, 4)[did] + ((1 if single else 0), 2, 4, 8)[fcs]
+    out = []
+    while pos + 3 <= len(data):
+        out.append(pos)
+        head = int.from_bytes(data[pos:pos + 3], "little")
+        pos += 3 + (1 if (head >> 1) & 3 == 1 else head >> 3)
+        if head & 1:
+            break
+    return out
+
+
 def _whole_records(raw: bytes) -> bytes:
     """The whole records at the start of ``raw``, an uncompressed chunk's prefix (mcap's
     own parser does not check that a record fits)."""

@@ -18,7 +18,7 @@ from typing import IO
 from mcap.records import Channel, Footer, Message, Schema
 
 from replay.errors import CorruptLogError, InputNotFoundError, NotMcapError, TruncatedLogError
-from replay.log.mcap_chunks import Salvage, decompress, salvage
+from replay.log.mcap_chunks import CUT, Salvage, decompress, salvage
 from replay.log.mcap_records import (
     MAGIC,
     RUN,
@@ -240,7 +240,10 @@ def nothing_recovered(cat: Catalogue) -> str:
     cut = cat.scan.cut_chunk
     tried = {s.offset: s for s in cat.salvaged}
     if cut is not None and not chunks:
-        why = tried[cut.offset].reason if cut.offset in tried else "its header is damaged"
+        kept = tried.get(cut.offset)
+        why = "it could not be read" if kept is None else (
+            f"{kept.decoded_bytes} of its {kept.uncompressed_bytes} bytes decode, no whole "
+            "message among them" if kept.reason == CUT else kept.reason)
         return (f"its only chunk (at byte {cut.offset}) is cut at byte {cat.size}; nothing "
                 f"before the cut decodes ({why})")
     if chunks and len(cat.bad_blocks) >= len(chunks):

@@ -18,9 +18,11 @@ from mcap.records import Channel, Message, Schema
 
 from replay.log.mcap_records import ChunkHeader, Limits, Malformed, chunk_records
 
-__all__ = ["COMPRESSIONS", "Salvage", "decompress", "salvage"]
+__all__ = ["COMPRESSIONS", "CUT", "Salvage", "decompress", "salvage"]
 
 COMPRESSIONS = ("", "zstd", "lz4")
+CUT = "the end of the file cuts it"
+"""Why the rest of a cut chunk is lost."""
 _STEP = 1 << 20
 """Bytes decompressed (and, for LZ4, fed) per call."""
 _SMALL_STEP = 1 << 13
@@ -147,7 +149,7 @@ def salvage(chunk: ChunkHeader, data: bytes, limits: Limits, *, cut: bool) -> Sa
     if broke:
         why = f"its data stops decoding after {len(raw)} of {size} bytes ({broke})"
     elif len(raw) < size:
-        why = ("the end of the file cuts it" if cut else
+        why = (CUT if cut else
                f"it decodes to {len(raw)} bytes, its header declares {size}")
     records: list[Schema | Channel | Message] = []
     try:

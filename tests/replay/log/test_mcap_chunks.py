@@ -10,6 +10,7 @@ import zlib
 import lz4.frame
 import pytest
 import zstandard
+from fuzzing_logs import zstd_block_headers
 
 from replay.log.mcap_chunks import decompress, salvage
 from replay.log.mcap_records import ChunkHeader, Limits, Malformed, Op
@@ -98,21 +99,6 @@ def test_a_cut_chunk_keeps_the_whole_records_before_the_cut(how: str) -> None:
     assert salvage(chunk, data, LIMITS, cut=False).reason == ""
 
 
-def _zstd_block_headers(data: bytes) -> list[int]:
-    """Offsets of the block headers of a single-segment zstd frame (RFC 8878, 3.1.1)."""
-    fhd = data[4]
-    single, fcs, did = (fhd >> 5) & 1, fhd >> 6, fhd & 3
-    pos = 5 + (0 if single else 1) + (0, 1, 2, 4)[did] + ((1 if single else 0), 2, 4, 8)[fcs]
-    out = []
-    while pos + 3 <= len(data):
-        out.append(pos)
-        head = int.from_bytes(data[pos:pos + 3], "little")
-        pos += 3 + (1 if (head >> 1) & 3 == 1 else head >> 3)
-        if head & 1:
-            break
-    return out
-
-
 @pytest.mark.parametrize("how", ["zstd", "lz4"])
 def test_a_chunk_whose_data_breaks_keeps_what_precedes_the_break(how: str) -> None:
     """Data that stops decoding two thirds in (zstd: a block header of a reserved type;
@@ -121,7 +107,7 @@ def test_a_chunk_whose_data_breaks_keeps_what_precedes_the_break(how: str) -> No
     raw = _records(150)
     data = bytearray(_compress(raw, how))
     if how == "zstd":
-        blocks = _zstd_block_headers(bytes(data))
+        blocks = zstd_block_headers(bytes(data))
         at = blocks[len(blocks) * 2 // 3]
         data[at] |= 0b110
     else:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from fuzzing import GOLDEN, messages_before_cut, read_raw, records, write_raw
+from fuzzing_logs import zstd_block_headers
 from mcap.data_stream import ReadDataStream
 from mcap.records import Chunk, Message
 from mcap.stream_reader import breakup_chunk
@@ -133,21 +134,6 @@ def test_a_recovery_that_finds_nothing_says_why(tmp_path: Path) -> None:
         replay(cut, ReplayOptions(recover=True))
 
 
-def _zstd_blocks(data: bytes) -> list[int]:
-    """The offsets of the block headers of the zstd frame ``data`` (RFC 8878, 3.1.1)."""
-    fhd = data[4]
-    single, fcs, did = (fhd >> 5) & 1, fhd >> 6, fhd & 3
-    pos = 5 + (0 if single else 1) + (0, 1, 2, 4)[did] + ((1 if single else 0), 2, 4, 8)[fcs]
-    out = []
-    while pos + 3 <= len(data):
-        out.append(pos)
-        head = int.from_bytes(data[pos:pos + 3], "little")
-        pos += 3 + (1 if (head >> 1) & 3 == 1 else head >> 3)
-        if head & 1:
-            break
-    return out
-
-
 def _damage_middle_chunk(log: bytes) -> tuple[bytes, int, int]:
     """``log`` with the header of the last zstd block of a middle chunk damaged (reserved
     block type: the decoder stops there), the record intact: (bytes, the chunk's offset,
@@ -156,7 +142,7 @@ def _damage_middle_chunk(log: bytes) -> tuple[bytes, int, int]:
     victim = chunks[len(chunks) // 2]
     body = log[victim.offset + 9:victim.offset + 9 + victim.length]
     start = victim.offset + 9 + 40 + struct.unpack_from("<I", body, 28)[0]
-    blocks = _zstd_blocks(log[start:victim.offset + 9 + victim.length])
+    blocks = zstd_block_headers(log[start:victim.offset + 9 + victim.length])
     assert len(blocks) >= 2
     buf = bytearray(log)
     buf[start + blocks[-1]] |= 0b110  # block type 3: reserved, "corrupted block"

@@ -72,29 +72,38 @@ class StampGate(Generic[R]):
     def filter(self, items: Iterable[tuple[str, int, R]]) -> Iterator[R]:
         ahead: deque[tuple[str, int, R]] = deque()
         around = _Window(2 * AROUND + 1)  # the held items and the AROUND before the head
-        own: dict[str, _Window] = {}
+        own: dict[str, deque[int]] = {}
         for entry in items:
             ahead.append(entry)
             around.add(entry[1])
             if len(ahead) > AROUND:
-                yield from self._judge(ahead.popleft(), ahead, around, own)
+                head = ahead.popleft()
+                if self._sound(head, ahead, around, own):
+                    yield head[2]
         while ahead:  # the end: fewer stamps after the head, as many before
             while len(around.order) > len(ahead) + AROUND:
                 around.remove_first()
-            yield from self._judge(ahead.popleft(), ahead, around, own)
+            head = ahead.popleft()
+            if self._sound(head, ahead, around, own):
+                yield head[2]
 
-    def _judge(self, entry: tuple[str, int, R], ahead: deque[tuple[str, int, R]],
-               around: _Window, own: dict[str, _Window]) -> Iterator[R]:
+    def _sound(self, entry: tuple[str, int, R], ahead: deque[tuple[str, int, R]],
+               around: _Window, own: dict[str, deque[int]]) -> bool:
+        """Whether the item is kept (else it goes to ``on_absurd``)."""
         stream, stamp, item = entry
-        mine = own.setdefault(stream, _Window(OWN))
-        ours = sorted([*mine.order, *(t for s, t, _ in ahead if s == stream)])
-        far = self._far(stamp, around.median()) and (
-            not ours or self._far(stamp, ours[(len(ours) - 1) // 2]))
-        mine.add(stamp)
+        mine = own.get(stream)
+        if mine is None:
+            mine = own[stream] = deque(maxlen=OWN)
+        median = around.median()
+        far = median is not None and abs(stamp - median) > self.far_ns and (
+            self._far_from_own(stamp, stream, mine, ahead))
+        mine.append(stamp)
         if far:
             self.on_absurd(item)
-        else:
-            yield item
+        return not far
 
-    def _far(self, stamp: int, median: int | None) -> bool:
-        return median is not None and abs(stamp - median) > self.far_ns
+    def _far_from_own(self, stamp: int, stream: str, mine: deque[int],
+                      ahead: deque[tuple[str, int, R]]) -> bool:
+        """Far from the median of the stream's stamps before and after it (or it has none)."""
+        ours = sorted([*mine, *(t for s, t, _ in ahead if s == stream)])
+        return not ours or abs(stamp - ours[(len(ours) - 1) // 2]) > self.far_ns

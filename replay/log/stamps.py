@@ -13,9 +13,9 @@ clock reads the same. A message is absurd when its stamp is more than :data:`FAR
   consistently on its own clock, even in reverse, is left to the pairing, which reports
   what it cannot pair).
 
-Ten minutes is beyond any look-ahead, tolerance or window a replay takes (each at most 60 s),
-so no message a replay could use is lost; the one image stamped in the year 2055 of a
-20-step log is skipped, and fusion never waits on it.
+Ten minutes is beyond any look-ahead a replay takes (at most 120 s: a pose tolerance and a
+fusion window of 60 s each), so no message a replay could pair is lost; one image stamped a
+million seconds ahead in a 20-step log is skipped, and fusion never waits on it.
 """
 
 from __future__ import annotations

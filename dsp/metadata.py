@@ -16,6 +16,13 @@ from dataclasses import dataclass
 from dataclasses import field as dc_field
 from typing import Any, ClassVar
 
+from dsp.cameras import (
+    CameraDescriptionError,
+    CameraSet,
+    CameraSpec,
+    camera_set_from_json,
+    camera_spec_from_json,
+)
 from dsp.contract import CAMERAS_METADATA, RECORDER_METADATA, SCENARIO_METADATA
 from dsp.errors import InputError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
@@ -212,24 +219,44 @@ class ScenarioMetadata:
 
 @dataclass(frozen=True)
 class CameraMetadata:
-    """One robot's camera model: the ``estimator.camera`` model dict (``model`` names it)."""
+    """One robot's camera: the entry of :mod:`dsp.cameras` (the ``estimator.camera`` model
+    dict the recorder writes, with the optional keys a camera file may add), parsed."""
 
     robot: str
     model: Mapping[str, Any]
+    """The entry as written (JSON values)."""
+    spec: CameraSpec = dc_field(init=False, compare=False, repr=False)
+    """The entry validated (:func:`dsp.cameras.camera_spec_from_json`)."""
 
     def __post_init__(self) -> None:
         _str(CAMERAS_METADATA, f"{self.robot}.model", self.model.get("model"))
+        try:
+            spec = camera_spec_from_json(dict(self.model), f"{CAMERAS_METADATA}: {self.robot}")
+        except CameraDescriptionError as err:
+            raise MetadataError(str(err)) from err
+        object.__setattr__(self, "spec", spec)
 
 
 @dataclass(frozen=True)
 class CamerasMetadata:
-    """The ``dsp.cameras`` record: ``{robot name: JSON object of its camera model}``."""
+    """The ``dsp.cameras`` record: ``{robot name: JSON object of its camera}`` (a ``default``
+    entry too, as in a camera file; :mod:`dsp.cameras`)."""
 
     cameras: tuple[CameraMetadata, ...] = ()
 
     def by_robot(self) -> dict[str, Mapping[str, Any]]:
-        """Robot name -> camera model dict."""
+        """Robot name -> camera entry as written."""
         return {c.robot: c.model for c in self.cameras}
+
+    def camera_set(self, source: str = CAMERAS_METADATA) -> CameraSet | None:
+        """The cameras as a :class:`~dsp.cameras.CameraSet` (None: the record names none);
+        a robot's entry goes over the ``default`` one, as in a camera file."""
+        if not self.cameras:
+            return None
+        try:
+            return camera_set_from_json(self.by_robot(), source)
+        except CameraDescriptionError as err:
+            raise MetadataError(str(err)) from err
 
     def to_metadata(self) -> dict[str, str]:
         return {c.robot: json_text(dict(c.model)) for c in self.cameras}

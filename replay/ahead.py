@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from replay.estimation import Detected, detect
-from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image
+from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image, image_problem
 
 __all__ = ["Ahead", "Decoded", "decode_and_detect"]
 
@@ -36,6 +36,8 @@ class Decoded:
     detected: Detected
     seconds: float
     """Wall time of the decoding and detection."""
+    problem: str | None = None
+    """Why the image does not decode, when it does not (:func:`replay.log.image_problem`)."""
 
 
 def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> Decoded:
@@ -44,7 +46,8 @@ def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS
     t0 = time.perf_counter()
     image = decode_image(msg, max_pixels=max_pixels)
     detected = detect(image)
-    return Decoded(image, detected, time.perf_counter() - t0)
+    problem = None if image is not None else image_problem(msg, max_pixels=max_pixels)
+    return Decoded(image, detected, time.perf_counter() - t0, problem)
 
 
 class Ahead:

@@ -12,11 +12,18 @@ robot's interpolated pose, locate). Frames are grouped into fusion steps by stam
 (``window``); each step is fused. Every frame and step goes to every sink (statistics,
 results JSON, estimates MCAP, Rerun), all opened in one ExitStack that closes them with
 ``ok`` False when the replay fails.
+
+Each robot's camera comes from the options or the log (:func:`replay.cameras.cameras_for`:
+none is guessed). Once the log is read, :class:`~replay.diagnosis.Diagnosis` says what the
+user must know (skipped messages and images, a robot that saw no ball, balls out of range,
+images of another size than the camera's): in the summary's ``warnings``, which the
+commands print, or, with ``strict``, the replay's error before any output is written.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import hashlib
 import math
@@ -27,16 +34,26 @@ from pathlib import Path
 
 import numpy as np
 
+from dsp import contract
 from dsp.errors import UsageError
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from replay.ahead import Ahead, decode_and_detect
-from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
+from replay.cameras import cameras_for
+from replay.diagnosis import Diagnosis
+from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
-from replay.log import ImageMessage, LogReader, PoseMessage, RecoveryLoss, TruthMessage
+from replay.log import (
+    ImageMessage,
+    LogInfo,
+    LogReader,
+    PoseMessage,
+    RecoveryLoss,
+    TruthMessage,
+)
 from replay.options import ReplayOptions, Timing
 from replay.records import FrameResult, FrameStatus
-from replay.selection import check_selected, check_selection
+from replay.selection import check_selected, check_selection, log_origin_ns
 from replay.sink import Sink
 from replay.sinks.outputs import OutputContext, open_outputs
 from replay.stats import ReplayStats, ReplaySummary
@@ -72,35 +89,39 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     options.check_outputs(path)
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
+                   truth_topic=options.truth_topic or contract.GT_BALL_TOPIC,
                    robots=options.robots, recover=options.recover,
                    limits=options.limits()) as reader:
         info = reader.info
-        if options.robots is not None:
-            unknown = sorted(set(options.robots) - set(info.robots))
-            if unknown:
-                raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
-        check_selection(path, info, options)
+        _check_options(path, info, options)
+        cameras = cameras_for(
+            info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
+            metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
         estimator = FrameEstimator(
-            method=options.method, fusion_method=options.fusion_method, robots=info.robots,
-            camera_metadata=info.cameras.by_robot(), source=str(reader.path),
-            calibration_file=options.calibration, smooth=options.smooth, noise=options.noise)
+            method=options.method, fusion_method=options.fusion_method, cameras=cameras,
+            smooth=options.smooth, noise=options.noise)
         stats = ReplayStats(info.robots)
+        diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels)))
-            stream = _Stream(reader, estimator, options.timing(),
-                             estimator.sinks([stats, *outputs, *sinks]), ahead)
+            stream = _Stream(reader, estimator, options.timing(log_origin_ns(info)),
+                             estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead)
             with _progress(options, reader) as bar:
                 stream.run(bar)
             estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
-            _check_outcome(path, stats, reader)
+            _check_outcome(path, stats, reader, stream.bad_images)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
-        _warn(reader, options)  # once the outputs are written
-    return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
+            warnings = diagnosis.warnings(bad_images=stream.bad_images,
+                                          bad_messages=reader.bad_messages)
+            if options.strict and warnings:
+                raise StrictError(warnings)  # before the outputs are committed
+    summary = stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
         if p is not None))
+    return dataclasses.replace(summary, warnings=tuple(warnings))
 
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
@@ -115,26 +136,28 @@ def _recovered(reader: LogReader) -> RecoveryLoss | None:
     return reader.loss if reader.recover else None
 
 
-def _warn(reader: LogReader, options: ReplayOptions) -> None:
-    """What the user must know about a replay that worked: the messages skipped."""
-    if options.quiet:
-        return
-    lines = []
-    if reader.bad_messages:
-        lines.append(f"{reader.path}: skipped {reader.undecodable} bad message(s): "
-                     + ", ".join(f"{k} {v}" for k, v in sorted(reader.bad_messages.items())))
-    for line in lines:
-        print(f"warning: {line}", file=sys.stderr)
+def _check_options(path: Path, info: LogInfo, options: ReplayOptions) -> None:
+    """What the options ask of the log that it does not have."""
+    if options.robots is not None:
+        unknown = sorted(set(options.robots) - set(info.robots))
+        if unknown:
+            raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
+    if options.truth_topic is not None and not info.has_truth:
+        raise UsageError(f"--truth-topic {options.truth_topic}: no such topic in {path}")
+    check_selection(path, info, options)
 
 
-def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
+def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader,
+                   bad_images: dict[str, int]) -> None:
     if stats.frames == 0:
         raise NoFramesError(path, "no image in the selected time range and robots"
                             + (" (the log's readable part holds none)" if reader.recover
                                else ""))
     bad = stats.skipped.get(FrameStatus.BAD_IMAGE.value, 0)
     if bad == stats.frames:
-        raise ImageDecodeError(path, f"none of the {bad} images decodes")
+        why = max(bad_images.items(), key=lambda kv: kv[1], default=("", 0))[0]
+        raise ImageDecodeError(path, f"none of the {bad} images decodes"
+                               + (f" ({bad_images[why]}: {why})" if why else ""))
     no_pose = stats.skipped.get(FrameStatus.NO_POSE.value, 0)
     if no_pose == stats.frames - bad:
         raise MissingPosesError(
@@ -176,6 +199,8 @@ class _Stream:
         self.frames = 0
         self.steps = 0
         self.next_tick: int | None = None
+        self.bad_images: dict[str, int] = {}
+        """Images that do not decode, by why (:func:`replay.log.image_problem`)."""
 
     def run(self, bar: Progress | None) -> None:
         t = self.timing
@@ -225,6 +250,8 @@ class _Stream:
             return
         decoded = self.ahead.take(img)
         image = decoded.image
+        if decoded.problem is not None:
+            self.bad_images[decoded.problem] = self.bad_images.get(decoded.problem, 0) + 1
         t_start = time.perf_counter()
         outcome = self.estimator.estimate(
             img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns),

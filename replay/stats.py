@@ -93,6 +93,9 @@ class ReplaySummary:
     holds the true one."""
     loss: RecoveryLoss | None = None
     """``recovered`` as read (None without ``--recover``)."""
+    warnings: tuple[str, ...] = ()
+    """What the user must know about a replay that worked (:mod:`replay.diagnosis`); the
+    commands print them on stderr (``-q`` does not hide them)."""
 
     @property
     def frames_per_s(self) -> float:

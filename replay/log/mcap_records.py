@@ -11,9 +11,10 @@ and the byte offset. The records keep mcap's own classes and field names (``Sche
 them as they are.
 
 What mcap lacks is here too: :func:`walk`, the one iterator over the records of a buffer
-(a chunk, the summary, a run of messages) that checks every record's length before its
-body is touched; :func:`parse_chunk_header`, a chunk's fields without its data; and the fast
-path for messages (:func:`parse_message`, one ``struct`` call per message).
+(a chunk, the summary, a run of messages, or the data section in the file itself) that
+checks every record's length before its body is touched; :func:`parse_chunk_header`, a
+chunk's fields without its data; and the fast path for messages (:func:`parse_message`,
+one ``struct`` call per message).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import io
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import IO
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
@@ -42,11 +44,14 @@ __all__ = [
     "CHUNK",
     "DEFAULT_MAX_CHUNK_BYTES",
     "DEFAULT_MAX_MESSAGE_BYTES",
+    "FILE",
     "MAGIC",
     "RUN",
     "SUMMARY",
     "BoundedStream",
     "ChunkHeader",
+    "Cut",
+    "FileBytes",
     "Limits",
     "Malformed",
     "Op",
@@ -63,6 +68,7 @@ __all__ = [
     "parse_metadata_index",
     "parse_schema",
     "parse_statistics",
+    "record_head",
     "record_name",
     "walk",
 ]
@@ -98,7 +104,22 @@ class Limits:
 
 
 class Malformed(Exception):
-    """A record does not parse; the message says what is wrong."""
+    """A record does not parse; the message says what is wrong (``at``: the record's file
+    offset, when it is known)."""
+
+    def __init__(self, reason: str, *, at: int | None = None) -> None:
+        super().__init__(reason)
+        self.at = at
+
+
+class Cut(Malformed):
+    """The buffer ends inside a record: inside its header, or (``op`` and ``length`` known)
+    before the end of the body its header declares."""
+
+    def __init__(self, reason: str, *, at: int, op: int | None = None,
+                 length: int | None = None) -> None:
+        super().__init__(reason, at=at)
+        self.op, self.length = op, length
 
 
 class BoundedStream(ReadDataStream):
@@ -125,8 +146,12 @@ class BoundedStream(ReadDataStream):
         self._pos += length
         return out
 
-    def read_prefixed_string(self) -> str:
-        raw = self.read(self.read4())
+    def read_prefixed_string(self, most: int | None = None) -> str:
+        """A length-prefixed UTF-8 string (``most``: the longest it may be, in bytes)."""
+        n = self.read4()
+        if most is not None and n > most:
+            raise Malformed(f"a string of {n} bytes where at most {most} are expected")
+        raw = self.read(n)
         try:
             return raw.decode("utf-8")
         except UnicodeDecodeError as err:
@@ -216,7 +241,10 @@ def parse_chunk_header(head: bytes, offset: int, length: int, *,
     cuts, whose data may declare more than the file holds)."""
     s = BoundedStream(head)
     start, end, size, crc = s.read8(), s.read8(), s.read8(), s.read4()
-    compression = s.read_prefixed_string()
+    try:
+        compression = s.read_prefixed_string(most=64)
+    except Malformed as err:
+        raise Malformed(f"its compression name: {err}") from err
     data_length = s.read8()
     if whole and s.count + data_length != length:
         raise Malformed(f"chunk data of {data_length} bytes does not fill its record "
@@ -228,7 +256,8 @@ def parse_chunk_header(head: bytes, offset: int, length: int, *,
 @dataclass(frozen=True)
 class Region:
     """A buffer of records :func:`walk` goes over, for the words of its errors (fields
-    ``{name}``, ``{length}`` and ``{at}``, the record's file offset when it is known)."""
+    ``{name}``, ``{length}``, ``{size}`` and ``{at}``, the record's file offset when it is
+    known)."""
 
     cut_header: str
     past_end: str
@@ -244,26 +273,56 @@ SUMMARY = Region("the summary ends inside a record header",
 RUN = Region("the messages at byte {at} end inside a record header",
              "a {name} at byte {at} declares {length} bytes, past the messages scanned",
              "a record at byte {at} has opcode 0")
+FILE = Region("the log ends inside a record header",
+              "a {name} of {length} bytes runs past the end of the file ({size} bytes)",
+              "a record with opcode 0")
+"""The data section, walked in the file itself (:class:`FileBytes`)."""
 
 
-def walk(buf: bytes, region: Region, base: int = 0) -> Iterator[tuple[int, int, int]]:
-    """``(opcode, body start, body end)`` of each record in ``buf``, in order; every length
-    is checked against the buffer before the record is yielded, so a body never runs past
-    it. ``base``: the file offset of ``buf[0]`` (for the errors). Raises :class:`Malformed`
-    at the first record that does not fit."""
-    pos, end = 0, len(buf)
+class FileBytes:
+    """An open file of ``size`` bytes as :func:`walk` reads a buffer: its length, and
+    slices (each one seek and one read), so the data section is walked without being held."""
+
+    def __init__(self, f: IO[bytes], size: int) -> None:
+        self.f, self.size = f, size
+
+    def __len__(self) -> int:
+        return self.size
+
+    def __getitem__(self, part: slice) -> bytes:
+        self.f.seek(part.start)
+        return self.f.read(part.stop - part.start)
+
+
+def record_head(head: bytes) -> tuple[int, int]:
+    """``(opcode, body length)`` from a record's first 9 bytes."""
+    op, length = _HEAD.unpack_from(head)
+    return int(op), int(length)
+
+
+def walk(buf: bytes | FileBytes, region: Region, base: int = 0,
+         start: int = 0) -> Iterator[tuple[int, int, int]]:
+    """``(opcode, body start, body end)`` of each record in ``buf`` from ``start`` on, in
+    order: the one iterator over records, for a chunk, the summary, a run of messages and
+    the file's data section. Every length is checked against the buffer before the record
+    is yielded, so a body never runs past it. ``base``: the file offset of ``buf[0]`` (for
+    the errors). Raises :class:`Cut` where the buffer ends inside a record and
+    :class:`Malformed` at a record with opcode 0, the first record that does not fit."""
+    pos, end = start, len(buf)
     while pos < end:
-        if end - pos < 9:
-            raise Malformed(region.cut_header.format(at=base + pos))
-        op, length = _HEAD.unpack_from(buf, pos)
-        start = pos + 9
-        if length > end - start:
-            raise Malformed(region.past_end.format(name=record_name(op), length=length,
-                                                   at=base + pos))
+        head = buf[pos:pos + 9]
+        if len(head) < 9:
+            raise Cut(region.cut_header.format(at=base + pos), at=base + pos)
+        op, length = record_head(head)
         if op == 0:
-            raise Malformed(region.opcode_zero.format(at=base + pos))
-        yield op, start, start + length
-        pos = start + length
+            raise Malformed(region.opcode_zero.format(at=base + pos), at=base + pos)
+        body = pos + 9
+        if length > end - body:
+            name = record_name(op, f"record (opcode {op:#x})")
+            raise Cut(region.past_end.format(name=name, length=length, at=base + pos,
+                                             size=end), at=base + pos, op=op, length=length)
+        yield op, body, body + length
+        pos = body + length
 
 
 def chunk_records(data: bytes, limits: Limits) -> Iterator[Schema | Channel | Message]:

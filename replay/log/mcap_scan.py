@@ -13,7 +13,6 @@ is recorded as :class:`Damage` and the scan resynchronises on the next intact ch
 
 from __future__ import annotations
 
-import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,8 +25,12 @@ from estimator.constants import NS_PER_S
 from replay.errors import CorruptLogError, TruncatedLogError
 from replay.log.mcap_chunks import COMPRESSIONS
 from replay.log.mcap_records import (
+    FILE,
     MAGIC,
+    BoundedStream,
     ChunkHeader,
+    Cut,
+    FileBytes,
     Limits,
     Malformed,
     Op,
@@ -38,7 +41,9 @@ from replay.log.mcap_records import (
     parse_message,
     parse_metadata,
     parse_schema,
+    record_head,
     record_name,
+    walk,
 )
 
 __all__ = ["Block", "Damage", "DataScan", "scan_data"]
@@ -128,6 +133,7 @@ class _Scanner:
         self.out = DataScan(size)
         self.crc: int | None = zlib.crc32(MAGIC)
         self.run_block: Block | None = None
+        self.view = FileBytes(f, size)
 
     def fail(self, pos: int, reason: str, *, truncated: bool = False,
              chunk: ChunkHeader | None = None, in_chunk: bool = False) -> int | None:
@@ -170,40 +176,43 @@ class _Scanner:
             raise TruncatedLogError(self.path, "no MCAP header")
         pos: int | None = 8
         while pos is not None:
-            pos = self.step(pos)
+            pos = self.walk_from(pos)
         self.close_run()
         return self.out
 
-    def step(self, pos: int) -> int | None:
-        """Handle the record at ``pos``; the next record's offset, None at the end."""
-        if pos >= self.size:
-            return self.fail(pos, "the log ends without a data end record or footer",
-                             truncated=True)
-        head = self.read(pos, 9)
-        if len(head) < 9:
-            return self.fail(pos, "the log ends inside a record header", truncated=True)
-        op, length = (int(v) for v in struct.unpack("<BQ", head))
-        name = record_name(op, f"record (opcode {op:#x})")
-        if op == 0:
-            return self.fail(pos, "a record with opcode 0")
-        if length > self.size - pos - 9:
-            chunk = self.partial_chunk(pos, length) if op == Op.CHUNK else None
-            return self.fail(pos, f"a {name} of {length} bytes runs past the end of the file "
-                             f"({self.size} bytes)", truncated=True, chunk=chunk)
-        limit = self.limits.max_chunk_bytes + 1024 if op == Op.CHUNK else (
-            self.limits.max_message_bytes)
-        if op not in (Op.ATTACHMENT, Op.MESSAGE_INDEX) and length > limit:
-            return self.fail(pos, f"a {name} of {length} bytes is over the limit of {limit} "
-                             f"bytes ({'--max-chunk-mib' if op == Op.CHUNK else 'a message'})")
-        if op != Op.DATA_END:
-            self.crc_update(head)
-        try:
-            stop = self.record(pos, op, length)
-        except Malformed as err:
-            return self.fail(pos, f"{name}: {err}", in_chunk=op == Op.CHUNK)
-        if stop:
-            return None
-        return pos + 9 + length
+    def walk_from(self, pos: int) -> int | None:
+        """Handle the records from ``pos`` on (:func:`walk`, the one record iterator) up to
+        the data end, or to damage: then where to go on (None: nowhere)."""
+        records = walk(self.view, FILE, start=pos)
+        while True:
+            try:
+                rec = next(records, None)
+            except Cut as err:
+                at = err.at or 0
+                chunk = (self.partial_chunk(at, err.length)
+                         if err.op == Op.CHUNK and err.length is not None else None)
+                return self.fail(at, str(err), truncated=True, chunk=chunk)
+            except Malformed as err:  # opcode 0
+                return self.fail(err.at or 0, str(err))
+            if rec is None:
+                return self.fail(self.size, "the log ends without a data end record or "
+                                 "footer", truncated=True)
+            op, body, end = rec
+            pos, length = body - 9, end - body
+            name = record_name(op, f"record (opcode {op:#x})")
+            limit = self.limits.max_chunk_bytes + 1024 if op == Op.CHUNK else (
+                self.limits.max_message_bytes)
+            if op not in (Op.ATTACHMENT, Op.MESSAGE_INDEX) and length > limit:
+                return self.fail(pos, f"a {name} of {length} bytes is over the limit of "
+                                 f"{limit} bytes "
+                                 f"({'--max-chunk-mib' if op == Op.CHUNK else 'a message'})")
+            if op != Op.DATA_END:
+                self.crc_update(bytes((op,)) + length.to_bytes(8, "little"))  # its head
+            try:
+                if self.record(pos, op, length):
+                    return None
+            except Malformed as err:
+                return self.fail(pos, f"{name}: {err}", in_chunk=op == Op.CHUNK)
 
     def record(self, pos: int, op: int, length: int) -> bool:
         """Parse one record (its header is read); True when the data section ends here."""
@@ -263,13 +272,13 @@ class _Scanner:
         """Count a chunk's messages from the message index records after it."""
         blocks = self.out.blocks
         if len(head) >= 6 and blocks and blocks[-1].chunk is not None:
-            entries = int(struct.unpack_from("<I", head, 2)[0]) // 16
+            s = BoundedStream(head)
+            s.read2()  # the channel id
+            entries = s.read4() // 16
             blocks[-1].messages = (blocks[-1].messages or 0) + entries
 
     def chunk_header(self, pos: int, length: int, *, whole: bool = True) -> ChunkHeader:
         head = self.read(pos + 9, min(length, 1024))
-        if len(head) >= 32 and int(struct.unpack_from("<I", head, 28)[0]) > 64:
-            raise Malformed("a compression name of over 64 bytes")
         chunk = parse_chunk_header(head, pos, length, whole=whole)
         if chunk.compression not in COMPRESSIONS:
             raise Malformed(f"unknown compression {chunk.compression[:20]!r}")
@@ -297,7 +306,8 @@ class _Scanner:
         except Malformed:
             head = self.read(pos + 9, 16)
             if len(head) == 16:
-                start, end = struct.unpack("<QQ", head)
+                s = BoundedStream(head)
+                start, end = s.read8(), s.read8()
                 return ChunkHeader(pos, 9 + length, start, end, 0, 0, "", 0, 0)
             return None
 
@@ -327,7 +337,7 @@ class _Scanner:
                 cand = pos + i
                 head = buf[i:i + 9]
                 if len(head) == 9:
-                    length = int(struct.unpack_from("<Q", head, 1)[0])
+                    length = record_head(head)[1]
                     if length <= self.size - cand - 9:
                         try:
                             self.chunk_header(cand, length)

@@ -9,7 +9,6 @@ would replay every frame twice. :func:`compare` lists every disagreement in word
 
 from __future__ import annotations
 
-import struct
 import zlib
 from collections import Counter
 from dataclasses import dataclass, field
@@ -29,6 +28,7 @@ from replay.log.mcap_records import (
     parse_metadata_index,
     parse_schema,
     parse_statistics,
+    record_head,
     walk,
 )
 from replay.log.mcap_scan import DataScan
@@ -60,7 +60,7 @@ def read_footer(f: IO[bytes], size: int) -> Footer:
     tail = f.read(FOOTER_BYTES)
     if tail[-8:] != MAGIC:
         raise Malformed("the file does not end in the MCAP magic")
-    op, length = struct.unpack_from("<BQ", tail)
+    op, length = record_head(tail)
     if op != Op.FOOTER or length != 20:
         raise Malformed("no footer record before the closing magic")
     return parse_footer(tail[9:29])

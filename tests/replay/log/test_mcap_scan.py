@@ -6,13 +6,26 @@ from __future__ import annotations
 import io
 import struct
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fuzzing import GOLDEN, read_raw, records, write_raw
 from mcap.writer import CompressionType
 
 from replay.errors import CorruptLogError
-from replay.log.mcap_records import MAGIC, Limits, Op
+from replay.log.mcap_records import (
+    CHUNK,
+    FILE,
+    MAGIC,
+    RUN,
+    SUMMARY,
+    Cut,
+    FileBytes,
+    Limits,
+    Malformed,
+    Op,
+    walk,
+)
 from replay.log.mcap_scan import DataScan, scan_data
 
 LIMITS = Limits()
@@ -94,3 +107,81 @@ def test_a_damaged_header_costs_only_the_profile() -> None:
     data = head + _message(1) + struct.pack("<BQ", Op.DATA_END, 4) + bytes(4)
     found = scan(data)
     assert found.profile is None and [b.messages for b in found.blocks] == [1]
+
+
+def test_the_scan_walks_the_file_with_the_one_record_iterator(
+        chunked: bytes, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The scan, the summary and the catalogue's chunks and runs all go through
+    ``mcap_records.walk``: a fault planted in that one iterator shows in every one of them."""
+    import replay.log.catalogue as catalogue_mod
+    import replay.log.mcap_records as records_mod
+    import replay.log.mcap_scan as scan_mod
+    import replay.log.mcap_summary as summary_mod
+    from replay.log.catalogue import build_catalogue, load_block
+
+    real = records_mod.walk
+    seen: list[str] = []
+
+    def spy(buf: Any, region: Any, base: int = 0, start: int = 0) -> Any:
+        seen.append(region.past_end)
+        return real(buf, region, base, start)
+
+    for mod in (records_mod, scan_mod, summary_mod, catalogue_mod):
+        monkeypatch.setattr(mod, "walk", spy)
+    unchunked = write_raw(read_raw(GOLDEN / "rolling.mcap"), use_chunking=False)
+    for log in (chunked, unchunked):
+        f = io.BytesIO(log)
+        cat = build_catalogue(f, Path("w.mcap"), len(log), LIMITS, recover=False)
+        for block in cat.blocks:
+            load_block(f, block, LIMITS)
+    assert {FILE.past_end, SUMMARY.past_end, CHUNK.past_end, RUN.past_end} <= set(seen)
+
+
+def test_the_file_walk_says_where_the_log_ends() -> None:
+    """The data section walked in the file: a record the end cuts is :class:`Cut` with its
+    opcode, length and offset (what salvage needs); opcode 0 is damage, not a cut."""
+    body = b"x" * 40
+    data = MAGIC + bytes((Op.METADATA,)) + struct.pack("<Q", len(body)) + body
+    view = FileBytes(io.BytesIO(data), len(data))
+    assert len(view) == len(data) and view[8:9] == bytes((Op.METADATA,))
+    assert list(walk(view, FILE, start=8)) == list(walk(data, FILE, start=8)) == [
+        (Op.METADATA, 17, 57)]
+    cut = FileBytes(io.BytesIO(data[:50]), 50)
+    with pytest.raises(Cut) as raised:
+        list(walk(cut, FILE, start=8))
+    err = raised.value
+    assert (err.at, err.op, err.length) == (8, Op.METADATA, 40)
+    assert str(err) == "a metadata of 40 bytes runs past the end of the file (50 bytes)"
+    with pytest.raises(Cut, match="the log ends inside a record header"):
+        list(walk(FileBytes(io.BytesIO(data[:12]), 12), FILE, start=8))
+    zero = MAGIC + bytes(9) + b"\xff" * 2 ** 10
+    with pytest.raises(Malformed, match="a record with opcode 0") as raised:
+        list(walk(zero, FILE, start=8))
+    assert not isinstance(raised.value, Cut) and raised.value.at == 8
+
+
+def test_damage_with_opcode_0_is_resynced_past_even_when_its_length_runs_off(
+        chunked: bytes) -> None:
+    """Guards the order of the checks: garbage whose first byte is 0 and whose length runs
+    past the file is damage the scan reads on from, not the end of the log."""
+    chunks = [r for r in records(chunked) if r.op == Op.CHUNK]
+    victim, after = chunks[1], chunks[2]
+    bad = bytearray(chunked)
+    bad[victim.offset:victim.offset + 9] = b"\x00" + b"\xff" * 8
+    found = scan(bytes(bad), recover=True)
+    [d] = found.damage
+    assert (d.offset, d.offset + d.length) == (victim.offset, after.offset)
+    assert not found.truncated and found.data_end is not None
+
+
+def test_the_codec_names_opcodes_not_bytes() -> None:
+    """The record codec speaks mcap's ``Opcode``: no opcode written as a byte literal, and
+    a record's head parsed in one place (``mcap_records``)."""
+    import re
+
+    root = Path(scan_data.__code__.co_filename).parent
+    for name in ("mcap_records", "mcap_scan", "mcap_summary", "mcap_chunks", "catalogue",
+                 "reader", "recovery"):
+        text = (root / f"{name}.py").read_text()
+        assert not re.search(r"\b0x[0-9a-fA-F]{1,2}\b", text), name
+        assert text.count('"<BQ"') == (1 if name == "mcap_records" else 0), name

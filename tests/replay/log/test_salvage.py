@@ -120,9 +120,11 @@ def test_scenario1_cut_at_60_percent_replays_the_frames_before_the_cut(
     assert f"salvaged from the chunk at byte {kept['offset']}: {kept['messages']} message(s)" in err
 
 
-def test_a_recovery_that_finds_nothing_says_why(tmp_path: Path) -> None:
+def test_a_recovery_that_finds_nothing_says_why(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
     """A log cut inside the first zstd block of its only chunk holds no whole record: the
-    error names the chunk and the cut, not a topic mismatch."""
+    error names the chunk and the cut, not a topic mismatch; ``dsp-info --check`` says the
+    same, on its report and on its one error line."""
     data = (GOLDEN / "scenario1.mcap").read_bytes()
     chunk = next(r for r in records(data) if r.op == 0x06)
     at = chunk.offset + 9 + 2000
@@ -132,6 +134,13 @@ def test_a_recovery_that_finds_nothing_says_why(tmp_path: Path) -> None:
                                             rf"{chunk.offset}\) is cut at byte {at}; nothing "
                                             "before the cut decodes"):
         replay(cut, ReplayOptions(recover=True))
+    assert info_main([str(cut), "--check"]) == 1
+    captured = capsys.readouterr()
+    why = (f"nothing is recoverable: its only chunk (at byte {chunk.offset}) is cut at byte "
+           f"{at}; nothing before the cut decodes")
+    assert f"recover:     {why}" in captured.out
+    assert why in captured.err and captured.err.count("\n") == 1
+    assert "topic" not in captured.err
 
 
 def _damage_middle_chunk(log: bytes) -> tuple[bytes, int, int]:
@@ -200,9 +209,12 @@ def test_dsp_info_check_lists_the_salvage(tmp_path: Path,
     cut.write_bytes(data[: len(data) * 6 // 10])
     assert info_main([str(cut), "--check"]) == 1
     out = capsys.readouterr().out
-    n = len(reference(data, len(data) * 6 // 10))
+    found = reference(data, len(data) * 6 // 10)
+    n = len(found)
+    first, last = min(m[2] for m in found) / 1e9, max(m[2] for m in found) / 1e9
     assert f"salvaged from the chunk at byte {records(data)[4].offset}: {n} message(s)" in out
     assert "the rest is lost: the end of the file cuts it" in out
+    assert f"recover:     --recover keeps {n} message(s), sim time {first:.3f}..{last:.3f} s" in out
 
 
 def test_a_robot_the_damage_left_without_poses_is_left_out(tmp_path: Path) -> None:

@@ -212,10 +212,10 @@ class _Stream:
             if bar is not None:
                 bar.update(1)
             if isinstance(msg, PoseMessage):
-                self.poses[msg.robot].add(msg)
+                self.poses[msg.robot].add(msg, self.delay.clock_ns)
                 now = msg.stamp_ns
             elif isinstance(msg, TruthMessage):
-                self.truth.add(msg)
+                self.truth.add(msg, self.delay.clock_ns)
                 now = msg.stamp_ns
             else:
                 if t.end_ns is not None and msg.stamp_ns > t.end_ns + t.lookahead_ns:

@@ -3,14 +3,19 @@ grouping of the robots' estimates into fusion steps.
 
 Streaming with a fixed look-ahead: :class:`DelayLine` holds images until the log has moved
 ``lookahead_ns`` past their stamp, so every pose (and ground-truth sample) that could bracket
-the image has been seen. Histories keep only what the look-ahead can still need, so memory
-is bounded by the look-ahead, not by the log's length.
+the image has been seen, and hands them on in stamp order. Histories keep only what the
+look-ahead can still need, so memory is bounded by the look-ahead, not by the log's length.
+
+One stamp far from the others costs its own message only: an image stamped ahead waits in
+the delay line without holding back the images behind it, and a history prunes behind the
+images still to come (``clock_ns``), not behind its newest sample, so a pose stamped ahead
+(or poses in reverse order) never push out the poses the next images need.
 """
 
 from __future__ import annotations
 
 import bisect
-from collections import deque
+import heapq
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Generic, TypeVar
@@ -46,7 +51,9 @@ class History(Generic[T]):
     def __len__(self) -> int:
         return len(self._items) - self._lo
 
-    def add(self, item: T) -> None:
+    def add(self, item: T, clock_ns: int | None = None) -> None:
+        """Add a sample; prune what is ``horizon_ns`` behind the newest sample, or behind
+        ``clock_ns`` (the oldest stamp still to be looked up) when that is earlier."""
         stamps = self._stamps
         if len(stamps) > self._lo and item.stamp_ns < stamps[-1]:
             # out of order (header stamps may disagree with log time): insert in place
@@ -57,9 +64,17 @@ class History(Generic[T]):
             stamps.append(item.stamp_ns)
             self._items.append(item)
         limit = stamps[-1] - self.horizon_ns
+        if clock_ns is not None:
+            limit = min(limit, clock_ns - self.horizon_ns)
         # keep one sample at or before the limit so a late image can still be bracketed
         cut = bisect.bisect_right(stamps, limit, self._lo) - 1
-        lo = max(self._lo, cut, len(stamps) - self.max_samples)
+        lo = max(self._lo, cut)
+        while len(stamps) - lo > self.max_samples:  # drop the sample furthest from the clock
+            if clock_ns is not None and stamps[-1] - clock_ns > clock_ns - stamps[lo]:
+                stamps.pop()
+                self._items.pop()
+            else:
+                lo += 1
         self._lo = lo
         if lo > 1024 and lo * 2 > len(stamps):
             del stamps[:lo], self._items[:lo]
@@ -150,40 +165,51 @@ def interpolate_truth_velocity(history: History[TruthMessage], t_ns: int, tolera
 
 
 class DelayLine:
-    """Holds images until the log time has passed their stamp by ``lookahead_ns``; never
-    more than ``max_images`` images or ``max_bytes`` of image data (the oldest go on early,
-    so images stamped far in the future cannot pile up)."""
+    """Holds images until the log time has passed their stamp by ``lookahead_ns``, and hands
+    them on in stamp order (equal stamps in arrival order); never more than ``max_images``
+    images or ``max_bytes`` of image data (the earliest stamped go on early, so images
+    stamped far in the future cannot pile up, nor hold back the others)."""
 
     def __init__(self, lookahead_ns: int, max_images: int = 256,
                  max_bytes: int = 256 * 1024 * 1024) -> None:
         self.lookahead_ns = lookahead_ns
         self.max_images = max_images
         self.max_bytes = max_bytes
-        self._queue: deque[ImageMessage] = deque()
+        self._heap: list[tuple[int, int, ImageMessage]] = []
+        self._arrivals = 0
         self._bytes = 0
+        self.last_stamp_ns: int | None = None
+        """The stamp of the image handed on last."""
 
     def __len__(self) -> int:
-        return len(self._queue)
+        return len(self._heap)
+
+    @property
+    def clock_ns(self) -> int | None:
+        """The earliest stamp an image still to come out has (None before any image)."""
+        return self._heap[0][0] if self._heap else self.last_stamp_ns
 
     def push(self, image: ImageMessage) -> None:
-        self._queue.append(image)
+        heapq.heappush(self._heap, (image.stamp_ns, self._arrivals, image))
+        self._arrivals += 1
         self._bytes += len(image.data)
 
     def ready(self, now_ns: int) -> Iterator[ImageMessage]:
         """Images whose look-ahead has passed at log time ``now_ns`` (or that overflow the
-        bounds), in arrival order."""
-        q = self._queue
-        while q and (q[0].stamp_ns + self.lookahead_ns < now_ns or len(q) > self.max_images
+        bounds), in stamp order."""
+        h = self._heap
+        while h and (h[0][0] + self.lookahead_ns < now_ns or len(h) > self.max_images
                      or self._bytes > self.max_bytes):
             yield self._pop()
 
     def _pop(self) -> ImageMessage:
-        image = self._queue.popleft()
+        stamp, _, image = heapq.heappop(self._heap)
         self._bytes -= len(image.data)
+        self.last_stamp_ns = stamp
         return image
 
     def drain(self) -> Iterator[ImageMessage]:
-        while self._queue:
+        while self._heap:
             yield self._pop()
 
 

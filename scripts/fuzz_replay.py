@@ -6,8 +6,10 @@ Each case is a mutated log (``tests/fuzzing.py`` lists the mutations) replayed t
 ``dsp-replay``'s ``main`` under a timer, with the peak RSS measured per case. Prints a table
 per mutation kind: cases, one-line errors, ok, changed-with-warning, silent wrong results
 (exit 0, different results, no warning, where a CRC or the summary covers the damage),
-uncovered (the same where nothing covers it), tracebacks, hangs, peak RSS. Exit status 1
-when there is any traceback, hang, silent wrong result or a peak RSS over 1 GiB.
+uncovered (the same where nothing covers it), lost (a case that says what it must give,
+such as the frames before a cut with ``--recover``, did not give it), tracebacks, hangs,
+peak RSS. Exit status 1 when there is any traceback, hang, silent wrong result, lost case or
+a peak RSS over 1 GiB.
 """
 
 from __future__ import annotations
@@ -27,15 +29,17 @@ GIB = 1 << 30
 
 
 def load_fuzzing() -> ModuleType:
-    name = "fuzzing"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, ROOT / "tests" / "fuzzing.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    """tests/fuzzing.py and the modules beside it that it imports, loaded by path (putting
+    tests/ on sys.path would let its test folders shadow the packages of the same name)."""
+    for name in ("fuzzing_logs", "fuzzing_recover", "fuzzing"):
+        if name in sys.modules:
+            continue
+        spec = importlib.util.spec_from_file_location(name, ROOT / "tests" / f"{name}.py")
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules["fuzzing"]
 
 
 def seeds(fz: ModuleType) -> list[bytes]:
@@ -74,16 +78,16 @@ def campaign(n: int, seed: int, *, timeout_s: float = 60.0, kinds: list[str] | N
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         expected = expected_results(fz, seed_logs, work)
-        for i, kind, what, data, s, where in fz.cases(seed_logs, n, seed, kinds):
+        for i, kind, what, data, s, where, expect in fz.cases(seed_logs, n, seed, kinds):
             o = fz.run_case(data, work, expected=expected[s][0],
                             covered=fz.is_covered(seed_logs[s], where), timeout_s=timeout_s,
-                            seed_warnings=expected[s][1])
+                            seed_warnings=expected[s][1], expect=expect)
             row = rows.setdefault(kind, {"cases": 0, "peak_rss": 0, "max_s": 0.0})
             row["cases"] += 1
             row[o.status] = row.get(o.status, 0) + 1
             row["peak_rss"] = max(row["peak_rss"], o.peak_rss)
             row["max_s"] = max(row["max_s"], round(o.seconds, 2))
-            if o.status in ("traceback", "hang", "silent") or o.peak_rss > GIB:
+            if o.status in ("traceback", "hang", "silent", "lost") or o.peak_rss > GIB:
                 findings.append({"case": i, "kind": kind, "what": what, "seed": s,
                                  "status": o.status, "rss": o.peak_rss, "message": o.message})
             if progress and (i + 1) % 100 == 0:
@@ -120,7 +124,8 @@ def merge(reports: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def format_report(report: dict[str, Any]) -> str:
-    cols = ("cases", "error", "ok", "changed", "silent", "uncovered", "traceback", "hang")
+    cols = ("cases", "error", "ok", "changed", "silent", "uncovered", "lost", "traceback",
+            "hang")
     lines = [f"{'kind':12}" + "".join(f"{c:>10}" for c in cols) + f"{'peak RSS':>11}"]
     for name, row in [*sorted(report["by_kind"].items()), ("total", report["total"])]:
         lines.append(f"{name:12}" + "".join(f"{row.get(c, 0):>10}" for c in cols)
@@ -131,7 +136,7 @@ def format_report(report: dict[str, Any]) -> str:
 
 def failed(report: dict[str, Any]) -> bool:
     t = report["total"]
-    return bool(t.get("traceback") or t.get("hang") or t.get("silent")
+    return bool(t.get("traceback") or t.get("hang") or t.get("silent") or t.get("lost")
                 or t["peak_rss"] > GIB)
 
 

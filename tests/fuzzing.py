@@ -35,82 +35,29 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from fuzzing_logs import (
+    GOLDEN,
+    MAGIC,
+    RECORDER_LAYOUT,
+    Raw,
+    messages_before_cut,
+    raw_from_reader,
+    read_raw,
+    records,
+    seed_log,
+    write_raw,
+)
+from fuzzing_recover import Expect, judge, m_far_stamps, m_salvage
 from mcap.reader import make_reader
-from mcap.writer import CompressionType, Writer
 
-ROOT = Path(__file__).resolve().parents[1]
-GOLDEN = ROOT / "logs" / "golden"
-MAGIC = b"\x89MCAP0\r\n"
+__all__ = [  # what the tests take from here (the log helpers live in fuzzing_logs)
+    "GOLDEN", "MAGIC", "MUTATIONS", "Raw", "bomb_image", "cases", "comparable",
+    "is_covered", "m_pose", "m_summary", "m_zstd_bomb", "messages_before_cut",
+    "peak_rss_bytes", "read_raw", "records", "reset_peak_rss", "run_case", "seed_log",
+    "write_raw",
+]
+
 GIB = 1 << 30
-
-
-# --- reading and rewriting a (trusted) log ---------------------------------------------------
-@dataclass
-class Raw:
-    schemas: dict[int, tuple[str, str, bytes]]
-    channels: dict[int, tuple[str, int, str, dict[str, str]]]
-    messages: list[tuple[int, int, int, int, bytes]]
-    """(channel id, sequence, log time, publish time, data)"""
-    metadata: list[tuple[str, dict[str, str]]]
-
-
-def read_raw(path: Path) -> Raw:
-    with path.open("rb") as f:
-        return _raw_from_reader(make_reader(f))
-
-
-def write_raw(raw: Raw, **options: Any) -> bytes:
-    """``raw`` as an MCAP file written by the mcap library with ``options`` (its Writer's
-    keyword arguments: chunk_size, compression, use_chunking, use_statistics, ...)."""
-    out = io.BytesIO()
-    w = Writer(out, **options)
-    w.start(profile="ros2", library="dsp-fuzz")
-    sid_map = {sid: w.register_schema(name, enc, data)
-               for sid, (name, enc, data) in sorted(raw.schemas.items())}
-    cid_map = {cid: w.register_channel(topic, enc, sid_map[sid], meta)
-               for cid, (topic, sid, enc, meta) in sorted(raw.channels.items())}
-    for name, data in raw.metadata:
-        w.add_metadata(name, data)
-    for cid, seq, log_time, publish_time, data in raw.messages:
-        w.add_message(cid_map[cid], log_time, data, publish_time, seq)
-    w.finish()
-    return out.getvalue()
-
-
-RECORDER_LAYOUT: dict[str, Any] = {"compression": CompressionType.ZSTD,
-                                   "chunk_size": 4 * 1024 * 1024}
-
-
-def seed_log(scene: str = "scenario2", until_s: float = 0.3, **options: Any) -> bytes:
-    """A golden log's first ``until_s`` seconds, rewritten (recorder's layout by default)."""
-    raw = read_raw(GOLDEN / f"{scene}.mcap")
-    raw.messages = [m for m in raw.messages if m[2] < until_s * 1e9]
-    return write_raw(raw, **{**RECORDER_LAYOUT, **options})
-
-
-# --- the file's records ----------------------------------------------------------------------
-@dataclass(frozen=True)
-class Rec:
-    offset: int
-    op: int
-    length: int
-    region: str
-    """data / summary / footer"""
-
-
-def records(data: bytes) -> list[Rec]:
-    """The records of a well-formed file, in order (the summary's included)."""
-    out, pos = [], 8
-    region = "data"
-    while pos + 9 <= len(data) - 8:
-        op, length = struct.unpack_from("<BQ", data, pos)
-        out.append(Rec(pos, op, length, region))
-        if op == 0x0F:
-            region = "summary"
-        pos += 9 + length
-        if op == 0x02:
-            break
-    return [Rec(r.offset, r.op, r.length, "footer" if r.op == 0x02 else r.region) for r in out]
 
 
 def uncovered(data: bytes) -> list[tuple[int, int]]:
@@ -130,8 +77,9 @@ def uncovered(data: bytes) -> list[tuple[int, int]]:
 
 
 # --- mutations -------------------------------------------------------------------------------
-Mutation = Callable[[bytes, random.Random], tuple[bytes, str, list[int]]]
-"""(seed bytes, rng) -> (mutated bytes, description, offsets changed ([] = rewritten))"""
+Mutation = Callable[[bytes, random.Random], tuple[Any, ...]]
+"""(seed bytes, rng) -> (mutated bytes, description, offsets changed ([] = rewritten)), and
+for the cases that say what they must give, their :class:`fuzzing_recover.Expect`"""
 
 
 def _flip(data: bytes, rng: random.Random, lo: int, hi: int, n: int) -> tuple[bytes, list[int]]:
@@ -308,26 +256,13 @@ def bomb_image(rng: random.Random) -> bytes:
 def _rewrite(seed: bytes, fn: Callable[[str, bytes], bytes | None]) -> bytes:
     path = io.BytesIO(seed)
     reader = make_reader(path)
-    raw = _raw_from_reader(reader)
+    raw = raw_from_reader(reader)
     msgs = []
     for cid, seq, lt, pt, data in raw.messages:
         new = fn(raw.channels[cid][0], data)
         msgs.append((cid, seq, lt, pt, data if new is None else new))
     raw.messages = msgs
     return write_raw(raw, **RECORDER_LAYOUT)
-
-
-def _raw_from_reader(reader: Any) -> Raw:
-    schemas, channels, messages = {}, {}, []
-    for schema, channel, msg in reader.iter_messages(log_time_order=False):
-        if schema is not None:
-            schemas[schema.id] = (schema.name, schema.encoding, schema.data)
-        channels[channel.id] = (channel.topic, channel.schema_id, channel.message_encoding,
-                                dict(channel.metadata))
-        messages.append((msg.channel_id, msg.sequence, msg.log_time, msg.publish_time,
-                         msg.data))
-    metadata = [(m.name, dict(m.metadata)) for m in reader.iter_metadata()]
-    return Raw(schemas, channels, messages, metadata)
 
 
 def m_image(seed: bytes, rng: random.Random) -> tuple[bytes, str, list[int]]:
@@ -393,7 +328,7 @@ def m_stamps(seed: bytes, rng: random.Random) -> tuple[bytes, str, list[int]]:
 
 
 def m_schema(seed: bytes, rng: random.Random) -> tuple[bytes, str, list[int]]:
-    raw = _raw_from_reader(make_reader(io.BytesIO(seed)))
+    raw = raw_from_reader(make_reader(io.BytesIO(seed)))
     kind = rng.choice(("float32", "damaged", "swap"))
     sids = sorted(raw.schemas)
     sid = rng.choice(sids)
@@ -430,21 +365,28 @@ MUTATIONS: dict[str, tuple[Mutation, int]] = {
     "schema": (m_schema, 4),
     "tiny": (m_tiny, 2),
     "zstd_bomb": (m_zstd_bomb, 1),
+    "salvage": (m_salvage, 6),  # these two also say what they must give (fuzzing_recover)
+    "far_stamps": (m_far_stamps, 4),
 }
 """name -> (mutation, weight)"""
 
 
+Case = tuple[int, str, str, bytes, int, list[int], Expect | None]
+"""(index, kind, description, bytes, seed number, changed offsets, what it must give)"""
+
+
 def cases(seeds: list[bytes], n: int, seed: int, kinds: list[str] | None = None
-          ) -> Iterator[tuple[int, str, str, bytes, int, list[int]]]:
-    """``n`` cases: (index, kind, description, bytes, seed number, changed offsets)."""
+          ) -> Iterator[Case]:
+    """``n`` cases, drawn by weight from ``kinds`` (default: every mutation)."""
     rng = random.Random(seed)
     names = kinds or list(MUTATIONS)
     weights = [MUTATIONS[k][1] for k in names]
     for i in range(n):
         kind = rng.choices(names, weights)[0]
         s = rng.randrange(len(seeds))
-        data, what, where = MUTATIONS[kind][0](seeds[s], random.Random(rng.getrandbits(64)))
-        yield i, kind, what, data, s, where
+        data, what, where, *expect = MUTATIONS[kind][0](seeds[s],
+                                                        random.Random(rng.getrandbits(64)))
+        yield i, kind, what, data, s, where, (expect[0] if expect else None)
 
 
 # --- running a case --------------------------------------------------------------------------
@@ -495,11 +437,15 @@ def comparable(results: dict[str, Any]) -> str:
 
 def run_case(data: bytes, workdir: Path, *, expected: str | None, covered: bool,
              timeout_s: float = 60.0, extra_args: tuple[str, ...] = (),
-             seed_warnings: tuple[str, ...] = ()) -> Outcome:
+             seed_warnings: tuple[str, ...] = (), expect: Expect | None = None) -> Outcome:
     """Replay ``data`` through ``dsp-replay``'s main in this process and classify it; a
     warning counts as reporting a change when the seed's own replay (``seed_warnings``) did
-    not print it (the rolling seed's robot1 never sees the ball, and says so every time)."""
+    not print it (the rolling seed's robot1 never sees the ball, and says so every time); a
+    case that says what it must give (``expect``) is ``ok`` or ``lost`` by that instead."""
     from replay.cli import main
+
+    if expect is not None:
+        extra_args = (*extra_args, *expect.args)
 
     log = workdir / "case.mcap"
     out = workdir / "case.json"
@@ -548,6 +494,12 @@ def run_case(data: bytes, workdir: Path, *, expected: str | None, covered: bool,
                 status = "changed"
             else:
                 status = "silent" if covered else "uncovered"
+    if expect is not None and status not in ("traceback", "hang"):
+        results = json.loads(out.read_text()) if code == 0 else None
+        seed_fused = None if expected is None else json.loads(expected)["summary"][
+            "fused_steps"]
+        met = judge(expect, code, 1 if status == "error" else 0, results, seed_fused)
+        status, message = ("ok", message) if met else ("lost", message or "not as expected")
     return Outcome(status, code, seconds, rss, message, warnings)
 
 

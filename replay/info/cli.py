@@ -92,7 +92,9 @@ def _main(argv: Sequence[str] | None) -> int:
           else "")
     if summary.problems:
         print(f"{PROG}: error: {args.log}: {len(summary.problems)} integrity problem(s), "
-              f"first: {summary.problems[0]}", file=sys.stderr)
+              f"first: {summary.problems[0]}"
+              + (f"; {summary.recoverable}" if (summary.recoverable or "").startswith(
+                  "nothing") else ""), file=sys.stderr)
         return EXIT_INPUT
     return 0
 

@@ -23,6 +23,7 @@ from dsp.text import printable
 from dsp.topics import infer_patterns
 from estimator.constants import NS_PER_S
 from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
+from replay.log.catalogue import nothing_recovered
 
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
 
@@ -66,6 +67,11 @@ class LogSummary:
     """"indexed" (a summary with chunk indexes), "summary", or "none"."""
     checked: bool = False
     problems: list[str] = field(default_factory=list)
+    salvaged: list[str] = field(default_factory=list)
+    """``check``: what was kept of each cut or damaged chunk (what ``--recover`` replays)."""
+    recoverable: str | None = None
+    """``check`` of a damaged log: what ``--recover`` keeps, or why it keeps nothing, in
+    terms of the log."""
     image_topic: str | None = None
     """The image topic pattern the robots were found by (:mod:`dsp.topics`)."""
     pose_topic: str | None = None
@@ -90,6 +96,17 @@ def log_info(path: Path | str, *, check: bool = False, limits: Limits | None = N
         if cat.counts is None:
             read_all_blocks(f, cat, limits, recover=False, validate_crcs=True)
     return _summarise(cat, check)
+
+
+def _recoverable(cat: Catalogue) -> str:
+    """A damaged log's verdict: the messages ``--recover`` keeps, or why there are none."""
+    kept = sum((cat.counts or {}).values())
+    if not kept:
+        return _shown(f"nothing is recoverable: {nothing_recovered(cat)}", limit=400)
+    blocks = cat.blocks
+    span = (f", sim time {min(b.start_ns for b in blocks) / NS_PER_S:.3f}.."
+            f"{max(b.end_ns for b in blocks) / NS_PER_S:.3f} s" if blocks else "")
+    return f"--recover keeps {kept} message(s){span}"
 
 
 def _summarise(cat: Catalogue, check: bool) -> LogSummary:
@@ -127,6 +144,9 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         uncompressed_bytes=sum(c.uncompressed_size for c in chunks),
         metadata=sorted(_shown(n) for n in cat.metadata), summary=summary, checked=check,
         problems=[_shown(p, limit=300) for p in problems],
+        salvaged=[_shown(s.describe().strip(), limit=400) for s in cat.salvaged] if check
+        else [],
+        recoverable=_recoverable(cat) if problems else None,
         image_topic=None if patterns is None else _shown(patterns.image_topic),
         pose_topic=None if patterns is None or patterns.pose_topic is None
         else _shown(patterns.pose_topic),
@@ -215,6 +235,9 @@ def format_info(s: LogSummary) -> str:
         if s.problems:
             lines.append(f"check:       {len(s.problems)} problem(s)")
             lines.extend(f"  {p}" for p in s.problems)
+            lines.extend(f"  {k}" for k in s.salvaged)
+            if s.recoverable:
+                lines.append(f"recover:     {s.recoverable}")
         else:
             lines.append("check:       intact (every CRC the log carries matches; the "
                          "summary agrees with the data)")

@@ -1,16 +1,19 @@
 """Reading a log: every byte from an untrusted file stops here.
 
-- :mod:`replay.log.mcap_records`: single MCAP records parsed with every length bounded;
-  :mod:`replay.log.mcap_scan`: one pass over the data section (with resync for
-  ``--recover``); :mod:`replay.log.mcap_summary`: the footer and the CRC-checked summary,
-  compared with the data; :mod:`replay.log.catalogue`: all of it checked, shared by
-  the reader and ``dsp-info``;
+- :mod:`replay.log.mcap_records`: MCAP records parsed by :mod:`mcap.records` through a
+  bounded stream, and the one iterator over a buffer's records;
+  :mod:`replay.log.mcap_chunks`: chunks decompressed within bounds, and the decodable
+  prefix of a cut or damaged one salvaged; :mod:`replay.log.mcap_scan`: one pass over the
+  data section (with resync for ``--recover``); :mod:`replay.log.mcap_summary`: the footer
+  and the CRC-checked summary, compared with the data; :mod:`replay.log.catalogue`: all of
+  it checked, shared by the reader and ``dsp-info``;
 - :mod:`replay.log.reader`: :class:`LogReader`, the log's messages in log-time order and its
   typed metadata; :mod:`replay.log.messages`: the validated records it yields;
+  :mod:`replay.log.stamps`: messages stamped absurdly far from the rest of the log, skipped;
   :mod:`replay.log.schemas`: a log's ROS 2 definitions checked against the contract's;
-- :mod:`replay.log.recovery`: what ``--recover`` lost; :mod:`replay.log.decode`: image
-  messages to pixels, sized from the header first (:mod:`replay.log.raw_image`: every raw
-  ROS 2 colour and grey encoding).
+- :mod:`replay.log.recovery`: what ``--recover`` lost and salvaged;
+  :mod:`replay.log.decode`: image messages to pixels, sized from the header first
+  (:mod:`replay.log.raw_image`: every raw ROS 2 colour and grey encoding).
 
 It imports nothing of replay but its errors (:mod:`replay.errors`): no sink, no option.
 """

@@ -10,25 +10,29 @@ and the readable rest is catalogued.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
-from mcap.records import Channel, Message, Schema
+from mcap.records import Channel, Footer, Message, Schema
 
 from replay.errors import CorruptLogError, InputNotFoundError, NotMcapError, TruncatedLogError
+from replay.log.mcap_chunks import CUT, Salvage, decompress, salvage
 from replay.log.mcap_records import (
     MAGIC,
+    RUN,
     ChunkHeader,
-    Footer,
     Limits,
     Malformed,
+    Op,
     chunk_records,
-    decompress,
     parse_message,
+    walk,
 )
 from replay.log.mcap_scan import Block, Damage, DataScan, scan_data
 from replay.log.mcap_summary import Summary, compare, read_footer, read_summary
+from replay.log.recovery import SalvagedChunk
 
 __all__ = [
     "Catalogue",
@@ -36,8 +40,11 @@ __all__ = [
     "check_definition",
     "check_mcap_file",
     "load_block",
+    "nothing_recovered",
     "read_all_blocks",
 ]
+
+Record = Schema | Channel | Message
 
 
 def check_mcap_file(path: Path) -> int:
@@ -71,11 +78,16 @@ class Catalogue:
     """Stretches of the file lost (recover mode)."""
     bad_blocks: set[int] = field(default_factory=set)
     """Offsets of blocks that do not load (recover mode)."""
+    salvaged: list[SalvagedChunk] = field(default_factory=list)
+    """What was kept of each cut or damaged chunk (recover mode)."""
+    salvaged_blocks: list[Block] = field(default_factory=list)
+    """The blocks of those that kept a message."""
     chunks_checked: bool = False
 
     @property
     def blocks(self) -> list[Block]:
-        return [b for b in self.scan.blocks if b.offset not in self.bad_blocks]
+        whole = [b for b in self.scan.blocks if b.offset not in self.bad_blocks]
+        return sorted(whole + self.salvaged_blocks, key=lambda b: b.offset)
 
     @property
     def metadata(self) -> dict[str, dict[str, str]]:
@@ -113,7 +125,7 @@ def build_catalogue(f: IO[bytes], path: Path, size: int, limits: Limits, *, reco
     if scan.data_crc_ok is False:
         _fail(cat, recover, "data section CRC mismatch")
     if summary is not None and footer is not None:
-        problems = compare(summary, scan, footer, size)
+        problems = compare(summary, scan)
         if problems:
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             _fail(cat, recover, f"the summary disagrees with the data: {problems[0]}{more}")
@@ -136,28 +148,34 @@ def build_catalogue(f: IO[bytes], path: Path, size: int, limits: Limits, *, reco
 
 
 def read_all_blocks(f: IO[bytes], cat: Catalogue, limits: Limits, *, recover: bool,
-                     validate_crcs: bool) -> None:
-    """Decompress every block: schemas and channels the chunks define, message counts, CRCs."""
+                    validate_crcs: bool) -> None:
+    """Decompress every block: schemas and channels the chunks define, message counts, CRCs.
+    ``recover``: a block that does not load is damage, and what precedes the damage in a
+    chunk (or the cut, in the chunk the end of the file cuts) is salvaged."""
     counts: dict[int, int] = {}
     for block in cat.scan.blocks:
         try:
-            records = load_block(f, block, limits, validate_crcs=validate_crcs)
-            for rec in records:
-                if isinstance(rec, Message):
-                    counts[rec.channel_id] = counts.get(rec.channel_id, 0) + 1
-                else:
-                    check_definition(cat, rec, block)
+            _add(cat, load_block(f, block, limits, validate_crcs=validate_crcs), block, counts)
         except (Malformed, CorruptLogError) as err:
             where = f"chunk at byte {block.offset}" if block.chunk else (
                 f"messages at byte {block.offset}")
             if not recover:
                 raise CorruptLogError(cat.path, f"{where}: {err}") from err
             cat.bad_blocks.add(block.offset)
-            cat.damage.append(Damage(block.offset, block.length, f"{where}: {err}",
-                                     block.start_ns, block.end_ns, block.messages,
-                                     chunks=1 if block.chunk else 0))
+            lost = Damage(block.offset, block.length, f"{where}: {err}", block.start_ns,
+                          block.end_ns, block.messages, chunks=1 if block.chunk else 0)
+            if block.chunk is not None and isinstance(err, Malformed):
+                lost = _salvage(f, cat, block.chunk, lost, limits, counts,
+                                validate_crcs=validate_crcs)
+            cat.damage.append(lost)
+    cut = cat.scan.cut_chunk
+    if recover and cut is not None:
+        for i, d in enumerate(cat.damage):
+            if d.offset == cut.offset:
+                cat.damage[i] = _salvage(f, cat, cut, d, limits, counts,
+                                         validate_crcs=validate_crcs)
     stats = cat.summary.statistics if cat.summary is not None else None
-    if stats is not None and not cat.bad_blocks:
+    if stats is not None and not cat.bad_blocks and not cat.salvaged:
         wanted = {k: v for k, v in stats.channel_message_counts.items() if v}
         found = {k: v for k, v in counts.items() if v}
         if (wanted and wanted != found) or stats.message_count != sum(counts.values()):
@@ -165,6 +183,79 @@ def read_all_blocks(f: IO[bytes], cat: Catalogue, limits: Limits, *, recover: bo
                   f"{stats.message_count} messages, the chunks hold {sum(counts.values())}")
     cat.counts = counts
     cat.chunks_checked = True
+
+
+def _add(cat: Catalogue, records: list[Record], block: Block, counts: dict[int, int]) -> None:
+    """Count a block's messages and check its definitions (nothing counted if one fails)."""
+    mine: dict[int, int] = {}
+    for rec in records:
+        if isinstance(rec, Message):
+            mine[rec.channel_id] = mine.get(rec.channel_id, 0) + 1
+        else:
+            check_definition(cat, rec, block)
+    for cid, n in mine.items():
+        counts[cid] = counts.get(cid, 0) + n
+
+
+def _salvage(f: IO[bytes], cat: Catalogue, chunk: ChunkHeader, lost: Damage, limits: Limits,
+             counts: dict[int, int], *, validate_crcs: bool) -> Damage:
+    """Salvage the chunk whose loss is ``lost``; returns what is lost after all."""
+    kept = _salvage_records(f, chunk, limits, validate_crcs=validate_crcs)
+    msgs = kept.messages
+    block = Block(chunk.offset, min(chunk.length, cat.size - chunk.offset),
+                  min((m.log_time for m in msgs), default=chunk.message_start_time),
+                  max((m.log_time for m in msgs), default=chunk.message_start_time),
+                  chunk, len(msgs), salvage=True)
+    try:
+        _add(cat, kept.records, block, counts)
+    except CorruptLogError as err:
+        kept, msgs = Salvage([], kept.decoded_bytes, str(err)), []
+    cat.salvaged.append(SalvagedChunk(
+        chunk.offset, len(msgs), block.start_ns if msgs else None,
+        block.end_ns if msgs else None, kept.decoded_bytes, chunk.uncompressed_size,
+        kept.reason))
+    if not msgs:
+        return lost
+    cat.salvaged_blocks.append(block)
+    return dataclasses.replace(  # lost: what follows the last message kept
+        lost, start_ns=block.end_ns,
+        messages=None if lost.messages is None else max(0, lost.messages - len(msgs)))
+
+
+def _salvage_records(f: IO[bytes], chunk: ChunkHeader, limits: Limits, *,
+                     validate_crcs: bool) -> Salvage:
+    if chunk.data_length > limits.max_chunk_bytes:
+        return Salvage([], 0, f"{chunk.data_length} bytes of chunk data, over the limit of "
+                       f"{limits.max_chunk_bytes} (--max-chunk-mib)")
+    f.seek(chunk.data_offset)
+    data = f.read(chunk.data_length)
+    if not validate_crcs:
+        chunk = dataclasses.replace(chunk, uncompressed_crc=0)
+    return salvage(chunk, data, limits, cut=len(data) < chunk.data_length)
+
+
+def nothing_recovered(cat: Catalogue) -> str:
+    """Why ``--recover`` found no message, in terms of the log."""
+    chunks = [b for b in cat.scan.blocks if b.chunk is not None]
+    cut = cat.scan.cut_chunk
+    tried = {s.offset: s for s in cat.salvaged}
+    if cut is not None and not chunks:
+        kept = tried.get(cut.offset)
+        why = "it could not be read" if kept is None else (
+            f"{kept.decoded_bytes} of its {kept.uncompressed_bytes} bytes decode, no whole "
+            "message among them" if kept.reason == CUT else kept.reason)
+        return (f"its only chunk (at byte {cut.offset}) is cut at byte {cat.size}; nothing "
+                f"before the cut decodes ({why})")
+    if chunks and len(cat.bad_blocks) >= len(chunks):
+        first = chunks[0].offset
+        why = tried[first].reason if first in tried else "it does not decode"
+        return (f"{'its only chunk' if len(chunks) == 1 else f'all {len(chunks)} chunks'} "
+                f"{'is' if len(chunks) == 1 else 'are'} damaged (the first at byte {first}: "
+                f"{why})")
+    if cat.damage:
+        d = cat.damage[0]
+        return f"no message before the damage at byte {d.offset} ({d.reason})"
+    return "the log holds no message"
 
 
 def check_definition(cat: Catalogue, rec: Schema | Channel, block: Block) -> None:
@@ -186,10 +277,11 @@ def check_definition(cat: Catalogue, rec: Schema | Channel, block: Block) -> Non
 
 
 def load_block(f: IO[bytes], block: Block, limits: Limits, *,
-               validate_crcs: bool = True) -> list[Schema | Channel | Message]:
-    """The records of a block (a chunk, or a run of messages outside chunks), in file order;
-    raises :class:`Malformed`."""
-    f.seek(block.offset)
+               validate_crcs: bool = True) -> list[Record]:
+    """The records of a block (a chunk, the salvaged part of one, or a run of messages
+    outside chunks), in file order; raises :class:`Malformed`."""
+    if block.chunk is not None and block.salvage:
+        return _salvage_records(f, block.chunk, limits, validate_crcs=validate_crcs).records
     if block.chunk is not None:
         chunk: ChunkHeader = block.chunk
         if chunk.data_length > limits.max_chunk_bytes:
@@ -200,20 +292,16 @@ def load_block(f: IO[bytes], block: Block, limits: Limits, *,
         if len(data) != chunk.data_length:
             raise Malformed("the chunk is cut short")
         if not validate_crcs:
-            chunk = ChunkHeader(**{**chunk.__dict__, "uncompressed_crc": 0})
+            chunk = dataclasses.replace(chunk, uncompressed_crc=0)
         raw = decompress(chunk, data, limits)
         del data
         records = list(chunk_records(raw, limits))
         times = [r.log_time for r in records if isinstance(r, Message)]
-        if times and (min(times) < chunk.start_ns or max(times) > chunk.end_ns):
+        if times and (min(times) < chunk.message_start_time
+                      or max(times) > chunk.message_end_time):
             raise Malformed("messages outside the time range the chunk header declares")
         return records
+    f.seek(block.offset)
     data = f.read(block.length)
-    out: list[Schema | Channel | Message] = []
-    pos = 0
-    while pos + 9 <= len(data):
-        length = int.from_bytes(data[pos + 1:pos + 9], "little")
-        if data[pos] == 0x05:
-            out.append(parse_message(data, pos + 9, min(len(data), pos + 9 + length)))
-        pos += 9 + length
-    return out
+    return [parse_message(data, start, end)
+            for op, start, end in walk(data, RUN, block.offset) if op == Op.MESSAGE]

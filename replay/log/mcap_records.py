@@ -1,80 +1,96 @@
-"""MCAP records, parsed with every length bounded before anything is allocated.
+"""MCAP records, parsed by :mod:`mcap.records` through a stream that cannot read past them.
 
 The MCAP layout (https://mcap.dev/spec): magic, then records ``opcode u8, length u64, body``,
-then magic again. This module reads single records from bytes already in memory (whose size
-the caller bounded), so a damaged length field can never make it allocate more than the
-record it was given. Anything malformed raises :class:`Malformed` with a short reason; the
-callers turn it into an error naming the file and the byte offset.
+then magic again. ``mcap.records.X.read(stream)`` parses a record body from any
+:class:`mcap.data_stream.ReadDataStream`; here that stream is a :class:`BoundedStream` over
+one record's bytes, already in memory and length-checked by the caller, so a damaged field
+can never read into the next record or allocate more than the record holds: it raises
+:class:`Malformed` with a short reason, which the callers turn into an error naming the file
+and the byte offset. The records keep mcap's own classes and field names (``Schema``,
+``Channel``, ``Footer``, ``ChunkIndex``, ``Statistics``, ...), so the ROS 2 decoders accept
+them as they are.
 
-Schema, channel and message records come out as :mod:`mcap.records` objects so the ROS 2
-decoders accept them; the rest as small frozen dataclasses.
+What mcap lacks is here too: :func:`walk`, the one iterator over the records of a buffer
+(a chunk, the summary, a run of messages, or the data section in the file itself) that
+checks every record's length before its body is touched; :func:`parse_chunk_header`, a
+chunk's fields without its data; and the fast path for messages (:func:`parse_message`,
+one ``struct`` call per message).
 """
 
 from __future__ import annotations
 
+import io
 import struct
-import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import IO
 
-from mcap.records import Channel, Message, Schema
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
+from mcap.records import (
+    Channel,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Header,
+    Message,
+    Metadata,
+    MetadataIndex,
+    Schema,
+    Statistics,
+)
 
 __all__ = [
+    "CHUNK",
     "DEFAULT_MAX_CHUNK_BYTES",
     "DEFAULT_MAX_MESSAGE_BYTES",
+    "FILE",
     "MAGIC",
+    "RUN",
+    "SUMMARY",
+    "BoundedStream",
     "ChunkHeader",
-    "ChunkIndex",
-    "Footer",
+    "Cut",
+    "FileBytes",
     "Limits",
     "Malformed",
-    "MetadataIndex",
     "Op",
-    "Statistics",
+    "Region",
     "chunk_records",
-    "decompress",
     "parse_channel",
     "parse_chunk_header",
     "parse_chunk_index",
+    "parse_data_end",
     "parse_footer",
+    "parse_header",
     "parse_message",
     "parse_metadata",
     "parse_metadata_index",
     "parse_schema",
     "parse_statistics",
+    "record_head",
+    "record_name",
+    "walk",
 ]
 
 MAGIC = b"\x89MCAP0\r\n"
 DEFAULT_MAX_MESSAGE_BYTES = 64 * 1024 * 1024
 DEFAULT_MAX_CHUNK_BYTES = 128 * 1024 * 1024
 
+Op = Opcode
+"""The record opcodes (mcap's own enumeration)."""
 
-class Op:
-    """Record opcodes of the MCAP spec."""
+_HEAD = struct.Struct("<BQ")
+_MESSAGE = struct.Struct("<HIQQ")
+"""A message's fixed fields: channel id, sequence, log time, publish time."""
 
-    HEADER = 0x01
-    FOOTER = 0x02
-    SCHEMA = 0x03
-    CHANNEL = 0x04
-    MESSAGE = 0x05
-    CHUNK = 0x06
-    MESSAGE_INDEX = 0x07
-    CHUNK_INDEX = 0x08
-    ATTACHMENT = 0x09
-    ATTACHMENT_INDEX = 0x0A
-    STATISTICS = 0x0B
-    METADATA = 0x0C
-    METADATA_INDEX = 0x0D
-    SUMMARY_OFFSET = 0x0E
-    DATA_END = 0x0F
 
-    NAMES: ClassVar[dict[int, str]] = {
-        0x01: "header", 0x02: "footer", 0x03: "schema", 0x04: "channel", 0x05: "message",
-        0x06: "chunk", 0x07: "message index", 0x08: "chunk index", 0x09: "attachment",
-        0x0A: "attachment index", 0x0B: "statistics", 0x0C: "metadata",
-        0x0D: "metadata index", 0x0E: "summary offset", 0x0F: "data end",
-    }
+def record_name(op: int, unknown: str = "record") -> str:
+    """A record kind in words ("message index"); ``unknown`` for an opcode mcap lacks."""
+    try:
+        return Opcode(op).name.lower().replace("_", " ")
+    except ValueError:
+        return unknown
 
 
 @dataclass(frozen=True)
@@ -88,85 +104,127 @@ class Limits:
 
 
 class Malformed(Exception):
-    """A record does not parse; the message says what is wrong."""
+    """A record does not parse; the message says what is wrong (``at``: the record's file
+    offset, when it is known)."""
+
+    def __init__(self, reason: str, *, at: int | None = None) -> None:
+        super().__init__(reason)
+        self.at = at
 
 
-class _Cursor:
-    """Reads little-endian fields from a buffer, never past ``end``."""
+class Cut(Malformed):
+    """The buffer ends inside a record: inside its header, or (``op`` and ``length`` known)
+    before the end of the body its header declares."""
 
-    __slots__ = ("buf", "end", "pos")
+    def __init__(self, reason: str, *, at: int, op: int | None = None,
+                 length: int | None = None) -> None:
+        super().__init__(reason, at=at)
+        self.op, self.length = op, length
+
+
+class BoundedStream(ReadDataStream):
+    """The bytes ``buf[pos:end]`` as mcap's read stream, refusing any read past ``end``."""
 
     def __init__(self, buf: bytes, pos: int = 0, end: int | None = None) -> None:
-        self.buf = buf
-        self.pos = pos
-        self.end = len(buf) if end is None else end
+        super().__init__(io.BytesIO(b""))
+        self._buf = buf
+        self._start = self._pos = pos
+        self._end = len(buf) if end is None else end
 
-    def take(self, n: int) -> bytes:
-        if n < 0 or n > self.end - self.pos:
-            raise Malformed(f"a field of {n} bytes runs past its record")
-        out = self.buf[self.pos:self.pos + n]
-        self.pos += n
+    @property
+    def count(self) -> int:
+        return self._pos - self._start
+
+    @property
+    def remaining(self) -> int:
+        return self._end - self._pos
+
+    def read(self, length: int) -> bytes:
+        if length < 0 or length > self._end - self._pos:
+            raise Malformed(f"a field of {length} bytes runs past its record")
+        out = self._buf[self._pos:self._pos + length]
+        self._pos += length
         return out
 
-    def u8(self) -> int:
-        return int(self.take(1)[0])
-
-    def u16(self) -> int:
-        return int(struct.unpack("<H", self.take(2))[0])
-
-    def u32(self) -> int:
-        return int(struct.unpack("<I", self.take(4))[0])
-
-    def u64(self) -> int:
-        return int(struct.unpack("<Q", self.take(8))[0])
-
-    def string(self) -> str:
-        raw = self.take(self.u32())
+    def read_prefixed_string(self, most: int | None = None) -> str:
+        """A length-prefixed UTF-8 string (``most``: the longest it may be, in bytes)."""
+        n = self.read4()
+        if most is not None and n > most:
+            raise Malformed(f"a string of {n} bytes where at most {most} are expected")
+        raw = self.read(n)
         try:
             return raw.decode("utf-8")
         except UnicodeDecodeError as err:
             raise Malformed("a string is not UTF-8") from err
 
-    def sub(self, n: int) -> _Cursor:
-        if n < 0 or n > self.end - self.pos:
-            raise Malformed(f"a map of {n} bytes runs past its record")
-        c = _Cursor(self.buf, self.pos, self.pos + n)
-        self.pos += n
-        return c
 
-    def str_map(self) -> dict[str, str]:
-        c = self.sub(self.u32())
-        out: dict[str, str] = {}
-        while c.pos < c.end:
-            key = c.string()
-            out[key] = c.string()
-        return out
-
-    def u16_u64_map(self) -> dict[int, int]:
-        c = self.sub(self.u32())
-        out: dict[int, int] = {}
-        while c.pos < c.end:
-            key = c.u16()
-            out[key] = c.u64()
-        return out
+def parse_footer(body: bytes) -> Footer:
+    out: Footer = Footer.read(BoundedStream(body))
+    return out
 
 
-@dataclass(frozen=True)
-class Footer:
-    summary_start: int
-    summary_offset_start: int
-    summary_crc: int
+def parse_header(body: bytes) -> Header:
+    out: Header = Header.read(BoundedStream(body))
+    return out
+
+
+def parse_schema(body: bytes, pos: int = 0, end: int | None = None) -> Schema:
+    out: Schema = Schema.read(BoundedStream(body, pos, end))
+    return out
+
+
+def parse_channel(body: bytes, pos: int = 0, end: int | None = None) -> Channel:
+    out: Channel = Channel.read(BoundedStream(body, pos, end))
+    return out
+
+
+def parse_metadata(body: bytes) -> Metadata:
+    out: Metadata = Metadata.read(BoundedStream(body))
+    return out
+
+
+def parse_data_end(body: bytes) -> DataEnd:
+    out: DataEnd = DataEnd.read(BoundedStream(body))
+    return out
+
+
+def parse_chunk_index(body: bytes) -> ChunkIndex:
+    out: ChunkIndex = ChunkIndex.read(BoundedStream(body))
+    return out
+
+
+def parse_statistics(body: bytes) -> Statistics:
+    out: Statistics = Statistics.read(BoundedStream(body))
+    return out
+
+
+def parse_metadata_index(body: bytes) -> MetadataIndex:
+    out: MetadataIndex = MetadataIndex.read(BoundedStream(body))
+    return out
+
+
+def parse_message(buf: bytes, pos: int = 0, end: int | None = None) -> Message:
+    """The message whose body is ``buf[pos:end]``: the fast path, one ``struct`` call and
+    one slice (``mcap.records.Message.read`` reads the same fields one at a time)."""
+    end = len(buf) if end is None else end
+    if end - pos < _MESSAGE.size:
+        raise Malformed(f"a message's {_MESSAGE.size} bytes of fixed fields: a field runs "
+                        f"past its record of {max(0, end - pos)} bytes")
+    cid, seq, log_time, publish_time = _MESSAGE.unpack_from(buf, pos)
+    return Message(channel_id=cid, sequence=seq, log_time=log_time, publish_time=publish_time,
+                   data=buf[pos + _MESSAGE.size:end])
 
 
 @dataclass(frozen=True)
 class ChunkHeader:
-    """A chunk record's fields, without its data; ``offset`` is where the record starts."""
+    """A chunk record's fields without its data (mcap's ``Chunk`` names); ``offset`` is where
+    the record starts in the file."""
 
     offset: int
     length: int
     """The whole record, opcode and length included."""
-    start_ns: int
-    end_ns: int
+    message_start_time: int
+    message_end_time: int
     uncompressed_size: int
     uncompressed_crc: int
     compression: str
@@ -175,177 +233,107 @@ class ChunkHeader:
     data_length: int
 
 
-@dataclass(frozen=True)
-class ChunkIndex:
-    start_ns: int
-    end_ns: int
-    chunk_offset: int
-    chunk_length: int
-    compression: str
-    compressed_size: int
-    uncompressed_size: int
-
-
-@dataclass(frozen=True)
-class Statistics:
-    message_count: int
-    schema_count: int
-    channel_count: int
-    metadata_count: int
-    chunk_count: int
-    start_ns: int
-    end_ns: int
-    channel_message_counts: dict[int, int]
-
-
-@dataclass(frozen=True)
-class MetadataIndex:
-    offset: int
-    length: int
-    name: str
-
-
-def parse_footer(body: bytes) -> Footer:
-    c = _Cursor(body)
-    return Footer(c.u64(), c.u64(), c.u32())
-
-
-def parse_schema(body: bytes) -> Schema:
-    c = _Cursor(body)
-    sid = c.u16()
-    name, encoding = c.string(), c.string()
-    data = c.take(c.u32())
-    return Schema(id=sid, name=name, encoding=encoding, data=data)
-
-
-def parse_channel(body: bytes) -> Channel:
-    c = _Cursor(body)
-    cid, sid = c.u16(), c.u16()
-    topic, encoding = c.string(), c.string()
-    return Channel(id=cid, schema_id=sid, topic=topic, message_encoding=encoding,
-                   metadata=c.str_map())
-
-
-def parse_message(body: bytes, pos: int = 0, end: int | None = None) -> Message:
-    c = _Cursor(body, pos, end)
-    cid, seq, log_time, publish_time = c.u16(), c.u32(), c.u64(), c.u64()
-    return Message(channel_id=cid, sequence=seq, log_time=log_time, publish_time=publish_time,
-                   data=c.take(c.end - c.pos))
-
-
-def parse_chunk_header(head: bytes, offset: int, length: int) -> ChunkHeader:
+def parse_chunk_header(head: bytes, offset: int, length: int, *,
+                       whole: bool = True) -> ChunkHeader:
     """The fields of a chunk record of ``length`` body bytes at file ``offset``, from the
-    first bytes of its body (``head``: at least the fixed fields and the compression)."""
-    c = _Cursor(head)
-    start, end, size, crc = c.u64(), c.u64(), c.u64(), c.u32()
-    compression = c.string()
-    data_length = c.u64()
-    if c.pos + data_length != length:
+    first bytes of its body (``head``: at least the fixed fields and the compression).
+    ``whole``: the data must fill the record exactly (False: a chunk the end of the file
+    cuts, whose data may declare more than the file holds)."""
+    s = BoundedStream(head)
+    start, end, size, crc = s.read8(), s.read8(), s.read8(), s.read4()
+    try:
+        compression = s.read_prefixed_string(most=64)
+    except Malformed as err:
+        raise Malformed(f"its compression name: {err}") from err
+    data_length = s.read8()
+    if whole and s.count + data_length != length:
         raise Malformed(f"chunk data of {data_length} bytes does not fill its record "
                         f"of {length} bytes")
     return ChunkHeader(offset, 9 + length, start, end, size, crc, compression,
-                       offset + 9 + c.pos, data_length)
+                       offset + 9 + s.count, data_length)
 
 
-def parse_chunk_index(body: bytes) -> ChunkIndex:
-    c = _Cursor(body)
-    start, end, offset, length = c.u64(), c.u64(), c.u64(), c.u64()
-    c.u16_u64_map()  # message index offsets: not needed, whole chunks are read
-    c.u64()  # message index length
-    compression = c.string()
-    return ChunkIndex(start, end, offset, length, compression, c.u64(), c.u64())
+@dataclass(frozen=True)
+class Region:
+    """A buffer of records :func:`walk` goes over, for the words of its errors (fields
+    ``{name}``, ``{length}``, ``{size}`` and ``{at}``, the record's file offset when it is
+    known)."""
+
+    cut_header: str
+    past_end: str
+    opcode_zero: str
 
 
-def parse_statistics(body: bytes) -> Statistics:
-    c = _Cursor(body)
-    messages, schemas, channels = c.u64(), c.u16(), c.u32()
-    c.u32()  # attachments
-    metadata, chunks, start, end = c.u32(), c.u32(), c.u64(), c.u64()
-    return Statistics(messages, schemas, channels, metadata, chunks, start, end,
-                      c.u16_u64_map())
+CHUNK = Region("chunk ends inside a record header",
+               "a {name} in a chunk declares {length} bytes, past the chunk's end",
+               "a record in a chunk has opcode 0")
+SUMMARY = Region("the summary ends inside a record header",
+                 "a summary record at byte {at} runs past the summary",
+                 "a summary record at byte {at} has opcode 0")
+RUN = Region("the messages at byte {at} end inside a record header",
+             "a {name} at byte {at} declares {length} bytes, past the messages scanned",
+             "a record at byte {at} has opcode 0")
+FILE = Region("the log ends inside a record header",
+              "a {name} of {length} bytes runs past the end of the file ({size} bytes)",
+              "a record with opcode 0")
+"""The data section, walked in the file itself (:class:`FileBytes`)."""
 
 
-def parse_metadata(body: bytes) -> tuple[str, dict[str, str]]:
-    c = _Cursor(body)
-    return c.string(), c.str_map()
+class FileBytes:
+    """An open file of ``size`` bytes as :func:`walk` reads a buffer: its length, and
+    slices (each one seek and one read), so the data section is walked without being held."""
+
+    def __init__(self, f: IO[bytes], size: int) -> None:
+        self.f, self.size = f, size
+
+    def __len__(self) -> int:
+        return self.size
+
+    def __getitem__(self, part: slice) -> bytes:
+        self.f.seek(part.start)
+        return self.f.read(part.stop - part.start)
 
 
-def parse_metadata_index(body: bytes) -> MetadataIndex:
-    c = _Cursor(body)
-    return MetadataIndex(c.u64(), c.u64(), c.string())
+def record_head(head: bytes) -> tuple[int, int]:
+    """``(opcode, body length)`` from a record's first 9 bytes."""
+    op, length = _HEAD.unpack_from(head)
+    return int(op), int(length)
 
 
-def decompress(chunk: ChunkHeader, data: bytes, limits: Limits) -> bytes:
-    """A chunk's records, uncompressed and CRC-checked; never more than the header declares
-    (and the header never more than the limit)."""
-    size = chunk.uncompressed_size
-    if size > limits.max_chunk_bytes:
-        raise Malformed(f"chunk declares {size} bytes uncompressed, over the limit of "
-                        f"{limits.max_chunk_bytes} (raise --max-chunk-mib)")
-    if chunk.compression == "":
-        out = data
-    elif chunk.compression == "zstd":
-        out = _unzstd(data, size)
-    elif chunk.compression == "lz4":
-        out = _unlz4(data, size)
-    else:
-        raise Malformed(f"unknown chunk compression {chunk.compression[:20]!r}")
-    if len(out) > size:
-        raise Malformed(f"chunk decompresses to more than the {size} bytes its header declares")
-    if len(out) < size:
-        raise Malformed(f"chunk decompresses to {len(out)} bytes, its header declares {size}")
-    if chunk.uncompressed_crc != 0 and zlib.crc32(out) != chunk.uncompressed_crc:
-        raise Malformed("chunk CRC mismatch")
-    return out
-
-
-def _unzstd(data: bytes, size: int) -> bytes:
-    import zstandard
-
-    try:
-        reader = zstandard.ZstdDecompressor().stream_reader(data)
-        parts: list[bytes] = []
-        total = 0
-        while total <= size:
-            block = reader.read(min(1 << 20, size + 1 - total))
-            if not block:
-                break
-            parts.append(block)
-            total += len(block)
-        return b"".join(parts)
-    except zstandard.ZstdError as err:
-        raise Malformed(f"zstd: {err}") from err
-
-
-def _unlz4(data: bytes, size: int) -> bytes:
-    import lz4.frame
-
-    try:
-        return bytes(lz4.frame.LZ4FrameDecompressor().decompress(data, max_length=size + 1))
-    except RuntimeError as err:
-        raise Malformed(f"lz4: {err}") from err
+def walk(buf: bytes | FileBytes, region: Region, base: int = 0,
+         start: int = 0) -> Iterator[tuple[int, int, int]]:
+    """``(opcode, body start, body end)`` of each record in ``buf`` from ``start`` on, in
+    order: the one iterator over records, for a chunk, the summary, a run of messages and
+    the file's data section. Every length is checked against the buffer before the record
+    is yielded, so a body never runs past it. ``base``: the file offset of ``buf[0]`` (for
+    the errors). Raises :class:`Cut` where the buffer ends inside a record and
+    :class:`Malformed` at a record with opcode 0, the first record that does not fit."""
+    pos, end = start, len(buf)
+    while pos < end:
+        head = buf[pos:pos + 9]
+        if len(head) < 9:
+            raise Cut(region.cut_header.format(at=base + pos), at=base + pos)
+        op, length = record_head(head)
+        if op == 0:
+            raise Malformed(region.opcode_zero.format(at=base + pos), at=base + pos)
+        body = pos + 9
+        if length > end - body:
+            name = record_name(op, f"record (opcode {op:#x})")
+            raise Cut(region.past_end.format(name=name, length=length, at=base + pos,
+                                             size=end), at=base + pos, op=op, length=length)
+        yield op, body, body + length
+        pos = body + length
 
 
 def chunk_records(data: bytes, limits: Limits) -> Iterator[Schema | Channel | Message]:
     """Schema, channel and message records of an uncompressed chunk, in order."""
-    pos, end = 0, len(data)
-    while pos < end:
-        if end - pos < 9:
-            raise Malformed("chunk ends inside a record header")
-        op, length = struct.unpack_from("<BQ", data, pos)
-        body_start = pos + 9
-        if length > end - body_start:
-            raise Malformed(f"a {Op.NAMES.get(op, 'record')} in a chunk declares {length} "
-                            "bytes, past the chunk's end")
-        if op == 0:
-            raise Malformed("a record in a chunk has opcode 0")
+    for op, start, end in walk(data, CHUNK):
         if op == Op.MESSAGE:
-            if length > limits.max_message_bytes:
-                raise Malformed(f"a message of {length} bytes is over the limit of "
+            if end - start > limits.max_message_bytes:
+                raise Malformed(f"a message of {end - start} bytes is over the limit of "
                                 f"{limits.max_message_bytes}")
-            yield parse_message(data, body_start, body_start + length)
+            yield parse_message(data, start, end)
         elif op == Op.SCHEMA:
-            yield parse_schema(data[body_start:body_start + length])
+            yield parse_schema(data, start, end)
         elif op == Op.CHANNEL:
-            yield parse_channel(data[body_start:body_start + length])
-        pos = body_start + length
+            yield parse_channel(data, start, end)

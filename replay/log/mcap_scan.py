@@ -13,7 +13,6 @@ is recorded as :class:`Damage` and the scan resynchronises on the next intact ch
 
 from __future__ import annotations
 
-import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,17 +23,27 @@ from mcap.records import Channel, Schema
 from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from replay.errors import CorruptLogError, TruncatedLogError
+from replay.log.mcap_chunks import COMPRESSIONS
 from replay.log.mcap_records import (
+    FILE,
     MAGIC,
+    BoundedStream,
     ChunkHeader,
+    Cut,
+    FileBytes,
     Limits,
     Malformed,
     Op,
     parse_channel,
     parse_chunk_header,
+    parse_data_end,
+    parse_header,
     parse_message,
     parse_metadata,
     parse_schema,
+    record_head,
+    record_name,
+    walk,
 )
 
 __all__ = ["Block", "Damage", "DataScan", "scan_data"]
@@ -42,7 +51,6 @@ __all__ = ["Block", "Damage", "DataScan", "scan_data"]
 _RUN_BYTES = 4 * 1024 * 1024
 """Messages outside chunks are streamed in runs of about this many bytes."""
 _RUN_MESSAGES = 4096
-_COMPRESSIONS = ("", "zstd", "lz4")
 
 
 @dataclass
@@ -56,6 +64,9 @@ class Block:
     chunk: ChunkHeader | None = None
     messages: int | None = None
     """How many messages: counted for a run; from the message index records for a chunk."""
+    salvage: bool = False
+    """The decodable prefix of a cut or damaged chunk (``--recover``): its records are
+    salvaged (:func:`replay.log.mcap_chunks.salvage`), not decompressed whole."""
 
 
 @dataclass(frozen=True)
@@ -99,6 +110,9 @@ class DataScan:
     data_crc_ok: bool | None = None
     damage: list[Damage] = field(default_factory=list)
     truncated: bool = False
+    cut_chunk: ChunkHeader | None = None
+    """The chunk the end of the file cuts, when its header is whole (``--recover`` salvages
+    the decodable prefix of its data)."""
 
     @property
     def chunks(self) -> list[ChunkHeader]:
@@ -119,6 +133,7 @@ class _Scanner:
         self.out = DataScan(size)
         self.crc: int | None = zlib.crc32(MAGIC)
         self.run_block: Block | None = None
+        self.view = FileBytes(f, size)
 
     def fail(self, pos: int, reason: str, *, truncated: bool = False,
              chunk: ChunkHeader | None = None, in_chunk: bool = False) -> int | None:
@@ -132,8 +147,8 @@ class _Scanner:
         nxt = None if truncated else self.resync(pos + 1)
         end = self.size if nxt is None else nxt
         self.out.damage.append(Damage(
-            pos, end - pos, reason, None if chunk is None else chunk.start_ns,
-            None if chunk is None else chunk.end_ns,
+            pos, end - pos, reason, None if chunk is None else chunk.message_start_time,
+            None if chunk is None else chunk.message_end_time,
             chunks=1 if chunk is not None or in_chunk else 0))
         if nxt is None:
             self.out.truncated = True
@@ -161,40 +176,43 @@ class _Scanner:
             raise TruncatedLogError(self.path, "no MCAP header")
         pos: int | None = 8
         while pos is not None:
-            pos = self.step(pos)
+            pos = self.walk_from(pos)
         self.close_run()
         return self.out
 
-    def step(self, pos: int) -> int | None:
-        """Handle the record at ``pos``; the next record's offset, None at the end."""
-        if pos >= self.size:
-            return self.fail(pos, "the log ends without a data end record or footer",
-                             truncated=True)
-        head = self.read(pos, 9)
-        if len(head) < 9:
-            return self.fail(pos, "the log ends inside a record header", truncated=True)
-        op, length = (int(v) for v in struct.unpack("<BQ", head))
-        name = Op.NAMES.get(op, f"record (opcode {op:#x})")
-        if op == 0:
-            return self.fail(pos, "a record with opcode 0")
-        if length > self.size - pos - 9:
-            chunk = self.partial_chunk(pos, length) if op == Op.CHUNK else None
-            return self.fail(pos, f"a {name} of {length} bytes runs past the end of the file "
-                             f"({self.size} bytes)", truncated=True, chunk=chunk)
-        limit = self.limits.max_chunk_bytes + 1024 if op == Op.CHUNK else (
-            self.limits.max_message_bytes)
-        if op not in (Op.ATTACHMENT, Op.MESSAGE_INDEX) and length > limit:
-            return self.fail(pos, f"a {name} of {length} bytes is over the limit of {limit} "
-                             f"bytes ({'--max-chunk-mib' if op == Op.CHUNK else 'a message'})")
-        if op != Op.DATA_END:
-            self.crc_update(head)
-        try:
-            stop = self.record(pos, op, length)
-        except Malformed as err:
-            return self.fail(pos, f"{name}: {err}", in_chunk=op == Op.CHUNK)
-        if stop:
-            return None
-        return pos + 9 + length
+    def walk_from(self, pos: int) -> int | None:
+        """Handle the records from ``pos`` on (:func:`walk`, the one record iterator) up to
+        the data end, or to damage: then where to go on (None: nowhere)."""
+        records = walk(self.view, FILE, start=pos)
+        while True:
+            try:
+                rec = next(records, None)
+            except Cut as err:
+                at = err.at or 0
+                chunk = (self.partial_chunk(at, err.length)
+                         if err.op == Op.CHUNK and err.length is not None else None)
+                return self.fail(at, str(err), truncated=True, chunk=chunk)
+            except Malformed as err:  # opcode 0
+                return self.fail(err.at or 0, str(err))
+            if rec is None:
+                return self.fail(self.size, "the log ends without a data end record or "
+                                 "footer", truncated=True)
+            op, body, end = rec
+            pos, length = body - 9, end - body
+            name = record_name(op, f"record (opcode {op:#x})")
+            limit = self.limits.max_chunk_bytes + 1024 if op == Op.CHUNK else (
+                self.limits.max_message_bytes)
+            if op not in (Op.ATTACHMENT, Op.MESSAGE_INDEX) and length > limit:
+                return self.fail(pos, f"a {name} of {length} bytes is over the limit of "
+                                 f"{limit} bytes "
+                                 f"({'--max-chunk-mib' if op == Op.CHUNK else 'a message'})")
+            if op != Op.DATA_END:
+                self.crc_update(bytes((op,)) + length.to_bytes(8, "little"))  # its head
+            try:
+                if self.record(pos, op, length):
+                    return None
+            except Malformed as err:
+                return self.fail(pos, f"{name}: {err}", in_chunk=op == Op.CHUNK)
 
     def record(self, pos: int, op: int, length: int) -> bool:
         """Parse one record (its header is read); True when the data section ends here."""
@@ -205,16 +223,13 @@ class _Scanner:
             msg = parse_message(body)
             self.add_to_run(pos, 9 + length, msg.log_time)
             return False
-        if op != Op.MESSAGE_INDEX:
-            self.close_run()
+        self.close_run()  # a run is messages only, one after the other
         if op == Op.CHUNK:
             self.chunk(pos, length)
         elif op == Op.DATA_END:
             body = self.read(body_pos, length)
-            if len(body) < 4:
-                raise Malformed("too short")
+            self.out.data_crc = parse_data_end(body).data_section_crc
             self.out.data_end = pos
-            self.out.data_crc = int(struct.unpack_from("<I", body)[0])
             if self.out.data_crc and self.crc is not None:
                 self.out.data_crc_ok = self.crc == self.out.data_crc
             return True
@@ -244,29 +259,30 @@ class _Scanner:
             c = parse_channel(body)
             out.channels[c.id] = c
         elif op == Op.METADATA:
-            name, data = parse_metadata(body)
-            out.metadata[name] = data
-            out.metadata_records.append((pos, 9 + length, name))
-        elif op == Op.HEADER:
-            if pos == 8 and len(body) >= 4:
-                n = int(struct.unpack_from("<I", body)[0])
-                out.profile = body[4:4 + n].decode("utf-8", "replace")
+            m = parse_metadata(body)
+            out.metadata[m.name] = m.metadata
+            out.metadata_records.append((pos, 9 + length, m.name))
+        elif op == Op.HEADER and pos == 8:
+            try:  # only shown by dsp-info: a damaged header costs nothing else
+                out.profile = parse_header(body).profile
+            except Malformed:
+                out.profile = None
 
     def message_index(self, head: bytes) -> None:
         """Count a chunk's messages from the message index records after it."""
         blocks = self.out.blocks
         if len(head) >= 6 and blocks and blocks[-1].chunk is not None:
-            entries = int(struct.unpack_from("<I", head, 2)[0]) // 16
+            s = BoundedStream(head)
+            s.read2()  # the channel id
+            entries = s.read4() // 16
             blocks[-1].messages = (blocks[-1].messages or 0) + entries
 
-    def chunk_header(self, pos: int, length: int) -> ChunkHeader:
+    def chunk_header(self, pos: int, length: int, *, whole: bool = True) -> ChunkHeader:
         head = self.read(pos + 9, min(length, 1024))
-        if len(head) >= 32 and int(struct.unpack_from("<I", head, 28)[0]) > 64:
-            raise Malformed("a compression name of over 64 bytes")
-        chunk = parse_chunk_header(head, pos, length)
-        if chunk.compression not in _COMPRESSIONS:
+        chunk = parse_chunk_header(head, pos, length, whole=whole)
+        if chunk.compression not in COMPRESSIONS:
             raise Malformed(f"unknown compression {chunk.compression[:20]!r}")
-        if chunk.start_ns > chunk.end_ns:
+        if chunk.message_start_time > chunk.message_end_time:
             raise Malformed("its time range ends before it starts")
         if chunk.uncompressed_size > self.limits.max_chunk_bytes:
             raise Malformed(f"it declares {chunk.uncompressed_size} bytes uncompressed, over "
@@ -275,17 +291,23 @@ class _Scanner:
 
     def chunk(self, pos: int, length: int) -> None:
         chunk = self.chunk_header(pos, length)
-        self.out.blocks.append(Block(pos, chunk.length, chunk.start_ns, chunk.end_ns, chunk))
+        self.out.blocks.append(Block(pos, chunk.length, chunk.message_start_time,
+                                     chunk.message_end_time, chunk))
         self.skip_body(pos + 9, length)
 
     def partial_chunk(self, pos: int, length: int) -> ChunkHeader | None:
-        """The header of a chunk cut by the end of the file, if it is all there."""
+        """The header of a chunk cut by the end of the file, if it is all there (kept for
+        salvage when its data would fill the record), else its time range alone."""
         try:
-            return self.chunk_header(pos, self.size - pos - 9)
+            chunk = self.chunk_header(pos, length, whole=False)
+            if chunk.data_offset + chunk.data_length == pos + chunk.length:
+                self.out.cut_chunk = chunk
+            return chunk
         except Malformed:
             head = self.read(pos + 9, 16)
             if len(head) == 16:
-                start, end = struct.unpack("<QQ", head)
+                s = BoundedStream(head)
+                start, end = s.read8(), s.read8()
                 return ChunkHeader(pos, 9 + length, start, end, 0, 0, "", 0, 0)
             return None
 
@@ -315,7 +337,7 @@ class _Scanner:
                 cand = pos + i
                 head = buf[i:i + 9]
                 if len(head) == 9:
-                    length = int(struct.unpack_from("<Q", head, 1)[0])
+                    length = record_head(head)[1]
                     if length <= self.size - cand - 9:
                         try:
                             self.chunk_header(cand, length)

@@ -9,29 +9,27 @@ would replay every frame twice. :func:`compare` lists every disagreement in word
 
 from __future__ import annotations
 
-import struct
 import zlib
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import IO
 
-from mcap.records import Channel, Schema
+from mcap.records import Channel, ChunkIndex, Footer, MetadataIndex, Schema, Statistics
 
 from replay.log.mcap_records import (
     MAGIC,
-    ChunkIndex,
-    Footer,
+    SUMMARY,
     Limits,
     Malformed,
-    MetadataIndex,
     Op,
-    Statistics,
     parse_channel,
     parse_chunk_index,
     parse_footer,
     parse_metadata_index,
     parse_schema,
     parse_statistics,
+    record_head,
+    walk,
 )
 from replay.log.mcap_scan import DataScan
 
@@ -62,7 +60,7 @@ def read_footer(f: IO[bytes], size: int) -> Footer:
     tail = f.read(FOOTER_BYTES)
     if tail[-8:] != MAGIC:
         raise Malformed("the file does not end in the MCAP magic")
-    op, length = struct.unpack_from("<BQ", tail)
+    op, length = record_head(tail)
     if op != Op.FOOTER or length != 20:
         raise Malformed("no footer record before the closing magic")
     return parse_footer(tail[9:29])
@@ -95,15 +93,8 @@ def read_summary(f: IO[bytes], size: int, footer: Footer, limits: Limits) -> Sum
 
 
 def _parse_records(data: bytes, summary: Summary) -> None:
-    pos, end = 0, len(data)
-    while pos < end:
-        if end - pos < 9:
-            raise Malformed("the summary ends inside a record header")
-        op, length = struct.unpack_from("<BQ", data, pos)
-        if length > end - pos - 9:
-            raise Malformed(f"a summary record at byte {summary.offset + pos} runs past the "
-                            "summary")
-        body = data[pos + 9:pos + 9 + length]
+    for op, start, end in walk(data, SUMMARY, summary.offset):
+        body = data[start:end]
         if op == Op.SCHEMA:
             s = parse_schema(body)
             summary.schemas[s.id] = s
@@ -116,12 +107,9 @@ def _parse_records(data: bytes, summary: Summary) -> None:
             summary.metadata_indexes.append(parse_metadata_index(body))
         elif op == Op.STATISTICS:
             summary.statistics = parse_statistics(body)
-        elif op == 0:
-            raise Malformed(f"a summary record at byte {summary.offset + pos} has opcode 0")
-        pos += 9 + length
 
 
-def compare(summary: Summary, scan: DataScan, footer: Footer, size: int) -> list[str]:
+def compare(summary: Summary, scan: DataScan) -> list[str]:
     """Every way the summary disagrees with the data section (empty: they agree)."""
     problems = _compare_chunks(summary, scan)
     if summary.metadata_indexes:
@@ -146,13 +134,12 @@ def compare(summary: Summary, scan: DataScan, footer: Footer, size: int) -> list
         if stats.message_count and scan.blocks:
             start = min(b.start_ns for b in scan.blocks)
             end = max(b.end_ns for b in scan.blocks)
-            if (stats.start_ns, stats.end_ns) != (start, end):
+            if (stats.message_start_time, stats.message_end_time) != (start, end):
                 problems.append("its statistics' time range differs from the data's")
     data_end = scan.data_end
-    after = summary.offset if summary is not None else size - FOOTER_BYTES
-    if data_end is not None and data_end + 13 != after:
+    if data_end is not None and data_end + 13 != summary.offset:
         problems.append(f"the summary does not start after the data end record "
-                        f"(byte {after}, expected {data_end + 13})")
+                        f"(byte {summary.offset}, expected {data_end + 13})")
     return problems
 
 
@@ -161,7 +148,7 @@ def _compare_chunks(summary: Summary, scan: DataScan) -> list[str]:
         return []
     problems = []
     chunks = {c.offset: c for c in scan.chunks}
-    listed = Counter(ci.chunk_offset for ci in summary.chunk_indexes)
+    listed = Counter(ci.chunk_start_offset for ci in summary.chunk_indexes)
     dup = sorted(o for o, n in listed.items() if n > 1)
     if dup:
         problems.append(f"its chunk index lists the chunk at byte {dup[0]} "
@@ -175,13 +162,13 @@ def _compare_chunks(summary: Summary, scan: DataScan) -> list[str]:
         problems.append(f"its chunk index lists a chunk at byte {extra[0]} that the data "
                         f"does not hold ({len(extra)} such entries)")
     for ci in summary.chunk_indexes:
-        c = chunks.get(ci.chunk_offset)
+        c = chunks.get(ci.chunk_start_offset)
         if c is None:
             continue
-        if ((ci.start_ns, ci.end_ns, ci.chunk_length, ci.compression, ci.uncompressed_size,
-             ci.compressed_size)
-                != (c.start_ns, c.end_ns, c.length, c.compression, c.uncompressed_size,
-                    c.data_length)):
+        if ((ci.message_start_time, ci.message_end_time, ci.chunk_length, ci.compression,
+             ci.uncompressed_size, ci.compressed_size)
+                != (c.message_start_time, c.message_end_time, c.length, c.compression,
+                    c.uncompressed_size, c.data_length)):
             problems.append(f"its chunk index entry for the chunk at byte {c.offset} "
                             "disagrees with the chunk (time range, size or compression)")
             break

@@ -36,9 +36,11 @@ from mcap_ros2.decoder import DecoderFactory
 from dsp import contract
 from dsp import metadata as meta
 from dsp.text import printable
+from estimator.constants import NS_PER_S
 from replay.errors import (
     CorruptLogError,
     MissingPosesError,
+    NoFramesError,
     NoImageTopicsError,
     SchemaError,
 )
@@ -48,6 +50,7 @@ from replay.log.catalogue import (
     check_definition,
     check_mcap_file,
     load_block,
+    nothing_recovered,
     read_all_blocks,
 )
 from replay.log.mcap_records import Limits, Malformed
@@ -55,10 +58,12 @@ from replay.log.mcap_scan import Block
 from replay.log.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage, convert
 from replay.log.recovery import RecoveryLoss
 from replay.log.schemas import definition_mismatch
+from replay.log.stamps import FAR_NS, StampGate
 
 __all__ = ["LogInfo", "LogReader"]
 
 GT_ODOMETRY = contract.GT_BALL_ODOMETRY_TOPIC
+Record = ImageMessage | PoseMessage | TruthMessage
 
 
 @dataclass(frozen=True)
@@ -140,10 +145,16 @@ class LogReader:
                 blocks = cat.blocks
                 self.loss = RecoveryLoss.from_damage(
                     size, cat.damage, cat.problems,
-                    max((b.end_ns for b in blocks), default=None))
+                    max((b.end_ns for b in blocks), default=None), cat.salvaged)
+                if not blocks and cat.damage:
+                    raise NoFramesError(self.path, "nothing is recoverable: "
+                                        + nothing_recovered(cat))
             try:
                 self.info = self._make_info()
-            except (NoImageTopicsError, MissingPosesError):
+            except (NoImageTopicsError, MissingPosesError) as err:
+                if self.recover and cat.damage:  # the damage says it better
+                    raise NoFramesError(self.path, f"{err} in the readable part; the rest "
+                                        f"is lost ({cat.damage[0].reason})") from err
                 if not cat.chunks_checked:  # a damaged summary would say it better
                     read_all_blocks(self._file, cat, self.limits, recover=False,
                                     validate_crcs=self._validate)
@@ -173,7 +184,14 @@ class LogReader:
             )
         pose_robots = set(contract.robot_names_in(topics, self._pose_pattern))
         missing = [r for r in image_robots if r not in pose_robots]
-        if missing:
+        if missing and self.recover and cat.damage and len(missing) < len(image_robots):
+            # what the damage left of a robot: its images without a pose topic to pair with
+            image_robots = [r for r in image_robots if r in pose_robots]
+            self.loss.problems.append(
+                f"no pose topic {printable(self._pose_pattern, limit=120)!r} in the readable "
+                f"part for {', '.join(printable(r, limit=60) for r in missing)}: their "
+                "images are left out")
+        elif missing:
             raise MissingPosesError(
                 self.path,
                 f"no pose topic {self._pose_pattern!r} for {', '.join(missing)}",
@@ -265,7 +283,13 @@ class LogReader:
         self, *, start_ns: int | None = None
     ) -> Iterator[ImageMessage | PoseMessage | TruthMessage]:
         """Decoded records in log-time order (from ``start_ns`` on, when given). A message
-        that does not decode or holds bad values is counted in :attr:`bad_messages`."""
+        that does not decode, holds bad values or is stamped absurdly far from the rest of
+        the log (:mod:`replay.log.stamps`) is counted in :attr:`bad_messages`."""
+        gate: StampGate[Record] = StampGate(self._absurd)
+        return gate.filter(self._decoded(start_ns))
+
+    def _decoded(self, start_ns: int | None) -> Iterator[tuple[str, int, Record]]:
+        """(stream, stamp, record) of every message that decodes to a usable record."""
         for message in self._merged(start_ns):
             kind, robot, decoder = self._wanted[message.channel_id]
             try:
@@ -276,7 +300,12 @@ class LogReader:
             except Exception:
                 self._count(f"undecodable {kind}")
                 continue
-            yield record
+            yield f"{kind} {robot}", record.stamp_ns, record
+
+    def _absurd(self, record: Record) -> None:
+        kind = "image" if isinstance(record, ImageMessage) else (
+            "pose" if isinstance(record, PoseMessage) else "truth")
+        self._count(f"bad {kind}: stamp over {FAR_NS // NS_PER_S} s away from the rest of the log")
 
     def _count(self, reason: str) -> None:
         self.bad_messages[reason] = self.bad_messages.get(reason, 0) + 1

@@ -1,5 +1,6 @@
 """What ``--recover`` could not read, in words a user can act on: the chunks and messages
-lost and the sim-time ranges they held. An undamaged log loses nothing."""
+lost and the sim-time ranges they held, and what was salvaged from the decodable prefix of a
+cut or damaged chunk. An undamaged log loses nothing."""
 
 from __future__ import annotations
 
@@ -10,7 +11,39 @@ from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from replay.log.mcap_scan import Damage
 
-__all__ = ["RecoveryLoss"]
+__all__ = ["RecoveryLoss", "SalvagedChunk"]
+
+
+@dataclass(frozen=True)
+class SalvagedChunk:
+    """The whole records kept from the decodable prefix of a cut or damaged chunk."""
+
+    offset: int
+    """Where the chunk record starts in the file."""
+    messages: int
+    start_ns: int | None
+    end_ns: int | None
+    """The log-time range of the messages kept (None: none kept)."""
+    decoded_bytes: int
+    uncompressed_bytes: int
+    """Of the chunk's records, the bytes decoded and the size its header declares."""
+    reason: str
+    """Why the rest of the chunk is lost."""
+
+    def to_dict(self) -> dict[str, Json]:
+        """A results file's ``log.recovered.salvaged`` entry."""
+        return {"offset": self.offset, "messages": self.messages,
+                "start_s": None if self.start_ns is None else self.start_ns / NS_PER_S,
+                "end_s": None if self.end_ns is None else self.end_ns / NS_PER_S,
+                "decoded_bytes": self.decoded_bytes,
+                "uncompressed_bytes": self.uncompressed_bytes, "reason": self.reason}
+
+    def describe(self) -> str:
+        when = "" if self.start_ns is None or self.end_ns is None else (
+            f", sim time {self.start_ns / NS_PER_S:.3f}..{self.end_ns / NS_PER_S:.3f} s")
+        return (f"  salvaged from the chunk at byte {self.offset}: {self.messages} "
+                f"message(s){when}, from the first {self.decoded_bytes} of its "
+                f"{self.uncompressed_bytes} bytes; the rest is lost: {self.reason}")
 
 
 @dataclass
@@ -27,6 +60,8 @@ class RecoveryLoss:
     """Integrity problems that cost no data (a damaged summary, a data CRC mismatch)."""
     readable_end_ns: int | None = None
     """The last sim time read before the log was cut."""
+    salvaged: list[SalvagedChunk] = field(default_factory=list)
+    """What was kept of the chunks in ``spans`` that are cut or damaged."""
 
     @property
     def lost_bytes(self) -> int:
@@ -44,7 +79,8 @@ class RecoveryLoss:
 
     @classmethod
     def from_damage(cls, file_bytes: int, damage: list[Damage], problems: list[str],
-                    readable_end_ns: int | None) -> RecoveryLoss:
+                    readable_end_ns: int | None,
+                    salvaged: list[SalvagedChunk] | None = None) -> RecoveryLoss:
         spans = []
         for d in damage:
             start = d.start_ns
@@ -62,6 +98,7 @@ class RecoveryLoss:
             spans=spans,
             problems=list(problems),
             readable_end_ns=readable_end_ns,
+            salvaged=list(salvaged or []),
         )
 
     def to_dict(self) -> dict[str, Json]:
@@ -69,7 +106,8 @@ class RecoveryLoss:
         return {"truncated": self.truncated, "lost_bytes": self.lost_bytes,
                 "file_bytes": self.file_bytes, "bad_chunks": self.bad_chunks,
                 "lost_messages": self.lost_messages,
-                "lost": [s.to_dict() for s in self.spans], "problems": list(self.problems)}
+                "lost": [s.to_dict() for s in self.spans], "problems": list(self.problems),
+                "salvaged": [s.to_dict() for s in self.salvaged]}
 
     def describe(self) -> list[str]:
         """Lines for a terminal: nothing lost, or each lost stretch with the sim times it
@@ -81,9 +119,13 @@ class RecoveryLoss:
                  f"in {len(self.spans)} stretch(es): {self.bad_chunks} chunk(s), "
                  f"{'an unknown number of' if lost is None else lost} message(s)"
                  f"{'; the log is cut short' if self.truncated else ''}"]
+        if self.salvaged:
+            lines[0] += (f"; {sum(s.messages for s in self.salvaged)} message(s) salvaged "
+                         f"from {len(self.salvaged)} of those chunk(s)")
         for d in self.spans:
             lines.append(f"  bytes {d.offset}..{d.offset + d.length}: {_time_range(d)}: "
                          f"{d.reason}")
+        lines.extend(s.describe() for s in self.salvaged)
         lines.extend(f"  problem: {p}" for p in self.problems)
         return lines
 

@@ -1,5 +1,7 @@
 """A bounded, seeded fuzz run (the long campaign is ``scripts/fuzz_replay.py``): mutated golden
-logs never cost a traceback, a hang, a silently wrong result or 1 GiB of memory."""
+logs never cost a traceback, a hang, a silently wrong result or 1 GiB of memory, and the cases
+that say what they must give (the frames before a cut with ``--recover``, fused steps despite
+far or reversed stamps) give it."""
 
 from __future__ import annotations
 
@@ -29,5 +31,5 @@ def test_bounded_fuzz_run() -> None:
         f"{f['kind']} ({f['what']}): {f['status']}: {f['message']}" for f in report["findings"])
     # the run exercised every kind, and most cases ended in a one-line error
     assert set(report["by_kind"]) >= {"flip_any", "flip_chunk", "truncate", "length", "summary",
-                                      "image", "pose", "stamps"}
+                                      "image", "pose", "stamps", "salvage", "far_stamps"}
     assert total.get("error", 0) > total["cases"] // 3

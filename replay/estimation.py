@@ -38,7 +38,7 @@ from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras, cameras_for
-from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
+from replay.records import FrameResult, FrameStatus, Localisation, RobotEstimate, StepResult
 from replay.sink import Sink
 from replay.smoothing import SmoothedSteps
 from replay.sync import PoseMatch
@@ -56,6 +56,7 @@ class FrameOutcome:
     """Pixel radius of the blob from the image centre (eq. 3)."""
     pose: PoseMatch | None = None
     estimate: RobotEstimate | None = None
+    localisation: Localisation | None = None
 
 
 @dataclass(frozen=True)
@@ -144,10 +145,13 @@ class FrameEstimator:
 
     def estimate(self, robot: str, image: np.ndarray | None,
                  pose_at: Callable[[], PoseMatch | None], *,
-                 detected: Detected | None = None) -> FrameOutcome:
+                 detected: Detected | None = None,
+                 localisation: Localisation | None = None) -> FrameOutcome:
         """One image through detection, pose pairing and location. ``pose_at`` looks up the
         robot's pose at the image's stamp (None: none within the tolerance); ``detected``
-        is :func:`detect` of the image when it ran already (e.g. ahead, in a thread)."""
+        is :func:`detect` of the image when it ran already (e.g. ahead, in a thread);
+        ``localisation``, the pose corrected from the image's field lines, is the pose the
+        ball is located from when given (the believed one stays the outcome's ``pose``)."""
         if detected is None:
             detected = detect(image)
         if detected.status is not None:
@@ -160,13 +164,14 @@ class FrameEstimator:
         pose = pose_at()
         if pose is None:
             return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
+        loc = localisation
         if det is None:
-            return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose)
+            return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose, localisation=loc)
         try:
-            estimate = self.locator.locate(robot, det, pose.pose)
+            estimate = self.locator.locate(robot, det, pose.pose if loc is None else loc.pose)
         except EstimatorError:
-            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
-        return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate)
+            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
+        return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate, loc)
 
     def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
         """The sinks the runner feeds: these, or (smoothing) one that passes frames on and

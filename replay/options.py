@@ -23,8 +23,8 @@ from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
 from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
-__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
-           "Timing"]
+__all__ = ["DEFAULT_FUSION", "DEFAULT_POSE_SIGMA", "FIT_LEAD_S", "LOCALISE_MODES",
+           "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget", "Timing"]
 
 METHODS = ("paper", "corrected")
 DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
@@ -39,6 +39,14 @@ poses, so the look-ahead stays bounded."""
 MAX_CLOCK_HZ = 10_000.0
 """The fastest ``--clock`` [Hz]."""
 RERUN_MODES = ("spawn", "save", "connect", "serve")
+LOCALISE_MODES = ("none", "lines")
+"""``--localise``: the believed poses as they are, or each corrected from its image's field
+lines (:mod:`replay.localise`)."""
+DEFAULT_POSE_SIGMA = (0.05, 1.0)
+"""The believed pose's standard deviation the line fit weighs it with, (m, deg)."""
+FIT_LEAD_S = 0.1
+"""With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose is
+known, while its fit runs in the pool; the outputs do not depend on it."""
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,9 @@ class Timing:
     end_ns: int | None
     clock_ns: int | None = None
     """The clock's period, when steps are also made at its ticks."""
+    lead_ns: int = 0
+    """How long a frame waits after its poses are known, for work done meanwhile (the
+    line fit); 0 when there is none."""
 
     @property
     def lookahead_ns(self) -> int:
@@ -125,6 +136,13 @@ class ReplayOptions:
     """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
     max_image_mpx: float = 40.0
     """Refuse to decode an image whose header declares more megapixels than this."""
+    localise: str = "none"
+    """"lines": each frame's pose corrected from the field lines in its image before the
+    ball is located (:mod:`replay.localise`); "none": the believed poses."""
+    pose_sigma_m: float = DEFAULT_POSE_SIGMA[0]
+    pose_sigma_deg: float = DEFAULT_POSE_SIGMA[1]
+    """The believed pose's standard deviation (position [m], yaw [deg]) the line fit weighs
+    it with (``--pose-sigma``): a fit further from it than this allows is refused."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -153,6 +171,13 @@ class ReplayOptions:
         if self.smooth and self.fusion_method != "track":
             raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
                              f"{self.fusion_method!r}")
+        if self.localise not in LOCALISE_MODES:
+            raise UsageError(f"--localise {self.localise!r}; choose one of "
+                             f"{', '.join(LOCALISE_MODES)}")
+        check_number("--pose-sigma", self.pose_sigma_m, low=0, high=10, low_open=True,
+                     unit="m")
+        check_number("--pose-sigma", self.pose_sigma_deg, low=0, high=90, low_open=True,
+                     unit="deg")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
@@ -183,7 +208,13 @@ class ReplayOptions:
             start_ns=None if self.start_s is None else round(self.start_s * NS_PER_S),
             end_ns=None if self.end_s is None else round(self.end_s * NS_PER_S),
             clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
+            lead_ns=round(FIT_LEAD_S * NS_PER_S) if self.localising else 0,
         )
+
+    @property
+    def localising(self) -> bool:
+        """Whether the poses are corrected from the field lines."""
+        return self.localise != "none"
 
     def limits(self) -> Limits:
         """The reader's size limits in bytes."""
@@ -223,6 +254,8 @@ class ReplayOptions:
             **({"noise": self.noise} if self.noise != "cambada" else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
+            **({"localise": self.localise, "pose_sigma_m": self.pose_sigma_m,
+                "pose_sigma_deg": self.pose_sigma_deg} if self.localising else {}),
         }
 
     @property
@@ -240,5 +273,8 @@ class ReplayOptions:
         thread count, which changes nothing in the outputs."""
         d = asdict(self)
         d.pop("threads")
+        if not self.localising:  # as before the option existed: the same recording ids
+            for key in ("localise", "pose_sigma_m", "pose_sigma_deg"):
+                d.pop(key)
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

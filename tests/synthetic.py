@@ -83,10 +83,12 @@ def ball_pixel(
     return centre_px[0] + du, centre_px[1] + dv
 
 
-def render(u: float, v: float, size: int = SIZE_PX) -> np.ndarray:
-    """A dark-green frame with an orange disc centred at (u, v) (sub-pixel accurate)."""
+def render(u: float, v: float, size: int = SIZE_PX, *,
+           background: np.ndarray | None = None) -> np.ndarray:
+    """A dark-green frame (or ``background``) with an orange disc centred at (u, v)
+    (sub-pixel accurate)."""
     img = np.empty((size, size, 3), np.uint8)
-    img[:] = GREEN_BGR
+    img[:] = GREEN_BGR if background is None else background
     shift = 4
     centre = (round(u * (1 << shift)), round(v * (1 << shift)))
     cv2.circle(img, centre, DISC_RADIUS_PX << shift, ORANGE_BGR, -1, cv2.LINE_8, shift)
@@ -130,6 +132,8 @@ def write_log(
     ball_path: Callable[[int], tuple[tuple[float, float], tuple[float, float]]] | None = None,
     with_odometry: bool = False,
     pose_bias_m: dict[str, tuple[float, float]] | None = None,
+    yaw_bias_rad: dict[str, float] | None = None,
+    carpet: bool = False,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -140,7 +144,11 @@ def write_log(
     the ball any way (instead of ``ball + ball_velocity t``); ``with_odometry`` writes the
     true position and velocity on /ground_truth/ball/odometry too; ``pose_bias_m={"robot3":
     (dx, dy)}`` shifts the pose a robot believes (its images stay true), so its estimate of
-    the ball is off by (dx, dy)."""
+    the ball is off by (dx, dy), and ``yaw_bias_rad`` turns it; ``carpet`` draws the ball on
+    the 18x12 field's carpet seen through the ideal camera model from the true pose
+    (:mod:`field_images`; the camera and the field are in the metadata), for the field-line
+    localisation."""
+    with_cameras = with_cameras or carpet
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -161,6 +169,15 @@ def write_log(
 
     def ball_at(t_ns: int) -> tuple[float, float]:
         return ball_state(t_ns)[0]
+
+    def _carpet(name: str, t_ns: int) -> np.ndarray:
+        from field_images import render_carpet
+
+        from estimator.camera import make_camera
+        from estimator.geometry import RobotPose
+
+        cam = make_camera("ideal", cu_px=centre_px[0], cv_px=centre_px[1])
+        return render_carpet(cam, RobotPose(*robot_at(name, t_ns)), noise=2.0, seed=t_ns)
 
     # events: (time, order, kind, robot); at equal times poses precede images
     events: list[tuple[int, int, str, str]] = []
@@ -184,7 +201,8 @@ def write_log(
         writer.add_metadata(
             contract.SCENARIO_METADATA,
             {"name": "synthetic", "seed": "0", "params": json.dumps(
-                {"field_length_m": 18.0, "field_width_m": 12.0}, sort_keys=True)},
+                {"field_length_m": 18.0, "field_width_m": 12.0,
+                 **({"field": "18x12"} if carpet else {})}, sort_keys=True)},
         )
         if with_cameras:
             from estimator.camera import make_camera
@@ -204,7 +222,8 @@ def write_log(
                     continue
                 x, y, yaw = robot_at(name, t)
                 bias = (pose_bias_m or {}).get(name, (0.0, 0.0))
-                msg = _pose_msg(t, x + bias[0], y + bias[1], yaw)
+                msg = _pose_msg(t, x + bias[0], y + bias[1],
+                                yaw + (yaw_bias_rad or {}).get(name, 0.0))
                 if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
                     msg = {"header": msg["header"],
                            "pose": {"pose": msg["pose"], "covariance": [0.0] * 36}}
@@ -227,7 +246,7 @@ def write_log(
                         publish_time=t)
             else:
                 u, v = ball_pixel(robot_at(name, t), ball_at(t), centre_px)
-                img = render(u, v)
+                img = render(u, v, background=_carpet(name, t) if carpet else None)
                 topic = contract.topic_for(contract.IMAGE_TOPIC, name)
                 header = _header(t, contract.camera_frame(name))
                 if image_encoding in ("png", "jpeg"):

@@ -54,8 +54,8 @@ FloatArray = NDArray[np.float64]
 
 class FitStatus(Enum):
     OK = "ok"
-    TOO_FEW_POINTS = "too few points"
-    POOR_FIT = "poor fit"
+    TOO_FEW_POINTS = "too_few_points"
+    POOR_FIT = "poor_fit"
     JUMP = "jump"
 
 

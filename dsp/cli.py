@@ -8,7 +8,8 @@ One place for what the four commands share:
 - One progress rule, :func:`progress_enabled`: an explicit ``--progress`` / ``--no-progress``
   wins; otherwise ``--quiet`` means no progress; otherwise a bar when stderr is a terminal
   and, when it is not (a pipe, a CI log), a plain line every few seconds.
-  ``--quiet`` also silences the summary (:func:`echo`). :func:`dsp.progress.progress_bar`
+  ``--quiet`` also silences the summary (:func:`echo`), never a ``warning:`` line on stderr
+  (what says the results may be wrong). :func:`dsp.progress.progress_bar`
   makes either (library code uses it too; nothing outside a command imports this module).
 - :func:`run_main`: the one ``main`` wrapper. Exit codes: 0 done; 1 bad input
   (:class:`~dsp.errors.InputError`, an ``OSError``); 2 usage (argparse's own and
@@ -92,7 +93,8 @@ def add_common_arguments(
                          help="never show a progress bar (default: when stderr is a terminal "
                          "and not --quiet)")
         parser.add_argument("-q", "--quiet", action="store_true",
-                            help="print no summary; no progress bar unless --progress")
+                            help="print no summary; no progress bar unless --progress "
+                            "(warnings are still printed)")
 
 
 def progress_enabled(args: argparse.Namespace, stream: IO[str] | None = None) -> bool | None:

@@ -9,6 +9,7 @@ be read raises :class:`MetadataError`, never a silent fallback.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from collections.abc import Callable, Mapping
@@ -16,6 +17,13 @@ from dataclasses import dataclass
 from dataclasses import field as dc_field
 from typing import Any, ClassVar
 
+from dsp.cameras import (
+    CameraDescriptionError,
+    CameraSet,
+    CameraSpec,
+    camera_set_from_json,
+    camera_spec_from_json,
+)
 from dsp.contract import CAMERAS_METADATA, RECORDER_METADATA, SCENARIO_METADATA
 from dsp.errors import InputError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
@@ -118,6 +126,21 @@ class RecordingMetadata:
     """Stationary std of the log gain (an OU process, time constant 1 s)."""
     ball_odometry: bool | None = None
     """True when the log has the ball's true velocity on /ground_truth/ball/odometry."""
+    # --- the venue's trouble and lobs: written only when not the default (older logs and
+    # recordings without them read as the defaults) -------------------------------------
+    ball_colour: str = "orange"
+    """The ball's colour: "orange", "yellow" or "white"."""
+    ball_pattern: str = "plain"
+    """"plain" (one colour), "panels" (a football's pentagons and hexagons) or "bands"."""
+    people: int = 0
+    """Figures in shirts of the ball's colour beside the field (``scene["scenery"]``)."""
+    covers: int = 0
+    """Robots dressed in a skirt of the ball's colour."""
+    light_pools: int = 0
+    """Lamps lighting the field unevenly (0: the even light)."""
+    lob_fraction: float = 0.0
+    """Share of the kicks that are lobs (1 for the lobs scenario; ``scene["flight"]`` then
+    holds the ball's physics in the air)."""
 
     _FIELDS: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
         "rate_hz": _float, "pose_rate_hz": _float, "pose_noise_m": _float,
@@ -129,19 +152,27 @@ class RecordingMetadata:
         "yaw_bias_deg": _float, "pose_bias_tau_s": _float, "exposure_ms": _float,
         "image_noise": _float, "gain_jitter": _float, "ball_odometry": _bool,
     }
+    _DEFAULTED: ClassVar[dict[str, Callable[[str, str, Any], Any]]] = {
+        "ball_colour": _str, "ball_pattern": _str, "people": _int, "covers": _int,
+        "light_pools": _int, "lob_fraction": _float,
+    }
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object written as ``params["recording"]`` (optional keys only when set)."""
         out = {k: parse("", k, getattr(self, k)) for k, parse in self._FIELDS.items()}
         out.update({k: parse("", k, v) for k, parse in self._OPTIONAL.items()
                     if (v := getattr(self, k)) is not None})
+        defaults = {f.name: f.default for f in dataclasses.fields(self)}
+        out.update({k: parse("", k, v) for k, parse in self._DEFAULTED.items()
+                    if (v := getattr(self, k)) != defaults[k]})
         return out
 
     @classmethod
     def from_json(cls, obj: Mapping[str, Any], record: str = "recording") -> RecordingMetadata:
         """Parse ``params["recording"]``; raises :class:`MetadataError` naming what is wrong."""
         values = {k: parse(record, k, _get(record, obj, k)) for k, parse in cls._FIELDS.items()}
-        values.update({k: parse(record, k, obj[k]) for k, parse in cls._OPTIONAL.items()
+        values.update({k: parse(record, k, obj[k])
+                       for k, parse in (*cls._OPTIONAL.items(), *cls._DEFAULTED.items())
                        if k in obj})
         return cls(**values)
 
@@ -212,24 +243,44 @@ class ScenarioMetadata:
 
 @dataclass(frozen=True)
 class CameraMetadata:
-    """One robot's camera model: the ``estimator.camera`` model dict (``model`` names it)."""
+    """One robot's camera: the entry of :mod:`dsp.cameras` (the ``estimator.camera`` model
+    dict the recorder writes, with the optional keys a camera file may add), parsed."""
 
     robot: str
     model: Mapping[str, Any]
+    """The entry as written (JSON values)."""
+    spec: CameraSpec = dc_field(init=False, compare=False, repr=False)
+    """The entry validated (:func:`dsp.cameras.camera_spec_from_json`)."""
 
     def __post_init__(self) -> None:
         _str(CAMERAS_METADATA, f"{self.robot}.model", self.model.get("model"))
+        try:
+            spec = camera_spec_from_json(dict(self.model), f"{CAMERAS_METADATA}: {self.robot}")
+        except CameraDescriptionError as err:
+            raise MetadataError(str(err)) from err
+        object.__setattr__(self, "spec", spec)
 
 
 @dataclass(frozen=True)
 class CamerasMetadata:
-    """The ``dsp.cameras`` record: ``{robot name: JSON object of its camera model}``."""
+    """The ``dsp.cameras`` record: ``{robot name: JSON object of its camera}`` (a ``default``
+    entry too, as in a camera file; :mod:`dsp.cameras`)."""
 
     cameras: tuple[CameraMetadata, ...] = ()
 
     def by_robot(self) -> dict[str, Mapping[str, Any]]:
-        """Robot name -> camera model dict."""
+        """Robot name -> camera entry as written."""
         return {c.robot: c.model for c in self.cameras}
+
+    def camera_set(self, source: str = CAMERAS_METADATA) -> CameraSet | None:
+        """The cameras as a :class:`~dsp.cameras.CameraSet` (None: the record names none);
+        a robot's entry goes over the ``default`` one, as in a camera file."""
+        if not self.cameras:
+            return None
+        try:
+            return camera_set_from_json(self.by_robot(), source)
+        except CameraDescriptionError as err:
+            raise MetadataError(str(err)) from err
 
     def to_metadata(self) -> dict[str, str]:
         return {c.robot: json_text(dict(c.model)) for c in self.cameras}

@@ -16,8 +16,8 @@ metadata states each of them), and it is deterministic per seed like any recordi
   because a robot's line-based localisation wanders as its view of the lines changes.
 - 4 ms exposure (motion blur of a robot driving at 2 m/s: 8 mm), Gaussian image noise of 3
   grey levels and a camera gain wandering by 10 % (auto-exposure under stadium lights).
-- In a match, three orange boxes beside the field (spectators' things the colour of a
-  ball).
+- In match play, three boxes of the ball's colour beside the field (spectators' things
+  the colour of a ball).
 """
 
 from __future__ import annotations
@@ -26,7 +26,11 @@ from dataclasses import dataclass, replace
 
 from dsp.errors import UsageError
 
-__all__ = ["REALISM", "REALISM_PRESETS", "Realism", "realism_preset"]
+__all__ = ["MATCH_PLAY", "REALISM", "REALISM_PRESETS", "Realism", "realism_preset"]
+
+
+MATCH_PLAY = ("match", "lobs")
+"""The scenarios with match play, which take distractors."""
 
 
 @dataclass(frozen=True)
@@ -46,8 +50,9 @@ class Realism:
     """Match only: a scenario without match play gets none."""
 
     def for_scenario(self, scenario: str | None) -> Realism:
-        """The preset as ``scenario`` takes it: the distractors only in a match."""
-        return self if scenario == "match" else replace(self, distractors=0)
+        """The preset as ``scenario`` takes it: the distractors only in match play (the
+        ``match`` and ``lobs`` scenarios)."""
+        return self if scenario in MATCH_PLAY else replace(self, distractors=0)
 
 
 REALISM_PRESETS: dict[str, Realism] = {

@@ -16,6 +16,9 @@ right = robot right (-y_r). With du = u - cu, dv = v - cv (pixels)::
 
 At r == 0 the bearing is undefined; we define theta = 0 (forward), so the ball is put
 d(0) in front of the robot.
+
+A camera mounted turned on the robot (image up showing the robot-frame direction
+``mount_yaw_rad``, 0 = forward, +pi/2 = left) adds that angle to theta.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import math
 from estimator.calibration.models import PAPER_CALIBRATION, Calibration
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.estimates import BallEstimate
-from estimator.geometry import RobotPose
+from estimator.geometry import RobotPose, wrap_angle
 
 __all__ = ["ball_visibility", "estimate_ball"]
 
@@ -46,12 +49,16 @@ def estimate_ball(
     *,
     centre_px: tuple[float, float] = PAPER_CENTRE_PX,
     robot: str = "",
+    mount_yaw_rad: float = 0.0,
 ) -> BallEstimate:
-    """The ball's field position from its centroid (cx_px, cy_px) seen by a robot at ``pose``."""
+    """The ball's field position from its centroid (cx_px, cy_px) seen by a robot at ``pose``
+    through a camera whose image up shows the robot-frame direction ``mount_yaw_rad``."""
     du = cx_px - centre_px[0]
     dv = cy_px - centre_px[1]
     r = math.hypot(du, dv)  # eq. 3
     theta = math.atan2(-du, -dv) if r > 0.0 else 0.0  # robot frame, 0 = forward
+    if mount_yaw_rad:
+        theta = wrap_angle(theta + mount_yaw_rad)
     d = calibration.range_m(r)  # eq. 4, applied to the range
     phi = pose.yaw_rad + theta  # field bearing of the ball from the robot
     return BallEstimate(

@@ -8,8 +8,9 @@ model is fitted to the (r, d) samples.
 
 Choosing "the best" model on the samples it was fitted to would always pick the lookup
 table (it interpolates its own samples), so models are compared on held-out samples:
-two-fold cross-validation over alternate distances. The chosen kind is then refitted on
-every sample and written with its fit quality.
+two-fold cross-validation over alternate distances, the rule every calibration shares
+(:func:`estimator.calibration.fit_all`). Each model is fitted to every sample and written
+with its fit quality.
 """
 
 from __future__ import annotations
@@ -21,16 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from dsp.errors import UsageError
-from estimator.calibration import (
-    FitResult,
-    fit_linear,
-    fit_lookup,
-    fit_mirror,
-)
+from estimator.calibration import FitResult, fit_all, fit_linear
 from estimator.camera import CameraModel
 from estimator.constants import PAPER_B_M, PAPER_K_M_PER_PX, PAPER_R2
 from estimator.detection import detect_ball
-from estimator.errors import CalibrationError
 from recorder.omni import DEFAULT_FACE_PX, OmniRenderer
 from recorder.world import World, field_spec
 
@@ -50,13 +45,6 @@ ROBOT = "robot1"
 ROBOT_POSE = (-4.5, 0.0, 0.0)
 """Where the calibrating robot stands (x_m, y_m, yaw_rad): on our half, facing +x, so the
 ball 9 m ahead is still on the field."""
-
-_FITTERS: dict[str, Callable[[np.ndarray, np.ndarray], FitResult]] = {
-    "linear": fit_linear,
-    "mirror": fit_mirror,
-    "lookup": fit_lookup,
-}
-
 
 @dataclass(frozen=True)
 class Sample:
@@ -144,20 +132,8 @@ def _arrays(samples: Sequence[Sample]) -> tuple[np.ndarray, np.ndarray]:
     return np.array([s.r_px for s in ok]), np.array([s.range_m for s in ok])
 
 
-def _holdout_rms(name: str, r: np.ndarray, d: np.ndarray) -> float:
-    """Two-fold cross-validation over alternate distances (every direction's sample at a
-    distance falls in the same fold): fit on one fold, test on the other, and back."""
-    rank = np.searchsorted(np.unique(d), d)
-    sq: list[float] = []
-    for train in (0, 1):
-        tr = rank % 2 == train
-        model = _FITTERS[name](r[tr], d[tr]).model
-        for ri, di in zip(r[~tr], d[~tr], strict=False):
-            try:
-                sq.append((float(model.range_m(float(ri))) - float(di)) ** 2)
-            except CalibrationError:
-                sq.append(math.inf)
-    return math.sqrt(sum(sq) / len(sq)) if sq else math.inf
+def _held_out(fit: FitResult) -> float:
+    return math.inf if fit.holdout_rms_m is None else fit.holdout_rms_m
 
 
 def calibrate(camera: CameraModel, samples: Sequence[Sample]) -> CalibrationRun:
@@ -168,15 +144,7 @@ def calibrate(camera: CameraModel, samples: Sequence[Sample]) -> CalibrationRun:
             f"only {len(r)} of {len(samples)} ball placements were detected; need at least "
             "6 to fit (give more placements: a smaller --step or more --directions)"
         )
-    fits: dict[str, FitResult] = {}
-    holdout: dict[str, float] = {}
-    for name, fitter in _FITTERS.items():
-        try:
-            fits[name] = fitter(r, d)
-            holdout[name] = _holdout_rms(name, r, d)
-        except CalibrationError:
-            continue
-    ranked = sorted(fits, key=lambda n: (holdout[n], list(_FITTERS).index(n)))
+    ranked = fit_all(r, d)  # ranked on held-out samples: at least 6 give 3 ranges a fold
     forward = [s for s in samples if s.direction_deg == 0.0] or list(samples)
     per_direction: dict[float, FitResult] = {}
     for direction in sorted({s.direction_deg for s in samples}):
@@ -186,8 +154,8 @@ def calibrate(camera: CameraModel, samples: Sequence[Sample]) -> CalibrationRun:
     return CalibrationRun(
         camera=dict(camera.to_dict()),
         samples=tuple(samples),
-        fits=tuple(fits[n] for n in ranked),
-        holdout_rms_m={n: holdout[n] for n in ranked},
+        fits=tuple(ranked),
+        holdout_rms_m={f.model.name: _held_out(f) for f in ranked},
         paper_procedure=fit_linear(*_arrays(forward)),
         per_direction=per_direction,
     )

@@ -3,7 +3,9 @@
     dsp-calibrate --camera ideal -o calib.json [--plot calib.png] [--directions 0,90,180,-90]
 
 Writes the best calibration model (chosen on held-out samples) with its fit quality to the
-JSON file that ``dsp-replay --calibration`` takes, and a PNG like the paper's Fig. 10.
+JSON file that ``dsp-replay --calibration`` takes, and a PNG like the paper's Fig. 10. The
+command's entry point is :mod:`replay.calibrate.cli`, which adds the real camera's modes
+(``--from-measurements``, ``--from-log``) and runs this one otherwise.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from recorder.calibrate_figure import calibration_figure
 from recorder.omni import DEFAULT_FACE_PX
 from recorder.record import MAX_FACE_PX
 
-__all__ = ["build_parser", "format_report", "main"]
+__all__ = ["build_parser", "format_report", "main", "run_simulated"]
 
 PROG = "dsp-calibrate"
 MAX_RANGE_M = 30.0
@@ -48,7 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
         "paper does (ball in front of a robot, 0.4 to 9.0 m in 0.1 m steps), in simulation.",
     )
     p.add_argument("-o", "--out", type=Path, required=True, metavar="JSON",
-                   help="calibration file to write (dsp-replay --calibration reads it)")
+                   help="calibration JSON to write (dsp-replay --calibration reads it); with "
+                   "--from-measurements or --from-log the camera file, .yaml or .json "
+                   "(dsp-replay --cameras reads it)")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="figure of samples, fits and residuals, .png or .svg "
                    "(default: OUT with .png)")
@@ -124,7 +128,11 @@ def _check(args: argparse.Namespace) -> None:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    args = build_parser().parse_args(argv)
+    return run_simulated(build_parser().parse_args(argv))
+
+
+def run_simulated(args: argparse.Namespace) -> int:
+    """The simulated procedure with parsed arguments (``dsp-calibrate`` without --from-*)."""
     out: Path = args.out
     check_suffix("-o/--out", out, (".json",))
     plot: Path | None = None if args.no_plot else (args.plot or out.with_suffix(".png"))

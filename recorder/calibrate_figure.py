@@ -16,25 +16,14 @@ from typing import Any
 import numpy as np
 
 from dsp.plotting import figure, save
-from estimator.calibration import PAPER_CALIBRATION, Calibration
+from estimator.calibration import PAPER_CALIBRATION, ranges_m
 from estimator.constants import PAPER_B_M, PAPER_K_M_PER_PX, PAPER_R2
-from estimator.errors import CalibrationError
 from recorder.calibrate import CalibrationRun
 
 __all__ = ["calibration_figure", "plot_png"]
 
 _DIRECTION_COLOURS = ("#1f5fbf", "#d95f02", "#1b9e77", "#7570b3", "#a6761d", "#666666")
 _MODEL_STYLES = {"linear": "--", "mirror": "-", "lookup": ":"}
-
-
-def _curve(model: Calibration, r: np.ndarray) -> np.ndarray:
-    out = np.full(r.shape, np.nan)
-    for i, ri in enumerate(r):
-        try:
-            out[i] = float(model.range_m(float(ri)))
-        except CalibrationError:
-            pass
-    return out
 
 
 def _line_label(a: float, b: float, r2: float, who: str) -> str:
@@ -54,19 +43,19 @@ def calibration_figure(run: CalibrationRun) -> Any:
         r = np.array([s.r_px for s in pts])
         d = np.array([s.range_m for s in pts])
         top.plot(r, d, "o", ms=3.0, color=colour, alpha=0.8, label=f"samples, {direction:g}°")
-        bottom.plot(r, d - _curve(best, r), "o", ms=3.0, color=colour, alpha=0.8)
+        bottom.plot(r, d - ranges_m(best, r), "o", ms=3.0, color=colour, alpha=0.8)
     r_max = max((s.r_px for s in ok), default=1.0) * 1.05
     d_max = max((s.range_m for s in ok), default=1.0) * 1.1
     grid = np.linspace(0.0, r_max, 400)
-    top.plot(grid, _curve(PAPER_CALIBRATION, grid), color="black", lw=1.0,
+    top.plot(grid, ranges_m(PAPER_CALIBRATION, grid), color="black", lw=1.0,
              label=_line_label(PAPER_K_M_PER_PX, PAPER_B_M, PAPER_R2, "paper eq. 4"))
     pp = run.paper_procedure
     a, b = getattr(pp.model, "a_m_per_px", math.nan), getattr(pp.model, "b_m", math.nan)
-    top.plot(grid, _curve(pp.model, grid), color="#c00000", lw=1.2, ls="-.",
+    top.plot(grid, ranges_m(pp.model, grid), color="#c00000", lw=1.2, ls="-.",
              label=_line_label(a, b, pp.r2, "ours, the paper's procedure"))
     for fit in run.fits:
         name = fit.model.name
-        top.plot(grid, _curve(fit.model, grid), color="#444444", lw=1.0,
+        top.plot(grid, ranges_m(fit.model, grid), color="#444444", lw=1.0,
                  ls=_MODEL_STYLES.get(name, "-"),
                  label=f"{name} fit (RMS {fit.rms_m:.3f} m, held-out "
                  f"{run.holdout_rms_m[name]:.3f} m)" + (", best" if fit is run.best else ""))

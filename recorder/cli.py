@@ -59,6 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--face-px", type=int, default=None, metavar="PX",
                    help="cube-face resolution for rendering (default 1024: sharp at 8 m)")
     _add_match_arguments(p)
+    _add_venue_arguments(p)
     add_common_arguments(p, camera="ideal", renderer=True, force=True)
     return p
 
@@ -93,7 +94,8 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--gain-jitter", type=float, metavar="STD",
                    help="std dev of each camera's wandering log gain, e.g. 0.1 (default 0)")
     g.add_argument("--distractors", type=int, metavar="N",
-                   help="orange boxes beside the field (match only; default 0)")
+                   help="boxes of the ball's colour beside the field (match and lobs; "
+                   "default 0)")
     g.add_argument("--ball-odometry", action=argparse.BooleanOptionalAction, default=None,
                    help="write the ball's true velocity on /ground_truth/ball/odometry "
                    "(default: on for match)")
@@ -121,6 +123,29 @@ def effects(args: argparse.Namespace) -> Realism:
         distractors=preset.distractors if args.distractors is None else args.distractors)
 
 
+def _add_venue_arguments(p: argparse.ArgumentParser) -> None:
+    """The ball's look, what else wears its colour, the light, lobs (all as before unless
+    given)."""
+    from recorder.ball import BALL_COLOURS, BALL_PATTERNS
+
+    g = p.add_argument_group("the venue's trouble and lobs (as before unless given)")
+    g.add_argument("--ball-colour", choices=tuple(BALL_COLOURS), default="orange",
+                   help="the ball's colour (default %(default)s)")
+    g.add_argument("--ball-pattern", choices=BALL_PATTERNS, default="plain",
+                   help="plain, panels (a football's pentagons and hexagons) or bands, in a "
+                   "second tone; the pattern turns as the ball rolls (default %(default)s)")
+    g.add_argument("--people", type=int, default=0, metavar="N",
+                   help="people in shirts of the ball's colour beside the field (default 0)")
+    g.add_argument("--covers", type=int, default=0, metavar="N",
+                   help="robots dressed in a skirt of the ball's colour (default 0)")
+    g.add_argument("--light-pools", type=int, default=0, metavar="N",
+                   help="lamps lighting the field unevenly, each its own brightness and "
+                   "colour temperature (default 0: even light)")
+    g.add_argument("--lob-fraction", type=float, default=0.0, metavar="F",
+                   help="share of the match's kicks that are lobs, 0-1 (default 0; the lobs "
+                   "scenario kicks only lobs)")
+
+
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     from recorder.omni import DEFAULT_FACE_PX
@@ -144,6 +169,12 @@ def _main(argv: Sequence[str] | None) -> int:
         pose_rate_hz=args.pose_rate,
         camera_phase=args.camera_phase,
         ball_odometry=args.ball_odometry,
+        ball_colour=args.ball_colour,
+        ball_pattern=args.ball_pattern,
+        people=args.people,
+        covers=args.covers,
+        light_pools=args.light_pools,
+        lob_fraction=args.lob_fraction,
     ).with_realism(effects(args))
     for partial in partial_logs(args.output):
         print(printable(f"{PROG}: note: {partial} is left from an earlier recording to "

@@ -5,9 +5,15 @@ ball is kicked and passed between them at 2-8 m/s. The ball is a pybullet body: 
 kicks it rolls, slows by rolling friction and damping, and bounces off robots, goals,
 distractors and the walls at the carpet's edge. A kick is data (when, how fast, towards
 what); its direction is taken from where the ball is when the kick happens, so the same
-seed always gives the same match. Optional distractors are orange boxes in the border
-strip beside the field, each turned its own way: a colour threshold may take one for the
-ball when the ball itself is out of sight (a ball in sight looks rounder and wins).
+seed always gives the same match. Optional distractors are boxes of the ball's colour in
+the border strip beside the field, each turned its own way: a colour threshold may take one
+for the ball when the ball itself is out of sight (a ball in sight looks rounder and wins).
+
+Lobs: with ``lob_fraction`` F each kick is, with probability F (its own seeded stream, so
+F = 0 leaves every match as it was), a :class:`LobKick`: the ball leaves the ground at
+20-50 deg and 6-10 m/s, drawn so that its flight (without drag) peaks 1.1-3.0 m above the
+ground (the ball's centre). The ``lobs`` scenario kicks only lobs, 2.4-3.6 s apart, so each
+lands, bounces and rolls before the next (:mod:`recorder.flight` flies them).
 
 Pure data and arithmetic: no pybullet here.
 """
@@ -23,11 +29,16 @@ from dsp.contract import robot_name
 
 __all__ = [
     "KICK_SPEED_MPS",
+    "LOB_APEX_M",
+    "LOB_ELEVATION_DEG",
+    "LOB_SPEED_MPS",
     "MATCH_POSE_RATE_HZ",
     "Distractor",
     "Kick",
+    "LobKick",
     "MatchPlay",
     "PathTrack",
+    "draw_lob",
     "match_parts",
 ]
 
@@ -37,6 +48,14 @@ MATCH_POSE_RATE_HZ = 240.0
 """Poses, /tf and ground truth of a match at the physics rate: every image stamp (a physics
 step) has its exact truth, even in the step the ball bounces."""
 _KICK_GAP_S = (1.2, 2.6)
+_LOB_GAP_S = (2.4, 3.6)
+"""Between the kicks of the ``lobs`` scenario: a lob's flight and bounces take 1.5-2.5 s."""
+LOB_ELEVATION_DEG = (20.0, 50.0)
+LOB_SPEED_MPS = (6.0, 10.0)
+LOB_APEX_M = (1.1, 3.0)
+"""The drawn flight's peak height of the ball's centre without drag (air drag takes 3-6 %
+off it: :mod:`recorder.flight`), so the flown peak is 1.0-3.0 m."""
+_GRAVITY_MPS2 = 9.81
 _PLAY_SPAN_S = 60.0
 """Kicks are drawn for this long; a longer recording sees the ball roll out."""
 _DISTRACTOR_SIZE_M = (0.18, 0.3)
@@ -89,8 +108,17 @@ class Kick:
 
 
 @dataclass(frozen=True)
+class LobKick(Kick):
+    """A kick into the air: ``speed_mps`` along a direction ``elevation_deg`` above the
+    ground, towards the target (turned towards the field's centre at the kick if the first
+    landing would be outside the lines)."""
+
+    elevation_deg: float = 35.0
+
+
+@dataclass(frozen=True)
 class Distractor:
-    """An orange box standing beside the field (centre x, y and side, metres; its yaw)."""
+    """A box of the ball's colour beside the field (centre x, y and side, metres; yaw)."""
 
     x_m: float
     y_m: float
@@ -136,10 +164,35 @@ def _robots(rng: np.random.Generator, n: int, hl: float, hw: float) -> list[Path
     return tracks
 
 
+def draw_lob(rng: np.random.Generator, radius_m: float = 0.11) -> tuple[float, float]:
+    """(elevation_deg, speed_mps) of a lob: uniform in LOB_ELEVATION_DEG x LOB_SPEED_MPS,
+    kept when the flight's peak (without drag) is within LOB_APEX_M."""
+    while True:
+        elevation = float(rng.uniform(*LOB_ELEVATION_DEG))
+        speed = float(rng.uniform(*LOB_SPEED_MPS))
+        vz = speed * math.sin(math.radians(elevation))
+        if LOB_APEX_M[0] <= radius_m + vz * vz / (2 * _GRAVITY_MPS2) <= LOB_APEX_M[1]:
+            return round(elevation, 3), round(speed, 3)
+
+
+def _lobbed(kicks: tuple[Kick, ...], rng: np.random.Generator, fraction: float
+            ) -> tuple[Kick, ...]:
+    """Each kick a lob with probability ``fraction`` (1: every kick), its target kept."""
+    out: list[Kick] = []
+    for kick in kicks:
+        if fraction > 0 and (fraction >= 1 or rng.uniform() < fraction):
+            elevation, speed = draw_lob(rng)
+            out.append(LobKick(kick.t_s, speed, kick.target_robot, kick.target_xy_m,
+                               elevation_deg=elevation))
+        else:
+            out.append(kick)
+    return tuple(out)
+
+
 def _kicks(rng: np.random.Generator, robots: list[PathTrack], hl: float,
-           hw: float) -> tuple[Kick, ...]:
-    """A kick at t = 0 (the ball starts rolling), then one every 1.2-2.6 s: a pass to a
-    robot (two in three) or a shot at a point on the field."""
+           hw: float, gap_s: tuple[float, float] = _KICK_GAP_S) -> tuple[Kick, ...]:
+    """A kick at t = 0 (the ball starts rolling), then one every ``gap_s`` (1.2-2.6 s): a
+    pass to a robot (two in three) or a shot at a point on the field."""
     kicks = []
     t = 0.0
     while t < _PLAY_SPAN_S:
@@ -151,7 +204,7 @@ def _kicks(rng: np.random.Generator, robots: list[PathTrack], hl: float,
             xy = (round(float(rng.uniform(-hl + 0.5, hl - 0.5)), 3),
                   round(float(rng.uniform(-hw + 0.5, hw - 0.5)), 3))
             kicks.append(Kick(round(t, 3), speed, target_xy_m=xy))
-        t += float(rng.uniform(*_KICK_GAP_S))
+        t += float(rng.uniform(*gap_s))
     return tuple(kicks)
 
 
@@ -173,14 +226,18 @@ def _distractors(rng: np.random.Generator, count: int, hl: float, hw: float,
     return tuple(out)
 
 
-def match_parts(seed: int, n: int, hl: float, hw: float, border: float, distractors: int
+def match_parts(seed: int, n: int, hl: float, hw: float, border: float, distractors: int,
+                *, lob_fraction: float = 0.0, lobs_only: bool = False,
                 ) -> tuple[list[PathTrack], tuple[float, float], MatchPlay]:
     """Robots, the ball's start and the play of a match, all from ``seed``. Distractors
-    come from their own stream, so adding them leaves the robots and kicks unchanged."""
+    and lobs come from their own streams, so adding them leaves the robots and the kicks'
+    times and targets unchanged. ``lobs_only``: the ``lobs`` scenario (every kick a lob,
+    longer gaps)."""
     rng = np.random.default_rng([seed, 10])
     robots = _robots(rng, n, hl, hw)
     ball = (round(float(rng.uniform(-hl + 2.0, hl - 2.0)), 3),
             round(float(rng.uniform(-hw + 1.5, hw - 1.5)), 3))
-    kicks = _kicks(rng, robots, hl, hw)
+    kicks = _kicks(rng, robots, hl, hw, _LOB_GAP_S if lobs_only else _KICK_GAP_S)
+    kicks = _lobbed(kicks, np.random.default_rng([seed, 13]), 1.0 if lobs_only else lob_fraction)
     extra = _distractors(np.random.default_rng([seed, 11]), distractors, hl, hw, border)
     return robots, ball, MatchPlay(kicks, extra)

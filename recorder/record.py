@@ -43,10 +43,18 @@ from dsp.progress import progress_bar
 from dsp.realism import Realism
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from estimator.constants import NS_PER_S
+from recorder.ball import BALL_COLOURS, BALL_PATTERNS, ball_look
 from recorder.errors import RecorderError, UnknownScenarioError
 from recorder.field import field_spec
 from recorder.omni import DEFAULT_FACE_PX
-from recorder.scenarios import SCENARIOS, Scenario, make_scenario, scenario_from_path
+from recorder.scenarios import (
+    MAX_LIGHT_POOLS,
+    MAX_PEOPLE,
+    SCENARIOS,
+    Scenario,
+    make_scenario,
+    scenario_from_path,
+)
 from recorder.simulation import CAMERA_PHASES, Plan, Simulation
 from recorder.world import PHYSICS_HZ, World
 from recorder.writer import LogWriter
@@ -102,6 +110,11 @@ class RecordOptions:
     ``image_noise`` [grey levels], ``gain_jitter``, ``distractors`` (orange boxes beside the
     field, match only) and ``ball_odometry`` (the ball's true velocity on
     /ground_truth/ball/odometry; default on for match).
+
+    The venue's trouble (:mod:`recorder.ball`, :mod:`recorder.scenery`; the defaults are
+    the ball and world of every earlier log): ``ball_colour`` and ``ball_pattern``,
+    ``people`` in the ball's colour beside the field, ``covers`` (robots dressed in it),
+    ``light_pools``; and ``lob_fraction``, the share of a match's kicks that are lobs.
     """
 
     scenario: str | None = None
@@ -131,10 +144,29 @@ class RecordOptions:
     gain_jitter: float = 0.0
     distractors: int = 0
     ball_odometry: bool | None = None
+    ball_colour: str = "orange"
+    ball_pattern: str = "plain"
+    people: int = 0
+    covers: int = 0
+    light_pools: int = 0
+    lob_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         self._check_recording()
         self._check_effects()
+        self._check_venue()
+
+    def _check_venue(self) -> None:
+        if self.ball_colour not in BALL_COLOURS:
+            raise UsageError(f"--ball-colour {self.ball_colour!r}: choose one of "
+                             f"{', '.join(BALL_COLOURS)}")
+        if self.ball_pattern not in BALL_PATTERNS:
+            raise UsageError(f"--ball-pattern {self.ball_pattern!r}: choose one of "
+                             f"{', '.join(BALL_PATTERNS)}")
+        check_int("--people", self.people, low=0, high=MAX_PEOPLE)
+        check_int("--covers", self.covers, low=0, high=16)
+        check_int("--light-pools", self.light_pools, low=0, high=MAX_LIGHT_POOLS)
+        check_number("--lob-fraction", self.lob_fraction, low=0, high=1)
 
     def with_realism(self, r: Realism) -> RecordOptions:
         """These options with the effects of a preset (:mod:`dsp.realism`), as given:
@@ -232,7 +264,9 @@ def _plan(path: Path, options: RecordOptions) -> Plan:
     existing log."""
     name = _resolve_scenario(path, options.scenario)
     sc = make_scenario(name, options.seed, robots=options.robots, field=options.field,
-                       distractors=options.distractors)
+                       distractors=options.distractors, lob_fraction=options.lob_fraction,
+                       people=options.people, covers=options.covers,
+                       light_pools=options.light_pools)
     rate = sc.default_rate_hz if options.rate_hz is None else options.rate_hz
     if options.frames is not None:
         frames = options.frames
@@ -280,6 +314,9 @@ def _recording(plan: Plan, options: RecordOptions) -> meta.RecordingMetadata:
         camera=options.camera, image_format=options.image_format,
         pose_noise_m=options.pose_noise_m, yaw_noise_deg=options.yaw_noise_deg,
         face_px=options.face_px, physics_hz=PHYSICS_HZ,
+        ball_colour=options.ball_colour, ball_pattern=options.ball_pattern,
+        people=options.people, covers=options.covers, light_pools=options.light_pools,
+        lob_fraction=1.0 if plan.scenario.name == "lobs" else options.lob_fraction,
     )
     if not _extended(plan, options):
         return rec
@@ -371,7 +408,10 @@ def record(path: str | Path, options: RecordOptions) -> RecordSummary:
     path = Path(path)
     plan = _plan(path, options)
     camera = make_camera(options.camera)
-    with World(field_spec(options.field), renderer=options.renderer) as world:
+    scenery = plan.scenario.scenery
+    with World(field_spec(options.field), renderer=options.renderer,
+               ball=ball_look(options.ball_colour, options.ball_pattern),
+               light=scenery.light_pools if scenery is not None else ()) as world:
         sim = Simulation(world, plan, options, camera,
                          ball_odometry=_ball_odometry(plan, options))
         scenario, cameras, recorder = log_metadata(

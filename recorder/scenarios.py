@@ -4,12 +4,15 @@
 ball at rest. ``random`` draws robot poses and a ball from the seed, sometimes with the ball
 hidden behind an opponent or out of robot 1's range. ``rolling`` rolls the ball across the
 field while the robots drive. ``match`` is match play (:mod:`recorder.match`): robots driving
-loops, the ball kicked and passed at 2-8 m/s, bouncing and slowing. Pure data and
-arithmetic: no pybullet here.
+loops, the ball kicked and passed at 2-8 m/s, bouncing and slowing, some kicks lobs with
+``lob_fraction``; ``lobs`` is the same play with every kick a lob (:mod:`recorder.flight`).
+Any scene may have people, robot covers and light pools (:mod:`recorder.scenery`). Pure
+data and arithmetic: no pybullet here.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from dataclasses import asdict, dataclass
@@ -23,7 +26,9 @@ from dsp.contract import robot_name
 from dsp.errors import UsageError
 from recorder.errors import UnknownScenarioError
 from recorder.field import field_spec
-from recorder.match import MATCH_POSE_RATE_HZ, MatchPlay, PathTrack, match_parts
+from recorder.flight import LOB_FLIGHT, FlightParams
+from recorder.match import MATCH_POSE_RATE_HZ, LobKick, MatchPlay, PathTrack, match_parts
+from recorder.scenery import Scenery, make_scenery
 
 __all__ = [
     "PAPER_SCENARIOS",
@@ -36,7 +41,7 @@ __all__ = [
 ]
 
 PAPER_SCENARIOS = ("scenario1", "scenario2", "scenario3", "scenario4")
-SCENARIOS = (*PAPER_SCENARIOS, "random", "rolling", "match")
+SCENARIOS = (*PAPER_SCENARIOS, "random", "rolling", "match", "lobs")
 """Every scenario name ``make_scenario`` knows."""
 
 _DEG = math.pi / 180.0
@@ -76,8 +81,11 @@ class RobotTrack:
 
 Track = RobotTrack | PathTrack
 """A robot's motion: ``name``, ``opponent``, ``moving`` and ``pose_at(t_s)``."""
-_OPTIONAL = ("play", "default_pose_rate_hz")
-"""Scenario fields left out of ``params()`` while None (the scenes before match play)."""
+_OPTIONAL = ("play", "default_pose_rate_hz", "scenery", "flight")
+"""Scenario fields left out of ``params()`` while None (the scenes before match play, lobs
+and scenery)."""
+MAX_PEOPLE = 30
+MAX_LIGHT_POOLS = 8
 
 
 @dataclass(frozen=True)
@@ -98,6 +106,10 @@ class Scenario:
     """Kicks, distractors and walls (match play); None: the ball only rolls."""
     default_pose_rate_hz: float | None = None
     """Poses, /tf and truth per second; None: twice the camera rate."""
+    scenery: Scenery | None = None
+    """People, robot covers and light pools; None: none of them."""
+    flight: FlightParams | None = None
+    """The ball's physics in the air when some kick is a lob; None: no lobs."""
 
     def params(self) -> dict[str, Any]:
         """JSON-able parameters (for the log's dsp.scenario metadata)."""
@@ -121,20 +133,56 @@ def _check_robots(name: str, robots: int | None, fixed: int | None = None) -> in
 
 
 def make_scenario(name: str, seed: int = 0, *, robots: int | None = None,
-                  field: str = "18x12", distractors: int = 0) -> Scenario:
+                  field: str = "18x12", distractors: int = 0, lob_fraction: float = 0.0,
+                  people: int = 0, covers: int = 0, light_pools: int = 0) -> Scenario:
     """The scenario ``name`` (one of ``SCENARIOS``) for a seed, robot count and field;
-    ``distractors`` orange boxes beside the field (match only)."""
-    spec = field_spec(field)
-    if distractors and name != "match":
-        raise UsageError(f"--distractors is for the match scenario, not {name}")
+    ``distractors`` boxes of the ball's colour beside the field (match and lobs),
+    ``lob_fraction`` of the kicks lobs (match); ``people`` in the ball's colour beside the
+    field, ``covers`` robots dressed in it and ``light_pools`` (any scene)."""
+    _check_extras(name, distractors, lob_fraction, people, light_pools)
+    sc = _scene(name, seed, robots, field, distractors, lob_fraction)
+    if sc.play is not None and any(isinstance(k, LobKick) for k in sc.play.kicks):
+        sc = dataclasses.replace(sc, flight=LOB_FLIGHT)
+    everyone = tuple(tr.name for tr in (*sc.robots, *sc.opponents))
+    if not 0 <= covers <= len(everyone):
+        raise UsageError(f"--covers {covers}: give a whole number in [0, {len(everyone)}] "
+                         f"(the robots in {name})")
+    if people or covers or light_pools:
+        spec = field_spec(field)
+        sc = dataclasses.replace(sc, scenery=make_scenery(
+            seed, people=people, covers=covers, light_pools=light_pools, robots=everyone,
+            hl=spec.half_length_m, hw=spec.half_width_m, border=spec.border_m))
+    return sc
+
+
+def _check_extras(name: str, distractors: int, lob_fraction: float, people: int,
+                  light_pools: int) -> None:
+    if distractors and name not in ("match", "lobs"):
+        raise UsageError(f"--distractors is for the match scenario (and lobs), not {name}")
     if not 0 <= distractors <= 20:
         raise UsageError(f"--distractors must be between 0 and 20, got {distractors}")
-    if name == "match":
+    if lob_fraction and name != "match":
+        raise UsageError(f"--lob-fraction is for the match scenario (lobs kicks only lobs), "
+                         f"not {name}")
+    if not (math.isfinite(lob_fraction) and 0 <= lob_fraction <= 1):
+        raise UsageError(f"--lob-fraction {lob_fraction}: give a finite number in [0, 1]")
+    if not 0 <= people <= MAX_PEOPLE:
+        raise UsageError(f"--people {people}: give a whole number in [0, {MAX_PEOPLE}]")
+    if not 0 <= light_pools <= MAX_LIGHT_POOLS:
+        raise UsageError(f"--light-pools {light_pools}: give a whole number in "
+                         f"[0, {MAX_LIGHT_POOLS}]")
+
+
+def _scene(name: str, seed: int, robots: int | None, field: str, distractors: int,
+           lob_fraction: float) -> Scenario:
+    spec = field_spec(field)
+    if name in ("match", "lobs"):
         paths, ball, play = match_parts(seed, _check_robots(name, robots), spec.half_length_m,
-                                        spec.half_width_m, spec.border_m, distractors)
+                                        spec.half_width_m, spec.border_m, distractors,
+                                        lob_fraction=lob_fraction, lobs_only=name == "lobs")
         return Scenario(name, seed, field, tuple(paths), ball, play=play,
-                        default_duration_s=10.0, default_rate_hz=20.0,
-                        default_pose_rate_hz=MATCH_POSE_RATE_HZ)
+                        default_duration_s=10.0 if name == "match" else 8.0,
+                        default_rate_hz=20.0, default_pose_rate_hz=MATCH_POSE_RATE_HZ)
     if name in _PAPER:
         _check_robots(name, robots, 3)
         poses, ball = _PAPER[name]

@@ -10,6 +10,8 @@ physics step nearest the stamp (a match's ticks *are* physics steps, so the two 
 
 What a robot believes is the truth plus a slowly drifting bias (:class:`PoseDrift`) plus
 white noise; images may get exposure blur, gain changes and noise (:mod:`recorder.effects`).
+A lob is launched into the air and flown by :class:`recorder.flight.Flight`; people and robot
+covers are set up from the scenario's scenery (:mod:`recorder.scenery`).
 """
 
 from __future__ import annotations
@@ -27,7 +29,8 @@ from estimator.camera import CameraModel
 from estimator.constants import NS_PER_S
 from recorder.effects import ImageEffects, PoseDrift
 from recorder.errors import RecorderError
-from recorder.match import Kick
+from recorder.flight import Flight
+from recorder.match import Kick, LobKick
 from recorder.omni import OmniRenderer
 from recorder.scenarios import Scenario
 from recorder.world import PHYSICS_HZ, World
@@ -102,10 +105,18 @@ class Simulation:
             world.add_robot(tr.name, opponent=tr.opponent)
             world.set_robot_pose(tr.name, *tr.pose_at(0.0))
         if sc.play is not None:
-            if sc.play.walls:
+            if sc.play.walls and sc.flight is not None:
+                world.add_walls(sc.flight.wall_height_m, hidden=True)
+            elif sc.play.walls:
                 world.add_walls()
             for d in sc.play.distractors:
                 world.add_distractor(d.x_m, d.y_m, d.size_m, d.yaw_rad)
+        if sc.scenery is not None:
+            for person in sc.scenery.people:
+                world.add_person(person)
+            for name in sc.scenery.covers:
+                world.add_cover(name)
+        self.flight = Flight(world, sc.flight) if sc.flight is not None else None
         world.set_ball(*sc.ball_xy_m, *sc.ball_velocity_mps)
         self.kicks: list[Kick] = list(sc.play.kicks) if sc.play is not None else []
         self.moving = [tr for tr in (*sc.robots, *sc.opponents) if tr.moving]
@@ -149,6 +160,7 @@ class Simulation:
             for robot, (x, y, yaw) in truth.items():
                 if not self._takes_image(robot, k):
                     continue
+                self.world.relight()  # uneven light: the ball and covers lit where they are
                 img = self.effects.finish(robot, self.omni.render(self.world, robot, x, y, yaw))
                 fmt = self.options.image_format
                 writer.write_image(robot, t_ns,
@@ -160,6 +172,8 @@ class Simulation:
         """Strike the ball for every kick due by the current physics step."""
         now_s = self.steps_done / PHYSICS_HZ
         while self.kicks and self.kicks[0].t_s <= now_s + 1e-9:
+            if self.flight is not None and self.flight.airborne():
+                return  # in the air: the kick waits until the ball is down
             kick = self.kicks.pop(0)
             bx, by, _ = self.world.ball_position()
             if kick.target_robot is not None:
@@ -172,6 +186,9 @@ class Simulation:
             dx, dy = tx - bx, ty - by
             if math.hypot(dx, dy) < 0.3:  # at the target already: play it to the centre
                 dx, dy = -bx or 1.0, -by
+            if isinstance(kick, LobKick) and self.flight is not None:
+                self.flight.launch(kick, dx, dy)
+                continue
             n = math.hypot(dx, dy)
             self.world.kick_ball(kick.speed_mps * dx / n, kick.speed_mps * dy / n)
 
@@ -185,6 +202,7 @@ class Simulation:
                 dues.popleft()
             if dues and dues[0] - n <= self.steps_done:
                 x, y, yaw = tr.pose_at(self.steps_done / PHYSICS_HZ)
+                self.world.relight()
                 self.effects.add_subframe(tr.name,
                                           self.omni.render(self.world, tr.name, x, y, yaw))
 
@@ -199,6 +217,8 @@ class Simulation:
             for tr in self.moving:
                 self.world.set_robot_pose(tr.name, *tr.pose_at(self.steps_done / PHYSICS_HZ))
             self.world.step()
+            if self.flight is not None:
+                self.flight.step()
             self._apply_kicks()
 
     def _believed(self, truth: dict[str, tuple[float, float, float]]

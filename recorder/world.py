@@ -2,16 +2,15 @@
 
 DIRECT mode, fixed time step, no randomness of its own (scenarios are seeded elsewhere), so
 the same inputs step to the same states. Robots are kinematic (mass 0, posed every step);
-the ball is a real rigid body that rolls and bounces off them.
+the ball is a real rigid body that rolls and bounces off them. What the ball looks like,
+people beside the field, robot covers and uneven light are the dressing
+(:mod:`recorder.dressing`; off unless asked, and then the world is built as before).
 """
 
 from __future__ import annotations
 
-import contextlib
 import importlib.util
-import math
 import os
-import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -22,37 +21,13 @@ import numpy as np
 
 from dsp.contract import RENDERERS
 from dsp.errors import UsageError
+from recorder import dressing
+from recorder.ball import BallLook, ball_look
 from recorder.errors import RendererError
 from recorder.field import FIELDS, FieldSpec, field_spec, field_texture
-
-
-@contextmanager
-def silenced() -> Iterator[None]:
-    """Send the C-level stdout/stderr to /dev/null (pybullet and its EGL plugin print
-    banners and driver names straight to the file descriptors)."""
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(Exception):
-            stream.flush()
-    saved = []
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-    except OSError:
-        yield
-        return
-    try:
-        for fd in (1, 2):
-            try:
-                saved.append((fd, os.dup(fd)))
-                os.dup2(devnull, fd)
-            except OSError:
-                continue
-        yield
-    finally:
-        for fd, copy in saved:
-            os.dup2(copy, fd)
-            os.close(copy)
-        os.close(devnull)
-
+from recorder.flight import GROUND_DAMPING
+from recorder.scenery import LightPool, Person
+from recorder.silence import silenced
 
 with silenced():
     import pybullet as p
@@ -76,7 +51,9 @@ PHYSICS_HZ = 240
 BALL_RADIUS_M = 0.11
 BALL_MASS_KG = 0.41
 BALL_RGB = (255, 110, 0)
-"""Strong orange, so a colour threshold finds it."""
+"""Strong orange, so a colour threshold finds it (the default look's colour)."""
+BALL_DAMPING = GROUND_DAMPING
+"""The ball's linear damping d: pybullet's multibody slows it by d (1 + |v|) v [m/s^2]."""
 ROBOT_SIZE_M = 0.49
 """Footprint side of a robot (square)."""
 ROBOT_HEIGHT_M = 0.80
@@ -88,28 +65,12 @@ OPPONENT_BAND_RGB = (200, 0, 160)
 FLOOR_RGB = (95, 95, 100)
 
 
-def _sphere_obj(radius_m: float, n_lat: int, n_lon: int) -> str:
-    """A UV sphere as OBJ text with smooth vertex normals."""
-    lines = []
-    for i in range(n_lat + 1):
-        th = math.pi * i / n_lat
-        for j in range(n_lon):
-            ph = 2 * math.pi * j / n_lon
-            n = (math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th))
-            lines.append(f"v {radius_m * n[0]:.6f} {radius_m * n[1]:.6f} {radius_m * n[2]:.6f}")
-            lines.append(f"vn {n[0]:.6f} {n[1]:.6f} {n[2]:.6f}")
-    for i in range(n_lat):
-        for j in range(n_lon):
-            a = i * n_lon + j + 1
-            b = i * n_lon + (j + 1) % n_lon + 1
-            c, d = a + n_lon, b + n_lon
-            lines.append(f"f {a}//{a} {c}//{c} {d}//{d}")
-            lines.append(f"f {a}//{a} {d}//{d} {b}//{b}")
-    return "\n".join(lines) + "\n"
-
-
 def _rgba(rgb: tuple[int, int, int]) -> list[float]:
     return [rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0, 1.0]
+
+
+_FAR_M = 1e3
+"""A point far from every light pool: where the base light alone shines (the hall floor)."""
 
 
 class World:
@@ -117,11 +78,17 @@ class World:
 
     ``renderer`` is "auto" (EGL if its plugin loads, else TinyRenderer), "egl" or "tiny";
     the environment variable ``DSP_RENDERER`` overrides "auto". ``self.renderer`` says
-    which one is in use.
+    which one is in use. ``ball``: the ball's look (default plain orange); ``light``: the
+    light pools (default none: the even light).
     """
 
-    def __init__(self, field: FieldSpec, *, renderer: str = "auto") -> None:
+    def __init__(self, field: FieldSpec, *, renderer: str = "auto",
+                 ball: BallLook | None = None, light: tuple[LightPool, ...] = ()) -> None:
         self.field = field
+        self.look = ball_look() if ball is None else ball
+        self.light = light
+        self._covers: dict[str, int] = {}
+        self._lights = dressing.Lights(light)
         with silenced():
             self._client = p.connect(p.DIRECT)
         self._plugin = -1
@@ -182,7 +149,10 @@ class World:
         full_w = spec.width_m + 2 * spec.border_m
         # carpet: a textured quad (OBJ with UVs; both renderers load it)
         tex_path = Path(self._tmp.name) / "field.png"
-        cv2.imwrite(str(tex_path), field_texture(spec))
+        carpet = field_texture(spec)
+        if self.light:
+            carpet = dressing.light_texture(carpet, self.light, full_l, full_w)
+        cv2.imwrite(str(tex_path), carpet)
         obj_path = Path(self._tmp.name) / "field.obj"
         hl, hw = full_l / 2, full_w / 2
         obj_path.write_text(
@@ -201,7 +171,8 @@ class World:
             "f 7//1 8//1 4//1\nf 7//1 4//1 3//1\nf 8//1 5//1 1//1\nf 8//1 1//1 4//1\n"
         )
         floor_vis = p.createVisualShape(p.GEOM_MESH, fileName=str(floor_path),
-                                        rgbaColor=_rgba(FLOOR_RGB), specularColor=[0, 0, 0],
+                                        rgbaColor=self._lit(FLOOR_RGB, _FAR_M, _FAR_M),
+                                        specularColor=[0, 0, 0],
                                         physicsClientId=c)
         p.createMultiBody(0, -1, floor_vis, physicsClientId=c)
         ground_col = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=c)
@@ -219,16 +190,15 @@ class World:
         # a finer sphere mesh than pybullet's own (whose facets move a near ball's blob
         # centroid by half a pixel), but not so fine that TinyRenderer drops its sub-pixel
         # triangles when the ball is only a few pixels wide
-        ball_path = Path(self._tmp.name) / "ball.obj"
-        ball_path.write_text(_sphere_obj(BALL_RADIUS_M, 24, 48))
-        vis = p.createVisualShape(p.GEOM_MESH, fileName=str(ball_path),
-                                  rgbaColor=_rgba(BALL_RGB), specularColor=[0, 0, 0],
-                                  physicsClientId=c)
+        folder = Path(self._tmp.name)
+        vis = dressing.ball_visual(c, folder, self.look, BALL_RADIUS_M)
         self.ball = p.createMultiBody(BALL_MASS_KG, col, vis, [0, 0, BALL_RADIUS_M],
                                       physicsClientId=c)
+        if self.look.textured:
+            dressing.texture_ball(c, self.ball, folder, self.look, BALL_RADIUS_M)
         p.changeDynamics(self.ball, -1, restitution=0.6, lateralFriction=0.6,
                          rollingFriction=0.0005, spinningFriction=0.0005,
-                         linearDamping=0.05, angularDamping=0.05, physicsClientId=c)
+                         linearDamping=BALL_DAMPING, angularDamping=0.05, physicsClientId=c)
 
     def _add_goal(self, side: float) -> None:
         """A goal behind the line x = side * half length: white posts, crossbar, net frame."""
@@ -236,7 +206,7 @@ class World:
         spec = self.field
         x0 = side * spec.half_length_m
         post, gw, gh, gd = 0.0625, spec.goal_half_width_m, spec.goal_height_m, spec.goal_depth_m
-        white = _rgba((250, 250, 250))
+        white = (250, 250, 250)
         bar = 0.02  # the net's ground frame; the net itself is left out (see-through)
         parts = [  # (half extents, centre, colour)
             ((post, post, gh / 2), (x0 + side * post, gw + post, gh / 2), white),
@@ -246,8 +216,9 @@ class World:
             ((gd / 2, bar, bar), (x0 + side * gd / 2, gw, bar), white),
             ((gd / 2, bar, bar), (x0 + side * gd / 2, -gw, bar), white),
         ]
-        for half, centre, rgba in parts:
-            vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=rgba,
+        for half, centre, rgb in parts:
+            vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half,
+                                      rgbaColor=self._lit(rgb, centre[0], centre[1]),
                                       specularColor=[0, 0, 0], physicsClientId=c)
             col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
             p.createMultiBody(0, col, vis, centre, physicsClientId=c)
@@ -277,11 +248,38 @@ class World:
         self._robots[name] = body
         return int(body)
 
+    def _lit(self, rgb: tuple[int, int, int], x_m: float, y_m: float) -> list[float]:
+        """A colour as pybullet takes it, lit by the light pools at (x, y) if there are any."""
+        return self._lights.rgba(rgb, x_m, y_m) if self.light else _rgba(rgb)
+
+    def add_cover(self, name: str) -> None:
+        """Dress robot ``name`` in a skirt of the ball's colour (it moves and hides with it)."""
+        c = self._client
+        pos, orn = p.getBasePositionAndOrientation(self._robots[name], physicsClientId=c)
+        body = dressing.add_cover(c, ROBOT_SIZE_M / 2, self._lit(self.look.rgb, pos[0], pos[1]))
+        p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=c)
+        self._covers[name] = body
+
+    def add_person(self, person: Person) -> None:
+        """A figure in a shirt of the ball's colour (:mod:`recorder.scenery`)."""
+        dressing.add_person(self._client, person, self.look.rgb, self.light)
+
+    def relight(self) -> None:
+        """Light the ball and the covers where they are now (with light pools): their colour
+        times the light there. The frame loop calls it before every image it renders."""
+        if self.light:
+            bodies = {self.ball: (255, 255, 255) if self.look.textured else self.look.rgb}
+            bodies.update(dict.fromkeys(self._covers.values(), self.look.rgb))
+            self._lights.relight(self._client, bodies)
+
     # --- state -------------------------------------------------------------------------------
     def set_robot_pose(self, name: str, x_m: float, y_m: float, yaw_rad: float) -> None:
         q = p.getQuaternionFromEuler([0, 0, yaw_rad])
         p.resetBasePositionAndOrientation(self._robots[name], [x_m, y_m, 0.0], q,
                                           physicsClientId=self._client)
+        if name in self._covers:
+            p.resetBasePositionAndOrientation(self._covers[name], [x_m, y_m, 0.0], q,
+                                              physicsClientId=self._client)
 
     def set_ball(self, x_m: float, y_m: float, vx_mps: float = 0.0, vy_mps: float = 0.0) -> None:
         """Put the ball on the ground at (x, y), rolling with (vx, vy) without slipping."""
@@ -297,15 +295,52 @@ class World:
         w = [-vy_mps / BALL_RADIUS_M, vx_mps / BALL_RADIUS_M, 0.0]
         p.resetBaseVelocity(self.ball, [vx_mps, vy_mps, 0.0], w, physicsClientId=c)
 
+    def place_ball(self, x_m: float, y_m: float, z_m: float,
+                   quaternion: tuple[float, float, float, float] = (0, 0, 0, 1)) -> None:
+        """Put the ball's centre at (x, y, z) at rest, turned by ``quaternion`` (x, y, z, w)."""
+        c = self._client
+        p.resetBasePositionAndOrientation(self.ball, [x_m, y_m, z_m], quaternion,
+                                          physicsClientId=c)
+        p.resetBaseVelocity(self.ball, [0, 0, 0], [0, 0, 0], physicsClientId=c)
+
+    def ball_orientation(self) -> tuple[float, float, float, float]:
+        """The ball body's orientation quaternion (x, y, z, w): its pattern turns with it."""
+        _, q = p.getBasePositionAndOrientation(self.ball, physicsClientId=self._client)
+        return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+
+    def launch_ball(self, vx_mps: float, vy_mps: float, vz_mps: float) -> None:
+        """Strike the ball where it is into the air with (vx, vy, vz), without spin."""
+        p.resetBaseVelocity(self.ball, [vx_mps, vy_mps, vz_mps], [0.0, 0.0, 0.0],
+                            physicsClientId=self._client)
+
+    def set_ball_damping(self, linear: float) -> None:
+        """The ball's linear damping (:data:`BALL_DAMPING` by default)."""
+        p.changeDynamics(self.ball, -1, linearDamping=linear, physicsClientId=self._client)
+
+    def set_bounce(self, ground_restitution: float, contact_threshold_m: float) -> None:
+        """The carpet's restitution (pybullet multiplies it by the ball's, 0.6) and the
+        ball's contact processing threshold (pybullet's default resolves a contact up to
+        a step early, which makes one bounce in three lose a quarter of its speed)."""
+        c = self._client
+        p.changeDynamics(self.ground, -1, restitution=ground_restitution, physicsClientId=c)
+        p.changeDynamics(self.ball, -1, contactProcessingThreshold=contact_threshold_m,
+                         physicsClientId=c)
+
     def ball_velocity(self) -> tuple[float, float, float]:
         """The ball centre's linear velocity [m/s] (field frame)."""
         v, _ = p.getBaseVelocity(self.ball, physicsClientId=self._client)
         return (float(v[0]), float(v[1]), float(v[2]))
 
-    def add_walls(self, height_m: float = 0.5) -> None:
-        """Invisible walls (collision only, never rendered) along the carpet's edge, so a
-        ball kicked out bounces back into play."""
+    def add_walls(self, height_m: float = 0.5, *, hidden: bool = False) -> None:
+        """Walls along the carpet's edge (collision only), so a ball kicked out bounces back
+        into play. pybullet draws a body without a visual shape by its collision shape, so
+        these walls show as a band at the carpet's edge (as in every earlier match log);
+        ``hidden`` gives each a visual shape far below the floor instead, so none shows."""
         c = self._client
+        vis = -1
+        if hidden:
+            vis = p.createVisualShape(p.GEOM_BOX, halfExtents=[0.01] * 3,
+                                      visualFramePosition=[0, 0, -100.0], physicsClientId=c)
         hl = self.field.half_length_m + self.field.border_m
         hw = self.field.half_width_m + self.field.border_m
         t = 0.1
@@ -314,17 +349,18 @@ class World:
                              ((hl + t, t, height_m / 2), (0.0, hw + t, height_m / 2)),
                              ((hl + t, t, height_m / 2), (0.0, -hw - t, height_m / 2))):
             col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
-            body = p.createMultiBody(0, col, -1, centre, physicsClientId=c)
+            body = p.createMultiBody(0, col, vis, centre, physicsClientId=c)
             p.changeDynamics(body, -1, restitution=0.6, lateralFriction=0.3, physicsClientId=c)
 
     def add_distractor(self, x_m: float, y_m: float, size_m: float, yaw_rad: float = 0.0
                        ) -> None:
-        """An orange box (the ball's colour; side ``size_m``) standing on the floor, turned
-        by ``yaw_rad``: seen from above at an angle, a colour threshold may take it for the
+        """A box of the ball's colour (side ``size_m``) standing on the floor, turned by
+        ``yaw_rad``: seen from above at an angle, a colour threshold may take it for the
         ball (square-on, its fill ratio gives it away)."""
         c = self._client
         half = [size_m / 2] * 3
-        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(BALL_RGB),
+        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half,
+                                  rgbaColor=self._lit(self.look.rgb, x_m, y_m),
                                   specularColor=[0, 0, 0], physicsClientId=c)
         col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
         p.createMultiBody(0, col, vis, [x_m, y_m, size_m / 2],
@@ -340,16 +376,19 @@ class World:
 
     @contextmanager
     def hidden(self, name: str) -> Iterator[None]:
-        """Temporarily park a robot far below the field (so its own camera sees past it)."""
-        body = self._robots[name]
+        """Temporarily park a robot (and its cover) far below the field, so its own camera
+        sees past it."""
+        bodies = [self._robots[name]] + ([self._covers[name]] if name in self._covers else [])
         c = self._client
-        pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=c)
-        p.resetBasePositionAndOrientation(body, [pos[0], pos[1], -50.0], orn,
-                                          physicsClientId=c)
+        saved = [p.getBasePositionAndOrientation(body, physicsClientId=c) for body in bodies]
+        for body, (pos, orn) in zip(bodies, saved, strict=True):
+            p.resetBasePositionAndOrientation(body, [pos[0], pos[1], -50.0], orn,
+                                              physicsClientId=c)
         try:
             yield
         finally:
-            p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=c)
+            for body, (pos, orn) in zip(bodies, saved, strict=True):
+                p.resetBasePositionAndOrientation(body, pos, orn, physicsClientId=c)
 
     # --- rendering ---------------------------------------------------------------------------
     def render(self, width: int, height: int, view: list[float] | tuple[float, ...],

@@ -27,7 +27,7 @@ import numpy as np
 
 from replay.estimation import Detected, detect
 from replay.localise import LocalisedPoints
-from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image
+from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image, image_problem
 
 __all__ = ["Ahead", "Decoded", "LinePointsFn", "decode_and_detect"]
 
@@ -47,6 +47,8 @@ class Decoded:
     detected: Detected
     seconds: float
     """Wall time of the decoding, detection and line points."""
+    problem: str | None = None
+    """Why the image does not decode, when it does not (:func:`replay.log.image_problem`)."""
     points: LocalisedPoints | None = None
 
 
@@ -58,7 +60,8 @@ def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS
     image = decode_image(msg, max_pixels=max_pixels)
     detected = detect(image)
     points = None if line_points is None else line_points(msg.robot, image)
-    return Decoded(image, detected, time.perf_counter() - t0, points)
+    problem = None if image is not None else image_problem(msg, max_pixels=max_pixels)
+    return Decoded(image, detected, time.perf_counter() - t0, problem, points)
 
 
 class Ahead:

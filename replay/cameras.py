@@ -1,9 +1,17 @@
-"""Each robot's camera as a replay uses it: image centre, camera model, calibration.
+"""Each robot's camera as a replay uses it: centre, mounting, model, calibration, poses' frame.
 
-From the log's camera metadata (``dsp.cameras``: a camera model per robot, whose
-calibration is the model's own) or, for a robot it does not name, the paper's image centre
-and calibration; a ``--calibration`` file replaces every robot's calibration. The one file
-a replay reads besides the log is read here (:func:`read_calibration`).
+Where a robot's camera description (:class:`dsp.cameras.CameraSpec`) comes from, first
+found first:
+
+1. ``--cameras FILE`` (:mod:`dsp.camera_file`): the robot's entry, or the file's default;
+   ``--cameras paper``: the paper's camera (:data:`dsp.cameras.PAPER_CAMERA`);
+2. the log's ``dsp.cameras`` metadata (the robot's entry, or its default);
+3. ``--calibration paper``: the paper's camera too (its centre with its calibration).
+
+A robot described by none of them is an error that says what to give
+(:class:`~replay.errors.NoCameraError`): a replay never guesses a camera. ``--calibration
+FILE`` (or ``paper``) then replaces every robot's calibration, keeping the rest of its
+description. The files a replay reads besides the log are read here.
 """
 
 from __future__ import annotations
@@ -13,71 +21,112 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from dsp import contract
+from dsp.camera_file import read_camera_file
+from dsp.cameras import PAPER_CAMERA, CameraSet, CameraSpec, FieldTransform
 from dsp.errors import CalibrationError
-from estimator.calibration import (
-    PAPER_CALIBRATION,
-    Calibration,
-    CameraCalibration,
-    calibration_from_json,
-)
-from estimator.camera import CameraModel, ball_image_area_px, camera_from_dict
+from estimator.calibration import PAPER_CALIBRATION, Calibration, calibration_from_json
+from estimator.camera import CameraModel, ball_image_area_px
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.corrected import ball_visibility
 from estimator.detection import Detection
 from estimator.errors import EstimatorError
+from replay.errors import NoCameraError
 
-__all__ = ["DEFAULT_CENTRE_PX", "Cameras", "cameras_for", "read_calibration"]
+__all__ = ["DEFAULT_CENTRE_PX", "PAPER", "Cameras", "cameras_for", "read_calibration"]
 
 DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
-"""The image centre of a robot whose log names no camera: the paper's."""
+"""The centre a sink draws for a robot it knows no camera of (none replays without one)."""
+PAPER = "paper"
+"""``--cameras paper`` / ``--calibration paper``: the paper's constants, asked for by name."""
 
 
 @dataclass(frozen=True)
 class Cameras:
-    """Per robot: image centre, camera model (when the log names one) and calibration."""
+    """Per robot: its camera description and the calibration the replay uses."""
 
-    centres: Mapping[str, tuple[float, float]]
-    models: Mapping[str, CameraModel]
+    specs: Mapping[str, CameraSpec]
     calibrations: Mapping[str, Calibration]
     fit_rms_m: float = 0.0
-    """The calibration file's fit residual RMS [m] when it records one (0: a camera model)."""
+    """The calibrations' fit residual RMS [m] when their files record one (0: a model)."""
+    sources: Mapping[str, str] | None = None
+    """Robot -> where its description came from ("metadata", the camera file, "paper")."""
+
+    @property
+    def centres(self) -> Mapping[str, tuple[float, float]]:
+        return {r: s.centre_px for r, s in self.specs.items()}
+
+    @property
+    def models(self) -> Mapping[str, CameraModel]:
+        return {r: s.camera for r, s in self.specs.items() if s.camera is not None}
+
+    def mount_yaw_rad(self, robot: str) -> float:
+        return self.specs[robot].mount_yaw_rad
+
+    def usable_radius_px(self, robot: str) -> float | None:
+        return self.specs[robot].usable_radius_px
+
+    def map_to_field(self, robot: str) -> FieldTransform | None:
+        transform = self.specs[robot].map_to_field
+        return None if transform is None or transform.identity else transform
+
+    def ball_models(self) -> Mapping[str, str | Mapping[str, Any]]:
+        """Robot -> its ``ball`` entry (the ball model, read by the ball detector)."""
+        return {r: s.ball for r, s in self.specs.items() if s.ball is not None}
 
     def visibility(self, robot: str, det: Detection, range_m: float) -> float:
-        """How much of the ball the blob shows, when the log names the camera model."""
-        model = self.models.get(robot)
+        """How much of the ball the blob shows, when the camera's model is known."""
+        model = self.specs[robot].camera
         if model is None:
             return 1.0
         expected = ball_image_area_px(model, range_m)
         return ball_visibility(float(det.area_px), expected)
 
 
-def cameras_for(robots: Sequence[str], metadata: Mapping[str, Mapping[str, object]], source: str,
-                calibration_file: Path | None) -> Cameras:
-    """Each robot's camera from the log's metadata (the paper's when it names none), and the
-    calibration file, when given, for every robot."""
-    centres: dict[str, tuple[float, float]] = {}
-    models: dict[str, CameraModel] = {}
-    calibrations: dict[str, Calibration] = {}
+def _missing(log: str, robots: Sequence[str], metadata: CameraSet | None,
+             cameras: Path | str | None) -> NoCameraError:
+    where = (" (the log has no dsp.cameras metadata)" if metadata is None
+             else " (the log's dsp.cameras metadata does not name them)")
+    if cameras is not None:
+        where = f" (neither {cameras} nor the log's metadata names them)"
+    return NoCameraError(
+        log, f"no camera description for {', '.join(robots)}{where}: give --cameras FILE "
+        f"(dsp-info --cameras-template {log} -o cameras.yaml writes one to start from), or "
+        "--cameras paper for the paper's 1080 x 1080 camera centred at (539, 539)")
+
+
+def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
+                cameras: Path | str | None = None,
+                calibration: Path | str | None = None) -> Cameras:
+    """Each robot's camera (see the module docstring for the order); raises
+    :class:`~replay.errors.NoCameraError` for a robot nothing describes."""
+    given: CameraSet | None = None
+    if cameras is not None and cameras != PAPER:
+        given = read_camera_file(Path(cameras))
+    specs: dict[str, CameraSpec] = {}
+    sources: dict[str, str] = {}
     for robot in robots:
-        centres[robot] = DEFAULT_CENTRE_PX
-        calibrations[robot] = PAPER_CALIBRATION
-        if robot in metadata:
-            try:
-                model = camera_from_dict(dict(metadata[robot]))
-            except (ValueError, TypeError, EstimatorError) as err:
-                raise CalibrationError(
-                    f"{source} metadata {contract.CAMERAS_METADATA}[{robot}]", str(err)
-                ) from err
-            centres[robot] = (float(model.centre_px[0]), float(model.centre_px[1]))
-            calibrations[robot] = CameraCalibration(model)
-            models[robot] = model
-    fit_rms_m = 0.0
-    if calibration_file is not None:
-        model_from_file, fit_rms_m = read_calibration(Path(calibration_file))
-        calibrations = dict.fromkeys(robots, model_from_file)
-    return Cameras(centres, models, calibrations, fit_rms_m)
+        found: list[tuple[CameraSpec | None, str]] = [
+            (PAPER_CAMERA if cameras == PAPER else None, PAPER),
+            (None if given is None else given.for_robot(robot), str(cameras)),
+            (None if metadata is None else metadata.for_robot(robot), "metadata"),
+            (PAPER_CAMERA if calibration == PAPER else None, PAPER),
+        ]
+        spec, source = next(((s, w) for s, w in found if s is not None), (None, ""))
+        if spec is not None:
+            specs[robot], sources[robot] = spec, source
+    missing = [r for r in robots if r not in specs]
+    if missing:
+        raise _missing(log, missing, metadata, cameras)
+    calibrations = {r: s.range_calibration for r, s in specs.items()}
+    rms = max((s.calibration_rms_m or 0.0 for s in specs.values()), default=0.0)
+    if calibration == PAPER:
+        calibrations, rms = dict.fromkeys(robots, PAPER_CALIBRATION), 0.0
+    elif calibration is not None:
+        model, rms = read_calibration(Path(calibration))
+        calibrations = dict.fromkeys(robots, model)
+    return Cameras(specs, calibrations, rms, sources)
 
 
 def read_calibration(path: Path) -> tuple[Calibration, float]:
@@ -86,6 +135,8 @@ def read_calibration(path: Path) -> tuple[Calibration, float]:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
+    except UnicodeDecodeError as err:
+        raise CalibrationError(path, f"not UTF-8 text (byte {err.start})") from err
     try:
         model = calibration_from_json(text)
         fit = json.loads(text).get("fit") or {}

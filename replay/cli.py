@@ -24,6 +24,7 @@ from dsp.checks import check_suffix
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES
+from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
 from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
 from replay.options import (
@@ -38,7 +39,7 @@ from replay.runner import replay
 from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.stats import ReplaySummary
 
-__all__ = ["build_parser", "format_summary", "main"]
+__all__ = ["build_parser", "format_summary", "main", "warn"]
 
 PROG = "dsp-replay"
 
@@ -86,16 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "
                    "against the truth at the tick")
-    p.add_argument("--calibration", type=Path, metavar="FILE",
-                   help="calibration JSON (default: the log's camera metadata, else the paper's)")
+    _add_input_arguments(p)
     _add_localise_arguments(p)
-    p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
-                   help="image topic pattern, {robot} = robot name (default %(default)s)")
-    p.add_argument("--pose-topic", default=contract.POSE_TOPIC,
-                   help="pose topic pattern (default %(default)s)")
-    p.add_argument("--robots", help="comma-separated subset of robots (default all)")
-    p.add_argument("--start", type=float, metavar="S", help="first sim second to replay")
-    p.add_argument("--end", type=float, metavar="S", help="last sim second to replay")
     p.add_argument("--pose-tolerance", type=float, default=0.1, metavar="S",
                    help="skip an image whose nearest pose is further away (default 0.1 s)")
     p.add_argument("--window", type=float, default=0.05, metavar="S",
@@ -116,6 +109,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the per-frame and fused estimates as CSV, one row each")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="draw error over time and the top-down track (.png or .svg)")
+    p.add_argument("--strict", action="store_true",
+                   help="make every warning an error (a robot that saw no ball, balls out of "
+                   "range, skipped messages or images): exit 1 and write nothing")
     add_batch_arguments(p)
     add_common_arguments(p, force=True)
     return p
@@ -145,6 +141,48 @@ def _pose_sigma(text: str) -> tuple[float, float]:
     return m, deg
 
 
+def _time_arg(text: str) -> tuple[float, bool]:
+    """``S`` (seconds from the log's start) or ``@S`` (an absolute stamp): (seconds, absolute)."""
+    absolute = text.startswith("@")
+    try:
+        return float(text[1:] if absolute else text), absolute
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give seconds (e.g. 2.5) or @ and an absolute stamp (@1733068801.5)"
+        ) from None
+
+
+def _input(text: str | None) -> Path | str | None:
+    """A file option that also takes the name 'paper'."""
+    return None if text is None else (text if text == "paper" else Path(text))
+
+
+def _add_input_arguments(p: argparse.ArgumentParser) -> None:
+    """What describes the log: its cameras, its topics, the robots and times to replay."""
+    p.add_argument("--cameras", metavar="FILE",
+                   help="camera file, .yaml or .json: each robot's camera (model, size, centre, "
+                   "mounting, calibration, map-to-field; dsp-info --cameras-template writes "
+                   "one); 'paper' for the paper's camera (default: the log's camera metadata; "
+                   "a log without any needs one of the two)")
+    p.add_argument("--calibration", metavar="FILE",
+                   help="calibration JSON for every robot, replacing its camera's; 'paper' "
+                   "for the paper's eq. 4 (and its image centre where the log names no camera)")
+    p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
+                   help="image topic pattern, {robot} = robot name (default %(default)s)")
+    p.add_argument("--pose-topic", default=contract.POSE_TOPIC,
+                   help="pose topic pattern (default %(default)s)")
+    p.add_argument("--truth-topic", metavar="TOPIC",
+                   help="the ball's true position, to score against (PoseStamped, "
+                   f"PointStamped or Odometry; default {contract.GT_BALL_TOPIC})")
+    p.add_argument("--robots", help="comma-separated subset of robots (default all)")
+    p.add_argument("--start", metavar="S", type=_time_arg,
+                   help="first second to replay, counted from the log's start (sim time for "
+                   "a dsp-record log, else from its first message); @S: an absolute stamp in "
+                   "seconds (e.g. @1733068801.5)")
+    p.add_argument("--end", metavar="S", type=_time_arg,
+                   help="last second to replay, as --start counts (@S: absolute)")
+
+
 def options_from_args(args: argparse.Namespace, serve_url: str | None = None) -> ReplayOptions:
     """The replay's options; ``serve_url`` is the gRPC URL of the server ``--serve`` runs."""
     check_suffix("--save", args.save, (".rrd",))
@@ -164,12 +202,17 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     robots = None
     if args.robots:
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
+    start, start_absolute = args.start or (None, False)
+    end, end_absolute = args.end or (None, False)
     return ReplayOptions(
-        method=args.method, fusion=args.fusion, calibration=args.calibration, smooth=args.smooth,
-        noise=args.noise, clock_hz=args.clock_hz, localise=args.localise,
+        method=args.method, fusion=args.fusion, calibration=_input(args.calibration),
+        cameras=_input(args.cameras), smooth=args.smooth, noise=args.noise,
+        clock_hz=args.clock_hz, localise=args.localise,
         pose_sigma_m=args.pose_sigma[0], pose_sigma_deg=args.pose_sigma[1],
-        image_topic=args.image_topic, pose_topic=args.pose_topic, robots=robots,
-        start_s=args.start, end_s=args.end, pose_tolerance_s=args.pose_tolerance,
+        image_topic=args.image_topic, pose_topic=args.pose_topic,
+        truth_topic=args.truth_topic, robots=robots, start_s=start, end_s=end,
+        start_absolute=start_absolute, end_absolute=end_absolute,
+        strict=args.strict, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
         out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun, threads=args.threads,
         progress=progress_enabled(args),
@@ -211,6 +254,13 @@ def format_summary(s: ReplaySummary) -> str:
     return "\n".join(lines)
 
 
+def warn(warnings: Sequence[str]) -> None:
+    """Each warning as a ``warning:`` line on stderr (also with ``-q``: the summary is what
+    ``-q`` drops, never what says the results may be wrong)."""
+    for line in warnings:
+        print(printable(f"warning: {line}"), file=sys.stderr)
+
+
 def _serve(args: argparse.Namespace) -> int:
     """``--serve``: start the server, say where to look, replay into it, serve until Ctrl-C."""
     from replay.sinks.rerun.live import ViewerServer
@@ -224,6 +274,7 @@ def _serve(args: argparse.Namespace) -> int:
         print(f"{PROG}: serving the Rerun web viewer at {server.web_url} (open it in a "
               "browser; Ctrl-C stops)", file=sys.stderr, flush=True)
         summary = replay(args.log, options_from_args(args, server.grpc_url))
+        warn(summary.warnings)
         echo(args, format_summary(summary))
         print(f"{PROG}: replay done; still serving at {server.web_url} until Ctrl-C",
               file=sys.stderr, flush=True)
@@ -244,7 +295,9 @@ def _main(argv: Sequence[str] | None) -> int:
     args.log = args.log[0]
     if args.serve:
         return _serve(args)
-    echo(args, format_summary(replay(args.log, options_from_args(args))))
+    summary = replay(args.log, options_from_args(args))
+    warn(summary.warnings)
+    echo(args, format_summary(summary))
     return 0
 
 

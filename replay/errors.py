@@ -18,11 +18,13 @@ __all__ = [
     "ImageDecodeError",
     "InputNotFoundError",
     "MissingPosesError",
+    "NoCameraError",
     "NoFramesError",
     "NoImageTopicsError",
     "NotMcapError",
     "ReplayError",
     "SchemaError",
+    "StrictError",
     "TruncatedLogError",
 ]
 
@@ -80,6 +82,23 @@ class MissingPosesError(ReplayError):
 
     def __init__(self, path: Path | str, detail: str) -> None:
         super().__init__(f"{path}: missing poses: {detail} (set --pose-topic or --pose-tolerance)")
+
+
+class NoCameraError(ReplayError):
+    """A robot that replays needs a camera description that neither the log nor an option
+    gives (a replay never guesses the image centre or the calibration)."""
+
+    def __init__(self, path: Path | str, detail: str) -> None:
+        super().__init__(f"{path}: {detail}")
+
+
+class StrictError(ReplayError):
+    """``--strict``: a replay that would have ended with warnings fails instead."""
+
+    def __init__(self, warnings: list[str]) -> None:
+        more = f" (and {len(warnings) - 1} more warning(s))" if len(warnings) > 1 else ""
+        super().__init__(f"--strict: {warnings[0]}{more}")
+        self.warnings = warnings
 
 
 class ImageDecodeError(ReplayError):

@@ -9,7 +9,11 @@ to look up the robot's pose at its stamp) into a :class:`FrameOutcome` whose
     (BAD_IMAGE)     (DETECT_ERROR,          (NO_POSE)        (OUT_OF_RANGE)      OK
                      NO_DETECTION)
 
-A frame without a ball is not a skipped frame: NO_DETECTION still carries the pose.
+A frame without a ball is not a skipped frame: NO_DETECTION still carries the pose. A blob
+beyond the camera's usable radius is OUT_OF_RANGE, as is one its calibration has no range
+for. Poses in another frame than the field's (AMCL's ``map``) are turned into the field
+frame by the camera description's ``map_to_field`` first; a camera mounted turned adds its
+``mount_yaw_deg`` to every bearing (:mod:`replay.cameras`).
 
 :meth:`FrameEstimator.step` fuses one step's frames: a window fusion of their estimates, or
 (``track``) the ball tracker fed with each estimate at its own stamp, with its calibrated
@@ -24,8 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -37,7 +40,7 @@ from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covaria
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
-from replay.cameras import DEFAULT_CENTRE_PX, Cameras, cameras_for
+from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.records import FrameResult, FrameStatus, Localisation, RobotEstimate, StepResult
 from replay.sink import Sink
 from replay.smoothing import SmoothedSteps
@@ -91,8 +94,10 @@ class PaperLocator:
     cameras: Cameras
 
     def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
+        # a turned camera: the paper's alpha0 = 90 deg - yaw takes the image's own yaw
+        image_yaw = pose.yaw_rad + self.cameras.mount_yaw_rad(robot)
         x, y = paper.locate_ball(float(det.cx_px), float(det.cy_px), pose.x_m, pose.y_m,
-                                 pose.yaw_rad, centre_px=self.cameras.centres[robot])
+                                 image_yaw, centre_px=self.cameras.centres[robot])
         dx, dy = x - pose.x_m, y - pose.y_m
         bearing = math.atan2(dy, dx) - pose.yaw_rad
         bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
@@ -110,7 +115,8 @@ class CorrectedLocator:
     def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
         e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
                                     self.cameras.calibrations[robot],
-                                    centre_px=self.cameras.centres[robot], robot=robot)
+                                    centre_px=self.cameras.centres[robot], robot=robot,
+                                    mount_yaw_rad=self.cameras.mount_yaw_rad(robot))
         return RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m, pose.y_m,
                              pose.yaw_rad, self.cameras.visibility(robot, det, e.range_m))
 
@@ -118,11 +124,10 @@ class CorrectedLocator:
 class FrameEstimator:
     """The estimator as the options choose it: detection, the method's locator, the fusion."""
 
-    def __init__(self, *, method: str, fusion_method: str, robots: Sequence[str],
-                 camera_metadata: Mapping[str, Mapping[str, object]], source: str,
-                 calibration_file: Path | None = None, smooth: bool = False,
-                 noise: str = "cambada") -> None:
-        self.cameras = cameras_for(robots, camera_metadata, source, calibration_file)
+    def __init__(self, *, method: str, fusion_method: str, cameras: Cameras,
+                 smooth: bool = False, noise: str = "cambada") -> None:
+        self.cameras = cameras
+        self._centres = dict(cameras.centres)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
         self.noise: Noise = CalibratedNoise(
@@ -138,10 +143,10 @@ class FrameEstimator:
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
-        return self.cameras.centres
+        return self._centres
 
     def centre(self, robot: str) -> tuple[float, float]:
-        return self.cameras.centres.get(robot, DEFAULT_CENTRE_PX)
+        return self._centres.get(robot, DEFAULT_CENTRE_PX)
 
     def estimate(self, robot: str, image: np.ndarray | None,
                  pose_at: Callable[[], PoseMatch | None], *,
@@ -164,14 +169,27 @@ class FrameEstimator:
         pose = pose_at()
         if pose is None:
             return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
+        pose = self.field_pose(robot, pose)
         loc = localisation
         if det is None:
             return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose, localisation=loc)
+        usable = self.cameras.usable_radius_px(robot)
+        if usable is not None and r_px is not None and r_px > usable:
+            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
         try:
             estimate = self.locator.locate(robot, det, pose.pose if loc is None else loc.pose)
         except EstimatorError:
             return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate, loc)
+
+    def field_pose(self, robot: str, pose: PoseMatch) -> PoseMatch:
+        """The believed pose in the field frame: the camera file's map-to-field transform
+        applied, when it gives one."""
+        transform = self.cameras.map_to_field(robot)
+        if transform is None:
+            return pose
+        x, y, yaw = transform.apply(pose.pose.x_m, pose.pose.y_m, pose.pose.yaw_rad)
+        return replace(pose, pose=RobotPose(x, y, yaw))
 
     def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
         """The sinks the runner feeds: these, or (smoothing) one that passes frames on and

@@ -96,11 +96,14 @@ class Localiser:
     """The field-line correction of every robot's pose in one replay (module docstring)."""
 
     def __init__(self, field: FieldSpec, cameras: Mapping[str, CameraModel], *,
-                 sigma_m: float, sigma_deg: float) -> None:
+                 sigma_m: float, sigma_deg: float,
+                 mount_yaw_rad: Mapping[str, float] | None = None) -> None:
         self.field = field
         self.lines = field_lines_for(field)
         self.distance = DistanceGrid.build(self.lines)
         self.cameras = dict(cameras)
+        self.mount_yaw_rad = dict(mount_yaw_rad or {})
+        """Robot -> how far its camera is turned on it [rad]: the points are turned back."""
         by_model: dict[str, GroundGrid] = {}
         self.grids: dict[str, GroundGrid] = {}
         for robot, camera in sorted(self.cameras.items()):  # one grid per distinct model
@@ -125,6 +128,11 @@ class Localiser:
         rays = np.column_stack([pts.xy_m, np.full(len(pts), -camera.height_m)])
         pixels = (np.asarray(camera.ray_to_pixel(rays), np.float32).reshape(-1, 2)
                   if len(pts) else np.zeros((0, 2), np.float32))
+        yaw = self.mount_yaw_rad.get(robot, 0.0)
+        if yaw:  # the camera's frame turned into the robot's
+            c, s = math.cos(yaw), math.sin(yaw)
+            xy = pts.xy_m @ np.array([[c, s], [-s, c]])
+            pts = LinePoints(xy, pts.sigma_m, pts.contrast)
         return LocalisedPoints(pts, pixels)
 
     def fit(self, points: LocalisedPoints | None, believed: RobotPose) -> PoseCorrection | None:

@@ -96,12 +96,25 @@ class ReplayOptions:
     method: str = "corrected"
     fusion: str | None = None
     """None: the method's own (:data:`DEFAULT_FUSION`)."""
-    calibration: Path | None = None
+    calibration: Path | str | None = None
+    """A calibration file for every robot, or "paper" (the paper's eq. 4 and, for a robot
+    the log describes no camera of, its image centre too)."""
+    cameras: Path | str | None = None
+    """A camera file (:mod:`dsp.camera_file`), or "paper" (the paper's camera for every
+    robot); None: the log's ``dsp.cameras`` metadata (:mod:`replay.cameras`)."""
     image_topic: str = contract.IMAGE_TOPIC
     pose_topic: str = contract.POSE_TOPIC
+    truth_topic: str | None = None
+    """The ball's true position (PoseStamped, PointStamped or Odometry), for scoring; None:
+    the contract's (/ground_truth/ball, or its odometry)."""
     robots: tuple[str, ...] | None = None
     start_s: float | None = None
+    """Seconds from the log's start (see :meth:`timing`), or an absolute stamp with
+    ``start_absolute``."""
     end_s: float | None = None
+    start_absolute: bool = False
+    """``start_s`` is a stamp (seconds since the epoch of the log's clock), not an offset."""
+    end_absolute: bool = False
     pose_tolerance_s: float = 0.1
     window_s: float = 0.05
     recover: bool = False
@@ -131,7 +144,11 @@ class ReplayOptions:
     """Show progress: True a bar, False none, None a bar when stderr is a terminal and
     plain lines every few seconds when it is not (:func:`dsp.progress.progress_bar`)."""
     quiet: bool = False
-    """Print no warnings (a log without camera metadata, skipped bad messages)."""
+    """Print no summary and no progress (the CLI's ``-q``); warnings are still printed: they
+    are what a replay that went wrong quietly would otherwise hide."""
+    strict: bool = False
+    """Warnings are errors (:mod:`replay.diagnosis`): a replay that would warn fails, and
+    writes nothing."""
     max_chunk_mib: float = 128.0
     """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
     max_image_mpx: float = 40.0
@@ -164,7 +181,8 @@ class ReplayOptions:
                      unit="MiB")
         check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,
                      unit="Mpx")
-        if self.start_s is not None and self.end_s is not None and self.end_s < self.start_s:
+        if (self.start_s is not None and self.end_s is not None
+                and self.start_absolute == self.end_absolute and self.end_s < self.start_s):
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")
         if self.noise not in NOISE_MODELS:
             raise UsageError(f"--noise {self.noise!r}; choose one of {', '.join(NOISE_MODELS)}")
@@ -180,6 +198,10 @@ class ReplayOptions:
                      unit="deg")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
+        if self.truth_topic is not None and not (
+                self.truth_topic.startswith("/") and self.truth_topic.isprintable()):
+            raise UsageError(f"--truth-topic {self.truth_topic!r}: give a topic name such as "
+                             "/mocap/ball")
         if self.robots is not None and not all(r and r.isprintable() for r in self.robots):
             raise UsageError(f"--robots {','.join(self.robots)!r}: give robot names")
         check_distinct(self.output_flags())
@@ -201,12 +223,19 @@ class ReplayOptions:
         return (("--out", self.out), ("--out-mcap", self.out_mcap), ("--out-csv", self.out_csv),
                 ("--plot", self.plot), ("--save", self.save_path))
 
-    def timing(self) -> Timing:
+    def timing(self, origin_ns: int = 0) -> Timing:
+        """The times in nanoseconds; ``--start`` / ``--end`` that are not absolute count from
+        ``origin_ns``, the log's start (:func:`replay.selection.log_origin_ns`)."""
+        def stamp(seconds: float | None, absolute: bool) -> int | None:
+            if seconds is None:
+                return None
+            return round(seconds * NS_PER_S) + (0 if absolute else origin_ns)
+
         return Timing(
             tolerance_ns=round(self.pose_tolerance_s * NS_PER_S),
             window_ns=max(1, round(self.window_s * NS_PER_S)),
-            start_ns=None if self.start_s is None else round(self.start_s * NS_PER_S),
-            end_ns=None if self.end_s is None else round(self.end_s * NS_PER_S),
+            start_ns=stamp(self.start_s, self.start_absolute),
+            end_ns=stamp(self.end_s, self.end_absolute),
             clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
             lead_ns=round(FIT_LEAD_S * NS_PER_S) if self.localising else 0,
         )
@@ -230,8 +259,11 @@ class ReplayOptions:
         """Refuse, before any work: an output that exists already (unless ``force``), is a
         folder or has no folder; an output that is the input ``log`` or the calibration
         file, or that another output names too (symlinks and hard links included)."""
-        check_distinct(self.output_flags(), [("the input log", log),
-                                             ("the --calibration file", self.calibration)])
+        inputs = [("the input log", log)]
+        for flag, given in (("--calibration", self.calibration), ("--cameras", self.cameras)):
+            if given is not None and given != "paper":
+                inputs.append((f"the {flag} file", Path(given)))
+        check_distinct(self.output_flags(), inputs)
         for flag, out in self.output_flags():
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)
@@ -242,6 +274,7 @@ class ReplayOptions:
             "method": self.method,
             "fusion": self.fusion_method,
             "calibration": None if self.calibration is None else Path(self.calibration).name,
+            **({"cameras": Path(self.cameras).name} if self.cameras is not None else {}),
             "image_topic": self.image_topic,
             "pose_topic": self.pose_topic,
             "robots": None if self.robots is None else list(self.robots),
@@ -254,6 +287,9 @@ class ReplayOptions:
             **({"noise": self.noise} if self.noise != "cambada" else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
+            **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
+            **({"start_absolute": True} if self.start_absolute else {}),
+            **({"end_absolute": True} if self.end_absolute else {}),
             **({"localise": self.localise, "pose_sigma_m": self.pose_sigma_m,
                 "pose_sigma_deg": self.pose_sigma_deg} if self.localising else {}),
         }

@@ -12,11 +12,18 @@ robot's interpolated pose, locate). Frames are grouped into fusion steps by stam
 (``window``); each step is fused. Every frame and step goes to every sink (statistics,
 results JSON, estimates MCAP, Rerun), all opened in one ExitStack that closes them with
 ``ok`` False when the replay fails.
+
+Each robot's camera comes from the options or the log (:func:`replay.cameras.cameras_for`:
+none is guessed). Once the log is read, :class:`~replay.diagnosis.Diagnosis` says what the
+user must know (skipped messages and images, a robot that saw no ball, balls out of range,
+images of another size than the camera's): in the summary's ``warnings``, which the
+commands print, or, with ``strict``, the replay's error before any output is written.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import hashlib
 import math
@@ -29,12 +36,15 @@ from pathlib import Path
 
 import numpy as np
 
+from dsp import contract
 from dsp.errors import UsageError
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from estimator.localisation import PoseCorrection
 from replay.ahead import Ahead, Decoded, decode_and_detect
-from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError
+from replay.cameras import cameras_for
+from replay.diagnosis import Diagnosis
+from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
 from replay.localise import Localiser, check_field
 from replay.log import (
@@ -47,7 +57,7 @@ from replay.log import (
 )
 from replay.options import ReplayOptions, Timing
 from replay.records import FrameResult, FrameStatus, Localisation
-from replay.selection import check_selected, check_selection
+from replay.selection import check_selected, check_selection, log_origin_ns
 from replay.sink import Sink
 from replay.sinks.outputs import OutputContext, open_outputs
 from replay.stats import ReplayStats, ReplaySummary
@@ -83,37 +93,42 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
     options.check_outputs(path)
     wall0 = time.perf_counter()
     with LogReader(path, image_topic=options.image_topic, pose_topic=options.pose_topic,
+                   truth_topic=options.truth_topic or contract.GT_BALL_TOPIC,
                    robots=options.robots, recover=options.recover,
                    limits=options.limits()) as reader:
         info = reader.info
-        if options.robots is not None:
-            unknown = sorted(set(options.robots) - set(info.robots))
-            if unknown:
-                raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
-        check_selection(path, info, options)
+        _check_options(path, info, options)
+        cameras = cameras_for(
+            info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
+            metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
         estimator = FrameEstimator(
-            method=options.method, fusion_method=options.fusion_method, robots=info.robots,
-            camera_metadata=info.cameras.by_robot(), source=str(reader.path),
-            calibration_file=options.calibration, smooth=options.smooth, noise=options.noise)
+            method=options.method, fusion_method=options.fusion_method, cameras=cameras,
+            smooth=options.smooth, noise=options.noise)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots)
+        diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels,
                 line_points=None if localiser is None else localiser.points)))
-            stream = _Stream(reader, estimator, options.timing(),
-                             estimator.sinks([stats, *outputs, *sinks]), ahead, localiser)
+            stream = _Stream(reader, estimator, options.timing(log_origin_ns(info)),
+                             estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead,
+                             localiser)
             with _progress(options, reader) as bar:
                 stream.run(bar)
             estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
-            _check_outcome(path, stats, reader)
+            _check_outcome(path, stats, reader, stream.bad_images)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
-        _warn(reader, options)  # once the outputs are written
-    return stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
+            warnings = diagnosis.warnings(bad_images=stream.bad_images,
+                                          bad_messages=reader.bad_messages)
+            if options.strict and warnings:
+                raise StrictError(warnings)  # before the outputs are committed
+    summary = stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
         if p is not None))
+    return dataclasses.replace(summary, warnings=tuple(warnings))
 
 
 def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
@@ -122,8 +137,10 @@ def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
     if not options.localising:
         return None
     field = check_field(None if info.scenario is None else info.scenario.field, str(path))
-    return Localiser(field, estimator.cameras.models, sigma_m=options.pose_sigma_m,
-                     sigma_deg=options.pose_sigma_deg)
+    cams = estimator.cameras
+    return Localiser(field, cams.models, sigma_m=options.pose_sigma_m,
+                     sigma_deg=options.pose_sigma_deg,
+                     mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models})
 
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
@@ -138,26 +155,28 @@ def _recovered(reader: LogReader) -> RecoveryLoss | None:
     return reader.loss if reader.recover else None
 
 
-def _warn(reader: LogReader, options: ReplayOptions) -> None:
-    """What the user must know about a replay that worked: the messages skipped."""
-    if options.quiet:
-        return
-    lines = []
-    if reader.bad_messages:
-        lines.append(f"{reader.path}: skipped {reader.undecodable} bad message(s): "
-                     + ", ".join(f"{k} {v}" for k, v in sorted(reader.bad_messages.items())))
-    for line in lines:
-        print(f"warning: {line}", file=sys.stderr)
+def _check_options(path: Path, info: LogInfo, options: ReplayOptions) -> None:
+    """What the options ask of the log that it does not have."""
+    if options.robots is not None:
+        unknown = sorted(set(options.robots) - set(info.robots))
+        if unknown:
+            raise UsageError(f"--robots {', '.join(unknown)}: not in {path}")
+    if options.truth_topic is not None and not info.has_truth:
+        raise UsageError(f"--truth-topic {options.truth_topic}: no such topic in {path}")
+    check_selection(path, info, options)
 
 
-def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader) -> None:
+def _check_outcome(path: Path, stats: ReplayStats, reader: LogReader,
+                   bad_images: dict[str, int]) -> None:
     if stats.frames == 0:
         raise NoFramesError(path, "no image in the selected time range and robots"
                             + (" (the log's readable part holds none)" if reader.recover
                                else ""))
     bad = stats.skipped.get(FrameStatus.BAD_IMAGE.value, 0)
     if bad == stats.frames:
-        raise ImageDecodeError(path, f"none of the {bad} images decodes")
+        why = max(bad_images.items(), key=lambda kv: kv[1], default=("", 0))[0]
+        raise ImageDecodeError(path, f"none of the {bad} images decodes"
+                               + (f" ({bad_images[why]}: {why})" if why else ""))
     no_pose = stats.skipped.get(FrameStatus.NO_POSE.value, 0)
     if no_pose == stats.frames - bad:
         raise MissingPosesError(
@@ -223,6 +242,8 @@ class _Stream:
         self.frames = 0
         self.steps = 0
         self.next_tick: int | None = None
+        self.bad_images: dict[str, int] = {}
+        """Images that do not decode, by why (:func:`replay.log.image_problem`)."""
 
     def run(self, bar: Progress | None) -> None:
         t = self.timing
@@ -283,9 +304,10 @@ class _Stream:
                         functools.partial(self._pose_at, img.robot, img.stamp_ns), None)
             return
         pose = self._pose_at(img.robot, img.stamp_ns)
+        field_pose = None if pose is None else self.estimator.field_pose(img.robot, pose)
         fit: Callable[[], PoseCorrection | None] = _nothing
-        if pose is not None and decoded.points is not None:
-            fit = self.ahead.later(self.localiser.fit, decoded.points, pose.pose)
+        if field_pose is not None and decoded.points is not None:
+            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose)
         self.pending.append(_Pending(img, decoded, pose, fit))
 
     def _settle(self, now_ns: int | None) -> None:
@@ -298,12 +320,15 @@ class _Stream:
                 self.pending[0].img.stamp_ns + t.lookahead_ns + t.lead_ns < now_ns)):
             p = self.pending.popleft()
             loc = None if p.pose is None else self.localiser.settle(
-                p.img.robot, p.img.stamp_ns, p.pose.pose, p.fit(), p.decoded.points)
+                p.img.robot, p.img.stamp_ns, self.estimator.field_pose(p.img.robot, p.pose).pose,
+                p.fit(), p.decoded.points)
             self._image(p.img, p.decoded, functools.partial(_same, p.pose), loc)
 
     def _image(self, img: ImageMessage, decoded: Decoded,
                pose_at: Callable[[], PoseMatch | None], loc: Localisation | None) -> None:
         image = decoded.image
+        if decoded.problem is not None:
+            self.bad_images[decoded.problem] = self.bad_images.get(decoded.problem, 0) + 1
         t_start = time.perf_counter()
         outcome = self.estimator.estimate(img.robot, image, pose_at,
                                           detected=decoded.detected, localisation=loc)

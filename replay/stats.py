@@ -96,6 +96,9 @@ class ReplaySummary:
     pose_sources: dict[str, int] | None = None
     """With ``--localise lines``: frames by where their pose came from ("lines", "held",
     "prior"); None without it."""
+    warnings: tuple[str, ...] = ()
+    """What the user must know about a replay that worked (:mod:`replay.diagnosis`); the
+    commands print them on stderr (``-q`` does not hide them)."""
 
     @property
     def frames_per_s(self) -> float:

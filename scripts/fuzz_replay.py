@@ -51,12 +51,15 @@ def seeds(fz: ModuleType) -> list[bytes]:
     ]
 
 
-def expected_results(fz: ModuleType, seed_logs: list[bytes], workdir: Path) -> list[str]:
+def expected_results(fz: ModuleType, seed_logs: list[bytes], workdir: Path
+                     ) -> list[tuple[str, tuple[str, ...]]]:
+    """Each seed's results (comparable) and the warnings its replay prints."""
     out = []
     for data in seed_logs:
         outcome = fz.run_case(data, workdir, expected=None, covered=True)
         assert outcome.status == "ok", outcome
-        out.append(fz.comparable(json.loads((workdir / "case.json").read_text())))
+        out.append((fz.comparable(json.loads((workdir / "case.json").read_text())),
+                    outcome.warnings))
     return out
 
 
@@ -72,8 +75,9 @@ def campaign(n: int, seed: int, *, timeout_s: float = 60.0, kinds: list[str] | N
         work = Path(tmp)
         expected = expected_results(fz, seed_logs, work)
         for i, kind, what, data, s, where in fz.cases(seed_logs, n, seed, kinds):
-            o = fz.run_case(data, work, expected=expected[s],
-                            covered=fz.is_covered(seed_logs[s], where), timeout_s=timeout_s)
+            o = fz.run_case(data, work, expected=expected[s][0],
+                            covered=fz.is_covered(seed_logs[s], where), timeout_s=timeout_s,
+                            seed_warnings=expected[s][1])
             row = rows.setdefault(kind, {"cases": 0, "peak_rss": 0, "max_s": 0.0})
             row["cases"] += 1
             row[o.status] = row.get(o.status, 0) + 1

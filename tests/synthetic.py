@@ -71,27 +71,30 @@ def quaternion_from_yaw(yaw: float) -> dict[str, float]:
 
 def ball_pixel(
     robot: tuple[float, float, float], ball: tuple[float, float],
-    centre_px: tuple[float, float] = CENTRE_PX,
+    centre_px: tuple[float, float] = CENTRE_PX, mount_yaw_rad: float = 0.0,
 ) -> tuple[float, float]:
-    """Where the paper's ideal camera on ``robot`` (x, y, yaw) sees the ball centre."""
+    """Where the paper's ideal camera on ``robot`` (x, y, yaw), turned so that image up shows
+    the robot-frame direction ``mount_yaw_rad``, sees the ball centre."""
     rx, ry, yaw = robot
     dx, dy = ball[0] - rx, ball[1] - ry
     d = math.hypot(dx, dy)
     r = (d - B_M) / K_M_PER_PX
-    theta = math.atan2(dy, dx) - yaw  # bearing in the robot frame
+    theta = math.atan2(dy, dx) - yaw - mount_yaw_rad  # bearing in the image
     du, dv = -r * math.sin(theta), -r * math.cos(theta)
     return centre_px[0] + du, centre_px[1] + dv
 
 
-def render(u: float, v: float, size: int = SIZE_PX, *,
+def render(u: float, v: float, size: int | tuple[int, int] = SIZE_PX,
+           colour: tuple[int, int, int] = ORANGE_BGR, *,
            background: np.ndarray | None = None) -> np.ndarray:
-    """A dark-green frame (or ``background``) with an orange disc centred at (u, v)
-    (sub-pixel accurate)."""
-    img = np.empty((size, size, 3), np.uint8)
+    """A dark-green frame (``size`` px square, or (width, height); or ``background``) with a
+    disc of ``colour`` centred at (u, v) (sub-pixel accurate)."""
+    width, height = (size, size) if isinstance(size, int) else size
+    img = np.empty((height, width, 3), np.uint8)
     img[:] = GREEN_BGR if background is None else background
     shift = 4
     centre = (round(u * (1 << shift)), round(v * (1 << shift)))
-    cv2.circle(img, centre, DISC_RADIUS_PX << shift, ORANGE_BGR, -1, cv2.LINE_8, shift)
+    cv2.circle(img, centre, DISC_RADIUS_PX << shift, colour, -1, cv2.LINE_8, shift)
     return img
 
 
@@ -121,6 +124,7 @@ def write_log(
     corrupt_images: Sequence[int] = (),
     with_truth: bool = True,
     with_cameras: bool = False,
+    cameras: str | None = "paper",
     with_poses: bool = True,
     chunk_size: int = 256 * 1024,
     compression: CompressionType = CompressionType.ZSTD,
@@ -134,6 +138,14 @@ def write_log(
     pose_bias_m: dict[str, tuple[float, float]] | None = None,
     yaw_bias_rad: dict[str, float] | None = None,
     carpet: bool = False,
+    image_size_px: tuple[int, int] = (SIZE_PX, SIZE_PX),
+    mount_yaw_rad: float = 0.0,
+    map_origin: tuple[float, float] = (0.0, 0.0),
+    stamp_offset_ns: int = 0,
+    truth_topic: str = contract.GT_BALL_TOPIC,
+    ball_colour: tuple[int, int, int] = ORANGE_BGR,
+    image_topic: str | None = None,
+    robot_velocity: tuple[float, float] = (0.0, 0.0),
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -144,10 +156,19 @@ def write_log(
     the ball any way (instead of ``ball + ball_velocity t``); ``with_odometry`` writes the
     true position and velocity on /ground_truth/ball/odometry too; ``pose_bias_m={"robot3":
     (dx, dy)}`` shifts the pose a robot believes (its images stay true), so its estimate of
-    the ball is off by (dx, dy), and ``yaw_bias_rad`` turns it; ``carpet`` draws the ball on
-    the 18x12 field's carpet seen through the ideal camera model from the true pose
-    (:mod:`field_images`; the camera and the field are in the metadata), for the field-line
-    localisation."""
+    the ball is off by (dx, dy). The log's camera metadata describes the camera the images
+    are drawn for (``cameras="paper"``: the paper's lookup entry, eq. 4 at ``centre_px``);
+    ``with_cameras`` writes the ideal camera model at ``centre_px`` instead, ``cameras=None``
+    none at all (as a robot's own log). ``image_size_px`` (width, height) draws other images
+    than 1080 x 1080 (their centre is ``centre_px``), ``mount_yaw_rad`` a camera turned on
+    the robot, ``map_origin`` poses in a map frame whose origin is that field point, and
+    ``stamp_offset_ns`` moves every stamp (a robot's clock in Unix time); the truth goes on
+    ``truth_topic``; ``ball_colour`` paints the ball (BGR); ``image_topic`` is a pattern for
+    the images (default: the contract's, less ``/compressed`` for raw images);
+    ``robot_velocity`` (m/s) moves every robot; ``yaw_bias_rad`` turns the pose a robot
+    believes; ``carpet`` draws the ball on the 18x12 field's carpet seen through the ideal
+    camera model from the true pose (:mod:`field_images`; the camera and the field are in
+    the metadata), for the field-line localisation."""
     with_cameras = with_cameras or carpet
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
@@ -159,7 +180,9 @@ def write_log(
 
     def robot_at(name: str, t_ns: int) -> tuple[float, float, float]:
         x, y, yaw = robots[name]
-        return x, y, yaw + yaw_rate_rad_s * t_ns / NS
+        s = t_ns / NS
+        return (x + robot_velocity[0] * s, y + robot_velocity[1] * s,
+                yaw + yaw_rate_rad_s * s)
 
     def ball_state(t_ns: int) -> tuple[tuple[float, float], tuple[float, float]]:
         if ball_path is not None:
@@ -204,10 +227,17 @@ def write_log(
                 {"field_length_m": 18.0, "field_width_m": 12.0,
                  **({"field": "18x12"} if carpet else {})}, sort_keys=True)},
         )
+        cam: dict[str, object] | None = None
         if with_cameras:
             from estimator.camera import make_camera
 
             cam = make_camera("ideal", cu_px=centre_px[0], cv_px=centre_px[1]).to_dict()
+        elif cameras == "paper":
+            cam = {"model": "lookup", "width_px": image_size_px[0],
+                   "height_px": image_size_px[1],
+                   "cu_px": centre_px[0], "cv_px": centre_px[1],
+                   "calibration": {"model": "linear", "a_m_per_px": K_M_PER_PX, "b_m": B_M}}
+        if cam is not None:
             writer.add_metadata(
                 contract.CAMERAS_METADATA,
                 {name: json.dumps(cam, sort_keys=True) for name in robots},
@@ -222,22 +252,24 @@ def write_log(
                     continue
                 x, y, yaw = robot_at(name, t)
                 bias = (pose_bias_m or {}).get(name, (0.0, 0.0))
-                msg = _pose_msg(t, x + bias[0], y + bias[1],
+                x, y = x + bias[0] - map_origin[0], y + bias[1] - map_origin[1]
+                msg = _pose_msg(t + stamp_offset_ns, x, y,
                                 yaw + (yaw_bias_rad or {}).get(name, 0.0))
                 if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
                     msg = {"header": msg["header"],
                            "pose": {"pose": msg["pose"], "covariance": [0.0] * 36}}
                 writer.write_message(
                     contract.topic_for(pose_topic, name), schemas[pose_schema],
-                    msg, log_time=t, publish_time=t,
+                    msg, log_time=t + stamp_offset_ns, publish_time=t + stamp_offset_ns,
                 )
                 if name == next(iter(robots)):
                     log.pose_stamps_ns.append(t)
             elif kind == "truth":
                 (bx, by), (vx, vy) = ball_state(t)
                 writer.write_message(
-                    contract.GT_BALL_TOPIC, schemas[contract.POSE_STAMPED],
-                    _pose_msg(t, bx, by, 0.0), log_time=t, publish_time=t,
+                    truth_topic, schemas[contract.POSE_STAMPED],
+                    _pose_msg(t + stamp_offset_ns, bx, by, 0.0), log_time=t + stamp_offset_ns,
+                    publish_time=t + stamp_offset_ns,
                 )
                 if with_odometry:
                     writer.write_message(
@@ -245,10 +277,11 @@ def write_log(
                         contract.odometry(t, "ball", bx, by, vx, vy), log_time=t,
                         publish_time=t)
             else:
-                u, v = ball_pixel(robot_at(name, t), ball_at(t), centre_px)
-                img = render(u, v, background=_carpet(name, t) if carpet else None)
+                u, v = ball_pixel(robot_at(name, t), ball_at(t), centre_px, mount_yaw_rad)
+                img = render(u, v, image_size_px, ball_colour,
+                             background=_carpet(name, t) if carpet else None)
                 topic = contract.topic_for(contract.IMAGE_TOPIC, name)
-                header = _header(t, contract.camera_frame(name))
+                header = _header(t + stamp_offset_ns, contract.camera_frame(name))
                 if image_encoding in ("png", "jpeg"):
                     ext = ".png" if image_encoding == "png" else ".jpg"
                     ok, buf = cv2.imencode(ext, img)
@@ -270,12 +303,16 @@ def write_log(
                     if image_index in corrupt_images:
                         data = data[: len(data) // 3]
                     channels = 1 if image_encoding == "mono8" else 3
-                    msg = {"header": header, "height": SIZE_PX, "width": SIZE_PX,
-                           "encoding": image_encoding, "is_bigendian": 0,
-                           "step": SIZE_PX * channels, "data": data}
+                    msg = {"header": header, "height": image_size_px[1],
+                           "width": image_size_px[0], "encoding": image_encoding,
+                           "is_bigendian": 0, "step": image_size_px[0] * channels,
+                           "data": data}
                     schema = schemas[contract.IMAGE]
                     topic = topic.replace("/compressed", "")
-                writer.write_message(topic, schema, msg, log_time=t, publish_time=t)
+                if image_topic is not None:
+                    topic = contract.topic_for(image_topic, name)
+                writer.write_message(topic, schema, msg, log_time=t + stamp_offset_ns,
+                                     publish_time=t + stamp_offset_ns)
                 if name == next(iter(robots)):
                     log.image_stamps_ns.append(t)
                 log.all_image_stamps_ns.append(t)

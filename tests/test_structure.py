@@ -96,7 +96,8 @@ def _where(found: list[Import]) -> list[str]:
     return [f"{i.source}:{i.line} imports {i.target}" for i in found]
 
 
-CORE_ROOMS = ("replay.batch", "replay.evaluate", "replay.parallel", "replay.info")
+CORE_ROOMS = ("replay.batch", "replay.evaluate", "replay.parallel", "replay.info",
+              "replay.calibrate")
 RULES = {
     "the estimator imports nothing else of the project":
         lambda i: _in(i.source, "estimator") and not _in(i.target, "estimator"),
@@ -107,8 +108,10 @@ RULES = {
     "replay.log imports nothing of replay but itself and replay.errors (no sink, no option)":
         lambda i: _in(i.source, "replay.log") and _in(i.target, "replay")
         and not _in(i.target, "replay.log", "replay.errors"),
-    "only replay.evaluate imports the recorder":
-        lambda i: _in(i.source, "replay") and not _in(i.source, "replay.evaluate")
+    "only replay.evaluate, and dsp-calibrate's command for its simulated mode, import the "
+    "recorder":
+        lambda i: _in(i.source, "replay")
+        and not _in(i.source, "replay.evaluate", "replay.calibrate.cli")
         and _in(i.target, "recorder"),
     "the sinks import neither the runner nor batch, evaluation, parallel work or dsp-info":
         lambda i: _in(i.source, "replay.sinks")

@@ -1,14 +1,18 @@
 """Fitting calibration models to (pixel radius, range) samples, and choosing between them.
 
 Every fit is least squares without scipy and returns a :class:`FitResult`: the model and
-its goodness of fit on the samples it was fitted to.
+its goodness of fit on the samples it was fitted to. :func:`fit_all` fits every model and
+ranks them on held-out samples (:func:`holdout_rms_m`: two-fold cross-validation over
+alternate distances), the rule every calibration procedure shares (the simulated one in
+``dsp-calibrate``, from measurements, from a log): on the samples it was fitted to, the
+lookup table, which interpolates them, would always win.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -21,7 +25,8 @@ from estimator.calibration.models import (
 )
 from estimator.errors import CalibrationError, FitError
 
-__all__ = ["FitResult", "fit_all", "fit_linear", "fit_lookup", "fit_mirror"]
+__all__ = ["FITTERS", "MIN_HOLDOUT_RANGES", "FitResult", "fit_all", "fit_linear", "fit_lookup",
+           "fit_mirror", "holdout_rms_m"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -37,6 +42,9 @@ class FitResult:
     rms_m: float
     max_abs_m: float
     n: int
+    holdout_rms_m: float | None = None
+    """RMS [m] on held-out samples (:func:`holdout_rms_m`) when :func:`fit_all` ranked the
+    model on them; None when it did not (too few distinct ranges to hold any out)."""
 
 
 def _samples(
@@ -160,19 +168,62 @@ def fit_mirror(
     return _result(MirrorCalibration(a, b), r, d)
 
 
+Samples = Sequence[float] | FloatArray
+
+FITTERS: dict[str, Callable[[Samples, Samples], FitResult]] = {
+    "linear": fit_linear,
+    "mirror": fit_mirror,
+    "lookup": fit_lookup,
+}
+"""Every model :func:`fit_all` fits, in its tie order."""
+
+MIN_HOLDOUT_RANGES = 4
+"""Distinct ranges needed to hold half of them out (two in each fold)."""
+
+
+def holdout_rms_m(name: str, r_px: Sequence[float] | FloatArray,
+                  d_m: Sequence[float] | FloatArray) -> float:
+    """RMS [m] of model ``name`` (a key of :data:`FITTERS`) on held-out samples: two-fold
+    cross-validation over alternate distances (samples at one distance, whatever their
+    direction, fall in the same fold): fit on one fold, test on the other, and back.
+    Infinite when a fold cannot be fitted or a held-out radius is out of the model's range."""
+    r, d = _samples(r_px, d_m, 2)
+    rank = np.searchsorted(np.unique(d), d)
+    sq: list[float] = []
+    for train in (0, 1):
+        tr = rank % 2 == train
+        try:
+            model = FITTERS[name](r[tr], d[tr]).model
+        except CalibrationError:
+            return math.inf
+        for ri, di in zip(r[~tr], d[~tr], strict=True):
+            try:
+                sq.append((float(model.range_m(float(ri))) - float(di)) ** 2)
+            except CalibrationError:
+                sq.append(math.inf)
+    return math.sqrt(sum(sq) / len(sq)) if sq else math.inf
+
+
 def fit_all(
     r_px: Sequence[float] | FloatArray, d_m: Sequence[float] | FloatArray
 ) -> list[FitResult]:
-    """Every model that can be fitted, best (lowest RMS) first; ties keep the order
-    linear, mirror, lookup. Note the lookup table interpolates its own samples, so on
-    the fitting data it usually wins: compare on held-out samples to choose honestly."""
+    """Every model that can be fitted to all the samples, best first, RANKED ON HELD-OUT
+    SAMPLES (:func:`holdout_rms_m`, recorded in each result's ``holdout_rms_m``); ties keep
+    the order linear, mirror, lookup. With fewer than :data:`MIN_HOLDOUT_RANGES` distinct
+    ranges nothing can be held out: the results are then ranked by their RMS on the samples
+    they were fitted to and say so (``holdout_rms_m`` None), which favours the lookup table."""
     results: list[FitResult] = []
     errors: list[str] = []
-    for fit in (fit_linear, fit_mirror, fit_lookup):
+    for fit in FITTERS.values():
         try:
             results.append(fit(r_px, d_m))
         except CalibrationError as err:
             errors.append(f"{fit.__name__}: {err}")
     if not results:
         raise FitError("no model could be fitted: " + "; ".join(errors))
-    return sorted(results, key=lambda fr: fr.rms_m)
+    if np.unique(np.asarray(d_m, dtype=np.float64)).size < MIN_HOLDOUT_RANGES:
+        return sorted(results, key=lambda fr: fr.rms_m)
+    held = [replace(fr, holdout_rms_m=holdout_rms_m(fr.model.name, r_px, d_m))
+            for fr in results]
+    return sorted(held, key=lambda fr: math.inf if fr.holdout_rms_m is None
+                  else fr.holdout_rms_m)

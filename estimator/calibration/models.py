@@ -34,6 +34,7 @@ __all__ = [
     "LinearCalibration",
     "LookupCalibration",
     "MirrorCalibration",
+    "ranges_m",
 ]
 
 CALIBRATION_MODELS = ("linear", "lookup", "mirror", "camera")
@@ -240,3 +241,16 @@ class CameraCalibration:
                 "to serialise a CameraCalibration"
             )
         return {"model": self.name, "camera": to_dict(), "ball_radius_m": self.ball_radius_m}
+
+
+def ranges_m(model: Calibration, r_px: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """``model.range_m`` of each radius, NaN where the model has no range (beyond a horizon):
+    a curve to draw or residuals to take."""
+    radii = np.asarray(r_px, dtype=np.float64)
+    out = np.full(radii.shape, np.nan)
+    for i, ri in np.ndenumerate(radii):
+        try:
+            out[i] = float(model.range_m(float(ri)))
+        except CalibrationError:
+            pass
+    return out

@@ -142,7 +142,7 @@ def replay_log(task: LogTask) -> LogRow:
         robots[r] = ErrorSums(rs.frames, rs.detections, rs.estimates, errs.n, errs.sum_sq)
     f = sums.fused
     fused = ErrorSums(s.steps, s.fused_steps, s.fused_steps, f.n, f.sum_sq)
-    return LogRow(name, None, s.frames, s.steps, robots, fused)
+    return LogRow(name, None, s.frames, s.steps, robots, fused, s.warnings)
 
 
 def _one_line(err: BaseException) -> str:
@@ -207,6 +207,8 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
                 logs[i].name, outcome.failure.text)
             if outcome.failure is not None and outcome.failure.detail:
                 print(printable(outcome.failure.detail, lines=True), file=sys.stderr)
+            for line in row.warnings if row is not None else ():
+                print(printable(f"warning: {line}"), file=sys.stderr)
             rows[i] = row
             bar.update(1)
             bar.set_postfix_str(logs[i].name)

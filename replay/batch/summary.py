@@ -60,6 +60,8 @@ class LogRow:
     steps: int = 0
     robots: dict[str, ErrorSums] = field(default_factory=dict)
     fused: ErrorSums = field(default_factory=ErrorSums)
+    warnings: tuple[str, ...] = ()
+    """The replay's warnings (printed by the command, not in the summary files)."""
 
     @property
     def ok(self) -> bool:

@@ -2,9 +2,11 @@
 
 :func:`log_info` reads the catalogue (:mod:`replay.log.catalogue`) of any MCAP file, whatever its
 topics, and returns a :class:`LogSummary`: duration, start and end, topics with their types,
-counts and rates, the robots, scenario, cameras and renderer from the metadata, chunks and
-compression. ``check=True`` reads every chunk too: chunk and data CRCs, the summary's CRC and
-whether it agrees with the data; the problems found are listed (none: the log is intact).
+counts and rates, the robots (named by the topics: a foreign log's too, with the
+``--image-topic`` / ``--pose-topic`` patterns that replay it, :mod:`dsp.topics`), scenario,
+each camera's description and renderer from the metadata, chunks and compression.
+``check=True`` reads every chunk too: chunk and data CRCs, the summary's CRC and whether it
+agrees with the data; the problems found are listed (none: the log is intact).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dsp import contract
 from dsp import metadata as meta
 from dsp.jsonio import Json
 from dsp.text import printable
+from dsp.topics import infer_patterns
 from estimator.constants import NS_PER_S
 from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
 
@@ -63,6 +66,12 @@ class LogSummary:
     """"indexed" (a summary with chunk indexes), "summary", or "none"."""
     checked: bool = False
     problems: list[str] = field(default_factory=list)
+    image_topic: str | None = None
+    """The image topic pattern the robots were found by (:mod:`dsp.topics`)."""
+    pose_topic: str | None = None
+    """The pose topic pattern that names the same robots, when one does."""
+    camera_descriptions: dict[str, str] = field(default_factory=dict)
+    """robot -> its camera description in one line (:meth:`dsp.cameras.CameraSpec.describe`)"""
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=1, sort_keys=True, allow_nan=False) + "\n"
@@ -96,9 +105,12 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         rate = n / duration if n is not None and duration else None
         topics.append(TopicInfo(_shown(ch.topic), _shown(schema.name) if schema else "",
                                 n, None if rate is None else round(rate, 3)))
-    names = {ch.topic for ch in cat.channels.values()}
-    robots = [_shown(r) for r in contract.robot_names_in(names, contract.IMAGE_TOPIC)]
+    types = {ch.topic: (cat.schemas[ch.schema_id].name if ch.schema_id in cat.schemas else "")
+             for ch in cat.channels.values()}
+    patterns = infer_patterns(types)
+    robots = [] if patterns is None else [_shown(r) for r in patterns.robots]
     scenario, cameras, renderer = _metadata(cat)
+    descriptions = _descriptions(cat)
     chunks = cat.scan.chunks
     summary = "none" if cat.summary is None else (
         "indexed" if cat.summary.chunk_indexes else "summary")
@@ -115,7 +127,22 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         uncompressed_bytes=sum(c.uncompressed_size for c in chunks),
         metadata=sorted(_shown(n) for n in cat.metadata), summary=summary, checked=check,
         problems=[_shown(p, limit=300) for p in problems],
+        image_topic=None if patterns is None else _shown(patterns.image_topic),
+        pose_topic=None if patterns is None or patterns.pose_topic is None
+        else _shown(patterns.pose_topic),
+        camera_descriptions=descriptions,
     )
+
+
+def _descriptions(cat: Catalogue) -> dict[str, str]:
+    """robot -> its camera in one line (an entry that does not parse: its error)."""
+    out: dict[str, str] = {}
+    for robot, text in cat.metadata.get(contract.CAMERAS_METADATA, {}).items():
+        try:
+            out[_shown(robot)] = meta.CameraMetadata(robot, json.loads(text)).spec.describe()
+        except (ValueError, TypeError, AttributeError) as err:
+            out[_shown(robot)] = _shown(f"unusable: {err}", limit=200)
+    return out
 
 
 def _metadata(cat: Catalogue) -> tuple[dict[str, Json] | None, dict[str, str], str | None]:
@@ -162,10 +189,20 @@ def format_info(s: LogSummary) -> str:
     lines.append(f"chunks:      {s.chunks} ({comp}; {_size(s.chunk_bytes)} -> "
                  f"{_size(s.uncompressed_bytes)}), summary: {s.summary}")
     lines.append(f"robots:      {', '.join(s.robots) or '-'}")
+    if s.robots and s.image_topic is not None and s.image_topic != contract.IMAGE_TOPIC:
+        pose = s.pose_topic or "(none found: give --pose-topic)"
+        lines.append(f"  from topics {s.image_topic} and {pose}: replay with --image-topic "
+                     f"'{s.image_topic}'" + (f" --pose-topic '{s.pose_topic}'"
+                                             if s.pose_topic else ""))
     if s.scenario is not None:
         lines.append("scenario:    " + ", ".join(f"{k} {v}" for k, v in s.scenario.items()))
     if s.cameras:
         lines.append("cameras:     " + ", ".join(f"{k} {v}" for k, v in s.cameras.items()))
+        width = max(len(k) for k in s.camera_descriptions) if s.camera_descriptions else 0
+        lines.extend(f"  {k:<{width}}  {v}" for k, v in s.camera_descriptions.items())
+    elif s.robots:
+        lines.append("cameras:     - (no camera description: dsp-replay needs --cameras; "
+                     "dsp-info --cameras-template LOG -o cameras.yaml writes one to start from)")
     lines.append(f"renderer:    {s.renderer or '-'}")
     lines.append(f"metadata:    {', '.join(s.metadata) or '-'}")
     width = max((len(t.topic) for t in s.topics), default=5)

@@ -9,7 +9,8 @@
   typed metadata; :mod:`replay.log.messages`: the validated records it yields;
   :mod:`replay.log.schemas`: a log's ROS 2 definitions checked against the contract's;
 - :mod:`replay.log.recovery`: what ``--recover`` lost; :mod:`replay.log.decode`: image
-  messages to pixels, sized from the header first.
+  messages to pixels, sized from the header first (:mod:`replay.log.raw_image`: every raw
+  ROS 2 colour and grey encoding).
 
 It imports nothing of replay but its errors (:mod:`replay.errors`): no sink, no option.
 """
@@ -17,7 +18,7 @@ It imports nothing of replay but its errors (:mod:`replay.errors`): no sink, no 
 from __future__ import annotations
 
 from replay.log.catalogue import Catalogue, build_catalogue, check_mcap_file, read_all_blocks
-from replay.log.decode import DEFAULT_MAX_PIXELS, decode_image, image_size
+from replay.log.decode import DEFAULT_MAX_PIXELS, decode_image, image_problem, image_size
 from replay.log.mcap_records import DEFAULT_MAX_CHUNK_BYTES, DEFAULT_MAX_MESSAGE_BYTES, Limits
 from replay.log.messages import BadMessage, ImageMessage, PoseMessage, TruthMessage
 from replay.log.reader import LogInfo, LogReader
@@ -39,6 +40,7 @@ __all__ = [
     "build_catalogue",
     "check_mcap_file",
     "decode_image",
+    "image_problem",
     "image_size",
     "read_all_blocks",
 ]

@@ -1,11 +1,13 @@
 """Image messages to pixels: compressed (PNG, JPEG, BMP) through OpenCV, raw
-``sensor_msgs/Image`` in the encodings replay understands (bgr8, rgb8, mono8).
+``sensor_msgs/Image`` in every colour and grey encoding ROS 2 defines
+(:mod:`replay.log.raw_image`).
 
 Untrusted bytes are checked before OpenCV sees them: the dimensions are read from the
 header (PNG IHDR, JPEG SOF, BMP info header) and an image over ``max_pixels`` is refused
 before anything is allocated; a PNG's chunk CRCs are checked so a damaged one is refused
 without libpng printing to stderr, and libjpeg's warnings about damaged data are silenced.
-Anything that does not decode gives None.
+Anything that does not decode gives None; :func:`image_problem` says why in words (the
+encoding it does not read, the size over the limit, ...).
 """
 
 from __future__ import annotations
@@ -22,8 +24,9 @@ import cv2
 import numpy as np
 
 from replay.log.messages import ImageMessage
+from replay.log.raw_image import decode_raw, raw_problem
 
-__all__ = ["DEFAULT_MAX_PIXELS", "decode_image", "image_size"]
+__all__ = ["DEFAULT_MAX_PIXELS", "decode_image", "image_problem", "image_size"]
 
 DEFAULT_MAX_PIXELS = 40_000_000
 """Largest image decoded (pixels): 40 Mpx, e.g. 6300 x 6300; a 4K camera has 8.8 Mpx."""
@@ -136,7 +139,8 @@ def decode_image(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     """BGR pixels of an image message, None when it does not decode or is over
     ``max_pixels``."""
     if msg.fmt == "raw":
-        return _decode_raw(msg, max_pixels)
+        return decode_raw(msg.data, msg.encoding, msg.width_px, msg.height_px, msg.step,
+                          big_endian=msg.big_endian, max_pixels=max_pixels)
     header = image_size(msg.data)
     if header is None:
         return None
@@ -156,21 +160,17 @@ def decode_image(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
     return img
 
 
-def _decode_raw(msg: ImageMessage, max_pixels: int) -> np.ndarray | None:
-    enc = msg.encoding.lower()
-    channels = {"bgr8": 3, "rgb8": 3, "mono8": 1}.get(enc)
-    if channels is None or msg.width_px <= 0 or msg.height_px <= 0:
-        return None
-    if msg.width_px * msg.height_px > max_pixels:
-        return None
-    step = msg.step or msg.width_px * channels
-    if step < msg.width_px * channels or len(msg.data) < step * msg.height_px:
-        return None
-    buf = np.frombuffer(msg.data, np.uint8, count=step * msg.height_px)
-    px = buf.reshape(msg.height_px, step)[:, : msg.width_px * channels]
-    px = px.reshape(msg.height_px, msg.width_px, channels)
-    if enc == "rgb8":
-        return cv2.cvtColor(px, cv2.COLOR_RGB2BGR)
-    if enc == "mono8":
-        return cv2.cvtColor(px, cv2.COLOR_GRAY2BGR)
-    return np.ascontiguousarray(px)
+def image_problem(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> str:
+    """Why an image message does not decode, in words (for one that :func:`decode_image`
+    gave None for)."""
+    if msg.fmt == "raw":
+        problem = raw_problem(msg.encoding, msg.width_px, msg.height_px, msg.step,
+                              len(msg.data), max_pixels)
+        return problem or f"{msg.encoding[:40]} pixels do not convert"
+    header = image_size(msg.data)
+    if header is None:
+        return f"format {msg.fmt[:40]!r}: not an intact PNG, JPEG or BMP"
+    fmt, width, height = header
+    if width <= 0 or height <= 0 or width * height > max_pixels:
+        return f"{fmt} image of {width} x {height} px (at most {max_pixels / 1e6:g} Mpx)"
+    return f"{fmt} data does not decode"

@@ -26,7 +26,8 @@ __all__ = [
 @dataclass(frozen=True)
 class ImageMessage:
     """One camera image. ``data`` is the compressed bytes (``fmt`` "png"/"jpeg"/...) or the
-    raw pixel buffer (``fmt`` "raw", with ``encoding``, ``width_px``, ``height_px``, ``step``)."""
+    raw pixel buffer (``fmt`` "raw", with ``encoding``, ``width_px``, ``height_px``, ``step``,
+    ``big_endian``)."""
 
     robot: str
     stamp_ns: int
@@ -37,6 +38,8 @@ class ImageMessage:
     width_px: int = 0
     height_px: int = 0
     step: int = 0
+    big_endian: bool = False
+    """Raw 16-bit samples are big-endian (``is_bigendian``)."""
 
 
 @dataclass(frozen=True)
@@ -113,7 +116,10 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
             p, v = msg.pose.pose.position, msg.twist.twist.linear
             tx, ty, vx, vy = _finite(p.x, p.y, v.x, v.y)
             return TruthMessage(stamp, tx, ty, vx, vy)
-        p = msg.pose.position if hasattr(msg, "pose") else msg.point
+        pose = getattr(msg, "pose", None)
+        if pose is not None and hasattr(pose, "pose"):  # PoseWithCovarianceStamped (mocap)
+            pose = pose.pose
+        p = msg.point if pose is None else pose.position
         tx, ty = _finite(p.x, p.y)
         return TruthMessage(stamp, tx, ty)
     data = bytes(msg.data)
@@ -126,4 +132,5 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
     return ImageMessage(  # sensor_msgs/Image
         robot, stamp, record.log_time, "raw", data, encoding=str(msg.encoding),
         width_px=int(msg.width), height_px=int(msg.height), step=int(msg.step),
+        big_endian=bool(msg.is_bigendian),
     )

@@ -82,8 +82,6 @@ class LogInfo:
     """The ``dsp.cameras`` record, parsed; no cameras when the log has none."""
     recorder: meta.RecorderMetadata | None = None
     """The ``dsp.recorder`` record, parsed; None when the log has none."""
-    warnings: tuple[str, ...] = ()
-    """What the replay falls back to (a robot without camera metadata), for the user."""
 
 
 class LogReader:
@@ -198,6 +196,7 @@ class LogReader:
             count = sum(n for cid, n in cat.counts.items() if cid in self._wanted)
         blocks = cat.blocks
         scenario, cameras, recorder = self._parse_metadata()
+        self._check_cameras(image_robots, cameras, recorder)
         return LogInfo(
             path=self.path,
             robots=tuple(image_robots),
@@ -211,7 +210,6 @@ class LogReader:
             scenario=scenario,
             cameras=cameras,
             recorder=recorder,
-            warnings=self._camera_warnings(image_robots, cameras, recorder),
         )
 
     def _decoder(self, channel: Channel) -> Callable[[bytes], Any]:
@@ -248,21 +246,19 @@ class LogReader:
         except meta.MetadataError as err:
             raise meta.MetadataError(f"{self.path}: metadata {err}") from err
 
-    def _camera_warnings(self, robots: list[str], cameras: meta.CamerasMetadata,
-                         recorder: object) -> tuple[str, ...]:
-        """A log written by dsp-record names every robot's camera (missing: an error); for
-        another writer's log, say loudly that the paper's calibration stands in."""
+    def _check_cameras(self, robots: list[str], cameras: meta.CamerasMetadata,
+                       recorder: object) -> None:
+        """A log written by dsp-record names every robot's camera: one it lacks is damaged
+        metadata, an error. Another writer's log may name none (a robot's own log): the
+        replay then needs a camera description from its options (replay.cameras), and says
+        so rather than guessing one."""
         have = cameras.by_robot()
         missing = [printable(r, limit=120) for r in robots if r not in have]
-        if not missing:
-            return ()
-        if recorder is not None:
+        if missing and recorder is not None:
             raise meta.MetadataError(
                 f"{self.path}: metadata {contract.CAMERAS_METADATA} has no camera for "
                 f"{', '.join(missing)} although the log was written by dsp-record "
                 "(damaged metadata?)")
-        return (f"{self.path}: no camera metadata for {', '.join(missing)}: using the "
-                "paper's calibration and image centre (give --calibration to choose)",)
 
     # --- streaming -------------------------------------------------------------------------
     def messages(

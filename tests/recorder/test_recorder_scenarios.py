@@ -105,7 +105,8 @@ def test_rolling_lasts_ten_seconds_and_moves() -> None:
 
 
 def test_names_and_errors() -> None:
-    assert set(SCENARIOS) == {*PAPER_SCENARIOS, "random", "rolling", "match"}
+    assert set(SCENARIOS) == {*PAPER_SCENARIOS, "random", "rolling", "match", "lobs"}
+    assert scenario_from_path("lobs-seed2.mcap") == "lobs"
     assert scenario_from_path("logs/scenario1.mcap") == "scenario1"
     assert scenario_from_path("rolling-seed3.mcap") == "rolling"
     assert scenario_from_path("random_2.mcap") == "random"

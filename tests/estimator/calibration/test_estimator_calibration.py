@@ -22,6 +22,7 @@ from estimator.calibration import (
     fit_linear,
     fit_lookup,
     fit_mirror,
+    holdout_rms_m,
 )
 from estimator.errors import (
     CalibrationError,
@@ -105,12 +106,39 @@ def test_fit_errors_name_the_problem() -> None:
         fit_mirror([1.0, math.inf], [1.0, 2.0])
 
 
-def test_fit_all_is_sorted_by_rms() -> None:
+def test_fit_all_ranks_on_held_out_samples() -> None:
     r = np.linspace(20.0, 200.0, 30)
     results = fit_all(r, 1.569 * np.tan(0.007088 * r))
-    assert [fr.rms_m for fr in results] == sorted(fr.rms_m for fr in results)
+    held = [fr.holdout_rms_m for fr in results if fr.holdout_rms_m is not None]
+    assert len(held) == len(results) and held == sorted(held)
     assert {fr.model.name for fr in results} == {"linear", "mirror", "lookup"}
-    assert results[-1].model.name == "linear"  # the tan curve is not a line
+    assert [fr.model.name for fr in results] == ["mirror", "lookup", "linear"]
+
+
+def test_fit_all_does_not_pick_the_lookup_table_that_fits_its_own_noise() -> None:
+    """On noisy samples of a line the table has RMS 0 where it was fitted, and loses on the
+    samples held out."""
+    r = np.linspace(20.0, 500.0, 40)
+    d = 0.0163 * r + 0.2786 + np.random.default_rng(1).normal(0.0, 0.02, r.size)
+    results = fit_all(r, d)
+    lookup = next(fr for fr in results if fr.model.name == "lookup")
+    assert lookup.rms_m == min(fr.rms_m for fr in results)
+    assert results[0].model.name == "linear"
+    assert lookup.holdout_rms_m is not None and results[0].holdout_rms_m is not None
+    assert lookup.holdout_rms_m > results[0].holdout_rms_m
+
+
+def test_fit_all_says_when_it_could_not_hold_samples_out() -> None:
+    results = fit_all([10.0, 20.0, 30.0], [1.0, 2.0, 3.1])
+    assert all(fr.holdout_rms_m is None for fr in results)
+    assert [fr.rms_m for fr in results] == sorted(fr.rms_m for fr in results)
+
+
+def test_holdout_is_infinite_when_a_held_out_radius_is_beyond_the_model() -> None:
+    r = np.array([100.0, 200.0, 300.0, 400.0, 500.0, 600.0])
+    d = 1.2 * np.tan(np.pi / 1300.0 * r)  # the horizon at 650 px
+    assert math.isfinite(holdout_rms_m("mirror", r, d))
+    assert holdout_rms_m("mirror", [*r[:-1], 2000.0], [*d[:-1], 30.0]) == math.inf
 
 
 class _FlatCamera:

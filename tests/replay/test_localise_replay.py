@@ -170,3 +170,29 @@ def test_the_viewer_shows_the_corrected_pose_beside_the_believed_one(
         assert all(lab.startswith(f"{robot} lines ") and " cm " in lab for lab in labels[robot])
         shift_cm = float(labels[robot][0].split()[2])
         assert 5.0 < shift_cm < 12.0
+
+
+def test_a_camera_turned_on_its_robot_is_turned_back() -> None:
+    from field_images import render_carpet
+
+    from dsp.field import FIELDS
+    from estimator.camera import make_camera
+    from estimator.geometry import RobotPose
+    from replay.localise import Localiser
+
+    camera = make_camera("ideal", cu_px=539.0, cv_px=539.0)
+    true, mount = RobotPose(-2.0, 1.5, 0.4), math.radians(35.0)
+    # the image up shows the robot-frame direction mount: as from a robot turned by it
+    image = render_carpet(camera, RobotPose(true.x_m, true.y_m, true.yaw_rad + mount))
+    believed = RobotPose(true.x_m + 0.04, true.y_m - 0.03, true.yaw_rad + math.radians(0.8))
+    errors = {}
+    for name, yaw in (("turned back", mount), ("not", 0.0)):
+        loc = Localiser(FIELDS["18x12"], {"r": camera}, sigma_m=0.05, sigma_deg=1.0,
+                        mount_yaw_rad={"r": yaw})
+        fit = loc.fit(loc.points("r", image), believed)
+        assert fit is not None
+        got = fit.pose if fit.status.value == "ok" else believed
+        errors[name] = (math.hypot(got.x_m - true.x_m, got.y_m - true.y_m),
+                        abs(got.yaw_rad - true.yaw_rad))
+    assert errors["turned back"][0] < 0.01 and errors["turned back"][1] < math.radians(0.1)
+    assert errors["not"][0] > 0.02 or errors["not"][1] > math.radians(0.5)

@@ -42,6 +42,8 @@ class FieldSpec:
     """From the goal line to the penalty mark."""
     spot_radius_m: float = 0.1
     """Radius of the centre and penalty marks."""
+    line_width_m: float = 0.125
+    """Width of the painted lines (MSL rules: 0.125 m)."""
 
     @property
     def half_length_m(self) -> float:

@@ -1,12 +1,14 @@
 """The Dual-Sight Perspective ball estimator: pure numpy + OpenCV, no I/O.
 
-Three rooms: detection (:mod:`estimator.detection`), calibrations (:mod:`estimator.calibration`:
-models, fitting, JSON form) and the ball tracker (:mod:`estimator.tracking`). Beside them:
+Four rooms: detection (:mod:`estimator.detection`), calibrations (:mod:`estimator.calibration`:
+models, fitting, JSON form), the ball tracker (:mod:`estimator.tracking`) and a robot's pose
+from the field's white lines (:mod:`estimator.localisation`). Beside them:
 paper mode (:mod:`estimator.paper`), the corrected estimator (:mod:`estimator.corrected`),
 the estimates that flow between the parts (:mod:`estimator.estimates`), their noise models
 (:mod:`estimator.noise`), fusion of several robots (:mod:`estimator.fusion`), geometry,
 errors and the numbers defined once (:mod:`estimator.constants`). Camera models live in
-:mod:`estimator.camera` (imported on demand, not re-exported here). Imports run one way:
+:mod:`estimator.camera` (imported on demand, not re-exported here, as is
+:mod:`estimator.localisation`). Imports run one way:
 fusion -> tracking -> noise -> estimates; the estimator imports nothing else of the project.
 """
 
@@ -45,6 +47,7 @@ from estimator.errors import (
     FitError,
     FusionError,
     GeometryError,
+    LocalisationError,
     OutOfRangeError,
     UnknownFusionError,
 )
@@ -105,6 +108,7 @@ __all__ = [
     "FusionError",
     "GeometryError",
     "LinearCalibration",
+    "LocalisationError",
     "LookupCalibration",
     "MeanFusion",
     "Measurement",

@@ -15,6 +15,7 @@ __all__ = [
     "FitError",
     "FusionError",
     "GeometryError",
+    "LocalisationError",
     "OutOfRangeError",
     "UnknownFusionError",
 ]
@@ -59,3 +60,8 @@ class FusionError(EstimatorError):
 
 class UnknownFusionError(FusionError):
     """A fusion method name that is not one of ``FUSION_METHODS``."""
+
+
+class LocalisationError(EstimatorError):
+    """A bad input to the field-line localisation (an image of the wrong size, a prior
+    covariance that is not positive definite, a bad parameter or field line)."""

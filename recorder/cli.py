@@ -14,9 +14,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.realism import REALISM, Realism, realism_preset
 from dsp.text import printable
 from recorder.field import FIELDS
-from recorder.scenarios import SCENARIOS
+from recorder.scenarios import SCENARIOS, scenario_from_path
 
 __all__ = ["build_parser", "main"]
 
@@ -47,9 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="CompressedImage encoding (default %(default)s)")
     p.add_argument("--jpeg-quality", type=int, default=90, metavar="Q",
                    help="JPEG quality 1-100 (default %(default)s)")
-    p.add_argument("--pose-noise", type=float, default=0.0, metavar="M",
+    p.add_argument("--pose-noise", type=float, metavar="M",
                    help="std dev of the believed position noise in metres (default 0)")
-    p.add_argument("--yaw-noise", type=float, default=0.0, metavar="DEG",
+    p.add_argument("--yaw-noise", type=float, metavar="DEG",
                    help="std dev of the believed heading noise in degrees (default 0)")
     p.add_argument("--robot-count", type=int, metavar="N",
                    help="how many robots with cameras (random/rolling; default 3)")
@@ -66,6 +67,12 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_match_arguments(p: argparse.ArgumentParser) -> None:
     """Match play, timing and the less-than-ideal camera (all off unless given)."""
     g = p.add_argument_group("match play and camera effects (off unless given)")
+    g.add_argument("--realism", choices=REALISM, default="none",
+                   help="field: a real field's localisation error and camera effects in one "
+                   "word (drifting bias 0.05 m / 1 deg, tau 5 s, noise 0.01 m / 0.3 deg, "
+                   "exposure 4 ms, image noise 3, gain jitter 0.1, 3 distractors in a "
+                   "match); a flag given beside it overrides its value (default none: the "
+                   "defaults below)")
     g.add_argument("--camera-phase", choices=("sync", "random"),
                    help="cameras fire together (sync) or each at its own seeded phase "
                    "(random: no two images share a stamp); default random for match, "
@@ -73,25 +80,47 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--pose-rate", type=float, metavar="HZ",
                    help="poses, /tf and truth per second, a whole multiple of --rate "
                    "(default twice --rate; 240 for match)")
-    g.add_argument("--pose-bias", type=float, default=0.0, metavar="M",
+    g.add_argument("--pose-bias", type=float, metavar="M",
                    help="std dev of a slowly drifting localisation bias in metres (default 0)")
-    g.add_argument("--yaw-bias", type=float, default=0.0, metavar="DEG",
+    g.add_argument("--yaw-bias", type=float, metavar="DEG",
                    help="std dev of a slowly drifting heading bias in degrees (default 0)")
-    g.add_argument("--pose-bias-tau", type=float, default=5.0, metavar="S",
-                   help="time constant of the drifting bias (default %(default)s s)")
-    g.add_argument("--exposure", type=float, default=0.0, metavar="MS",
+    g.add_argument("--pose-bias-tau", type=float, metavar="S",
+                   help="time constant of the drifting bias (default 5 s)")
+    g.add_argument("--exposure", type=float, metavar="MS",
                    help="exposure time: motion blur over the physics steps before each "
                    "stamp (default 0)")
-    g.add_argument("--image-noise", type=float, default=0.0, metavar="LEVELS",
+    g.add_argument("--image-noise", type=float, metavar="LEVELS",
                    help="std dev of Gaussian pixel noise in grey levels (default 0)")
-    g.add_argument("--gain-jitter", type=float, default=0.0, metavar="STD",
+    g.add_argument("--gain-jitter", type=float, metavar="STD",
                    help="std dev of each camera's wandering log gain, e.g. 0.1 (default 0)")
-    g.add_argument("--distractors", type=int, default=0, metavar="N",
+    g.add_argument("--distractors", type=int, metavar="N",
                    help="boxes of the ball's colour beside the field (match and lobs; "
                    "default 0)")
     g.add_argument("--ball-odometry", action=argparse.BooleanOptionalAction, default=None,
                    help="write the ball's true velocity on /ground_truth/ball/odometry "
                    "(default: on for match)")
+
+
+def effects(args: argparse.Namespace) -> Realism:
+    """The effects: each flag given, else the ``--realism`` preset's (for the scenario the
+    output names when ``--scenario`` is not given)."""
+    preset = realism_preset(args.realism).for_scenario(
+        args.scenario or scenario_from_path(args.output))
+
+    def pick(flag: str, value: float) -> float:
+        given = getattr(args, flag)
+        return value if given is None else float(given)
+
+    return Realism(
+        pose_bias_m=pick("pose_bias", preset.pose_bias_m),
+        yaw_bias_deg=pick("yaw_bias", preset.yaw_bias_deg),
+        pose_bias_tau_s=pick("pose_bias_tau", preset.pose_bias_tau_s),
+        pose_noise_m=pick("pose_noise", preset.pose_noise_m),
+        yaw_noise_deg=pick("yaw_noise", preset.yaw_noise_deg),
+        exposure_ms=pick("exposure", preset.exposure_ms),
+        image_noise=pick("image_noise", preset.image_noise),
+        gain_jitter=pick("gain_jitter", preset.gain_jitter),
+        distractors=preset.distractors if args.distractors is None else args.distractors)
 
 
 def _add_venue_arguments(p: argparse.ArgumentParser) -> None:
@@ -131,8 +160,6 @@ def _main(argv: Sequence[str] | None) -> int:
         camera=args.camera,
         image_format=args.image_format,
         jpeg_quality=args.jpeg_quality,
-        pose_noise_m=args.pose_noise,
-        yaw_noise_deg=args.yaw_noise,
         robots=args.robot_count,
         field=args.field,
         face_px=DEFAULT_FACE_PX if args.face_px is None else args.face_px,
@@ -141,13 +168,6 @@ def _main(argv: Sequence[str] | None) -> int:
         progress=progress_enabled(args),
         pose_rate_hz=args.pose_rate,
         camera_phase=args.camera_phase,
-        pose_bias_m=args.pose_bias,
-        yaw_bias_deg=args.yaw_bias,
-        pose_bias_tau_s=args.pose_bias_tau,
-        exposure_ms=args.exposure,
-        image_noise=args.image_noise,
-        gain_jitter=args.gain_jitter,
-        distractors=args.distractors,
         ball_odometry=args.ball_odometry,
         ball_colour=args.ball_colour,
         ball_pattern=args.ball_pattern,
@@ -155,7 +175,7 @@ def _main(argv: Sequence[str] | None) -> int:
         covers=args.covers,
         light_pools=args.light_pools,
         lob_fraction=args.lob_fraction,
-    )
+    ).with_realism(effects(args))
     for partial in partial_logs(args.output):
         print(printable(f"{PROG}: note: {partial} is left from an earlier recording to "
                         f"{args.output.name} that was interrupted or killed (kept; "

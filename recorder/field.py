@@ -13,7 +13,8 @@ __all__ = ["FIELDS", "LINE_WIDTH_M", "FieldSpec", "field_spec", "field_texture"]
 
 CARPET_RGB = (30, 125, 45)
 LINE_RGB = (245, 245, 245)
-LINE_WIDTH_M = 0.125
+LINE_WIDTH_M = FIELDS["18x12"].line_width_m
+"""The lines' width on every field (:attr:`dsp.field.FieldSpec.line_width_m`)."""
 TEXTURE_PX_PER_M = 100
 
 
@@ -40,7 +41,7 @@ def field_texture(spec: FieldSpec, px_per_m: int = TEXTURE_PX_PER_M) -> np.ndarr
             round((full_w / 2 - y) * scale - 0.5 * (1 << shift)),
         )
 
-    thick = max(1, round(LINE_WIDTH_M * px_per_m))
+    thick = max(1, round(spec.line_width_m * px_per_m))
     col = LINE_RGB[::-1]
     for m in markings(spec):
         if isinstance(m, Rect):

@@ -40,6 +40,7 @@ from dsp.atomic import AtomicFile, check_output_path, partial_paths
 from dsp.checks import check_int, check_number, check_suffix
 from dsp.errors import UsageError
 from dsp.progress import progress_bar
+from dsp.realism import Realism
 from estimator.camera import CAMERA_MODELS, CameraModel, make_camera
 from estimator.constants import NS_PER_S
 from recorder.ball import BALL_COLOURS, BALL_PATTERNS, ball_look
@@ -166,6 +167,15 @@ class RecordOptions:
         check_int("--covers", self.covers, low=0, high=16)
         check_int("--light-pools", self.light_pools, low=0, high=MAX_LIGHT_POOLS)
         check_number("--lob-fraction", self.lob_fraction, low=0, high=1)
+
+    def with_realism(self, r: Realism) -> RecordOptions:
+        """These options with the effects of a preset (:mod:`dsp.realism`), as given:
+        :meth:`dsp.realism.Realism.for_scenario` first for a scenario without match play."""
+        return dataclasses.replace(
+            self, pose_bias_m=r.pose_bias_m, yaw_bias_deg=r.yaw_bias_deg,
+            pose_bias_tau_s=r.pose_bias_tau_s, pose_noise_m=r.pose_noise_m,
+            yaw_noise_deg=r.yaw_noise_deg, exposure_ms=r.exposure_ms, image_noise=r.image_noise,
+            gain_jitter=r.gain_jitter, distractors=r.distractors)
 
     def _check_effects(self) -> None:
         if self.camera_phase not in (None, *CAMERA_PHASES):

@@ -1,6 +1,7 @@
 """Decode and detect images ahead of the replay, in a small thread pool.
 
-Decoding a PNG or JPEG and finding the ball need nothing but the image, and OpenCV releases
+Decoding a PNG or JPEG, finding the ball and (``--localise lines``) the field lines need
+nothing but the image, and OpenCV releases
 the GIL while it works, so they can run in threads while the main thread reads the log and
 estimates, fuses and writes in log order. :class:`Ahead` takes the images in the order the
 runner will ask for them (:meth:`Ahead.push`), keeps at most ``depth`` of them in flight and
@@ -14,42 +15,56 @@ With ``threads`` 1 there is no pool: :meth:`Ahead.take` does the work in the cal
 
 from __future__ import annotations
 
+import functools
 import time
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from replay.estimation import Detected, detect
+from replay.localise import LocalisedPoints
 from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image, image_problem
 from replay.real_ball import BallFinder
 
-__all__ = ["Ahead", "Decoded", "decode_and_detect"]
+__all__ = ["Ahead", "Decoded", "LinePointsFn", "decode_and_detect"]
+
+R = TypeVar("R")
+
+
+LinePointsFn = Callable[[str, "np.ndarray | None"], "LocalisedPoints | None"]
+"""(robot, image) -> the image's field-line points (:meth:`replay.localise.Localiser.points`)."""
 
 
 @dataclass(frozen=True)
 class Decoded:
-    """One image message decoded (None: it does not decode) and its detection."""
+    """One image message decoded (None: it does not decode), its detection and, when
+    localising, its field-line points."""
 
     image: np.ndarray | None
     detected: Detected
     seconds: float
-    """Wall time of the decoding and detection."""
+    """Wall time of the decoding, detection and line points."""
     problem: str | None = None
     """Why the image does not decode, when it does not (:func:`replay.log.image_problem`)."""
+    points: LocalisedPoints | None = None
 
 
 def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS,
-                      finder: BallFinder | None = None) -> Decoded:
-    """Decode an image message (none over ``max_pixels``) and detect the ball in it (the
-    paper's chain, or ``finder``'s real detector; pure, thread-safe)."""
+                      finder: BallFinder | None = None,
+                      line_points: LinePointsFn | None = None) -> Decoded:
+    """Decode an image message (none over ``max_pixels``), detect the ball in it (the
+    paper's chain, or ``finder``'s real detector) and, with ``line_points``, find its field
+    lines (pure, thread-safe)."""
     t0 = time.perf_counter()
     image = decode_image(msg, max_pixels=max_pixels)
     detected = detect(image, finder)
+    points = None if line_points is None else line_points(msg.robot, image)
     problem = None if image is not None else image_problem(msg, max_pixels=max_pixels)
-    return Decoded(image, detected, time.perf_counter() - t0, problem)
+    return Decoded(image, detected, time.perf_counter() - t0, problem, points)
 
 
 class Ahead:
@@ -98,6 +113,15 @@ class Ahead:
         if self._pool is not None:
             self._fill()
         return result
+
+    def later(self, fn: Callable[..., R], *args: object) -> Callable[[], R]:
+        """``fn(*args)`` started in the pool now (with no pool: computed when asked for);
+        call the returned function for its result. For work that needs more than the image
+        (the line fit needs the pose), so it is not pushed with the image; a pure ``fn``
+        gives the same result either way."""
+        if self._pool is None:
+            return functools.partial(fn, *args)
+        return self._pool.submit(fn, *args).result
 
     def close(self) -> None:
         """Drop what is still waiting and stop the threads."""

@@ -43,7 +43,7 @@ from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.real_ball import BallFinder
-from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
+from replay.records import FrameResult, FrameStatus, Localisation, RobotEstimate, StepResult
 from replay.sink import Sink
 from replay.smoothing import SmoothedSteps
 from replay.sync import PoseMatch
@@ -63,6 +63,7 @@ class FrameOutcome:
     estimate: RobotEstimate | None = None
     candidates: tuple[Candidate, ...] = ()
     """The real detector's checked candidates, the winner first (none from the paper's)."""
+    localisation: Localisation | None = None
 
 
 @dataclass(frozen=True)
@@ -161,18 +162,22 @@ class FrameEstimator:
 
     def estimate(self, robot: str, image: np.ndarray | None,
                  pose_at: Callable[[], PoseMatch | None], *,
-                 detected: Detected | None = None) -> FrameOutcome:
+                 detected: Detected | None = None,
+                 localisation: Localisation | None = None) -> FrameOutcome:
         """One image through detection, pose pairing and location. ``pose_at`` looks up the
         robot's pose at the image's stamp (None: none within the tolerance); ``detected``
-        is :func:`detect` of the image when it ran already (e.g. ahead, in a thread)."""
+        is :func:`detect` of the image when it ran already (e.g. ahead, in a thread);
+        ``localisation``, the pose corrected from the image's field lines, is the pose the
+        ball is located from when given (the believed one stays the outcome's ``pose``)."""
         if detected is None:
             detected = detect(image, self.finder)
-        outcome = self._locate(robot, detected, pose_at)
+        outcome = self._locate(robot, detected, pose_at, localisation)
         return replace(outcome, candidates=detected.candidates) if detected.candidates \
             else outcome
 
     def _locate(self, robot: str, detected: Detected,
-                pose_at: Callable[[], PoseMatch | None]) -> FrameOutcome:
+                pose_at: Callable[[], PoseMatch | None],
+                loc: Localisation | None) -> FrameOutcome:
         if detected.status is not None:
             return FrameOutcome(detected.status)
         det = detected.detection
@@ -183,20 +188,26 @@ class FrameEstimator:
         pose = pose_at()
         if pose is None:
             return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
-        transform = self.cameras.map_to_field(robot)
-        if transform is not None:
-            x, y, yaw = transform.apply(pose.pose.x_m, pose.pose.y_m, pose.pose.yaw_rad)
-            pose = replace(pose, pose=RobotPose(x, y, yaw))
+        pose = self.field_pose(robot, pose)
         if det is None:
-            return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose)
+            return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose, localisation=loc)
         usable = self.cameras.usable_radius_px(robot)
         if usable is not None and r_px is not None and r_px > usable:
-            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
+            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
         try:
-            estimate = self.locator.locate(robot, det, pose.pose)
+            estimate = self.locator.locate(robot, det, pose.pose if loc is None else loc.pose)
         except EstimatorError:
-            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose)
-        return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate)
+            return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
+        return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate, localisation=loc)
+
+    def field_pose(self, robot: str, pose: PoseMatch) -> PoseMatch:
+        """The believed pose in the field frame: the camera file's map-to-field transform
+        applied, when it gives one."""
+        transform = self.cameras.map_to_field(robot)
+        if transform is None:
+            return pose
+        x, y, yaw = transform.apply(pose.pose.x_m, pose.pose.y_m, pose.pose.yaw_rad)
+        return replace(pose, pose=RobotPose(x, y, yaw))
 
     def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
         """The sinks the runner feeds: these, or (smoothing) one that passes frames on and

@@ -24,8 +24,8 @@ from estimator.fusion import FUSION_METHODS
 from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
 from replay.real_ball import DETECTORS
 
-__all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
-           "Timing"]
+__all__ = ["DEFAULT_FUSION", "DEFAULT_POSE_SIGMA", "FIT_LEAD_S", "LOCALISE_MODES",
+           "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget", "Timing"]
 
 METHODS = ("paper", "corrected")
 DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
@@ -40,6 +40,14 @@ poses, so the look-ahead stays bounded."""
 MAX_CLOCK_HZ = 10_000.0
 """The fastest ``--clock`` [Hz]."""
 RERUN_MODES = ("spawn", "save", "connect", "serve")
+LOCALISE_MODES = ("none", "lines")
+"""``--localise``: the believed poses as they are, or each corrected from its image's field
+lines (:mod:`replay.localise`)."""
+DEFAULT_POSE_SIGMA = (0.05, 1.0)
+"""The believed pose's standard deviation the line fit weighs it with, (m, deg)."""
+FIT_LEAD_S = 0.1
+"""With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose is
+known, while its fit runs in the pool; the outputs do not depend on it."""
 
 
 @dataclass(frozen=True)
@@ -64,6 +72,9 @@ class Timing:
     end_ns: int | None
     clock_ns: int | None = None
     """The clock's period, when steps are also made at its ticks."""
+    lead_ns: int = 0
+    """How long a frame waits after its poses are known, for work done meanwhile (the
+    line fit); 0 when there is none."""
 
     @property
     def lookahead_ns(self) -> int:
@@ -148,6 +159,13 @@ class ReplayOptions:
     """Refuse a chunk (compressed or declared uncompressed) or summary larger than this."""
     max_image_mpx: float = 40.0
     """Refuse to decode an image whose header declares more megapixels than this."""
+    localise: str = "none"
+    """"lines": each frame's pose corrected from the field lines in its image before the
+    ball is located (:mod:`replay.localise`); "none": the believed poses."""
+    pose_sigma_m: float = DEFAULT_POSE_SIGMA[0]
+    pose_sigma_deg: float = DEFAULT_POSE_SIGMA[1]
+    """The believed pose's standard deviation (position [m], yaw [deg]) the line fit weighs
+    it with (``--pose-sigma``): a fit further from it than this allows is refused."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -185,6 +203,13 @@ class ReplayOptions:
         if self.smooth and self.fusion_method != "track":
             raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
                              f"{self.fusion_method!r}")
+        if self.localise not in LOCALISE_MODES:
+            raise UsageError(f"--localise {self.localise!r}; choose one of "
+                             f"{', '.join(LOCALISE_MODES)}")
+        check_number("--pose-sigma", self.pose_sigma_m, low=0, high=10, low_open=True,
+                     unit="m")
+        check_number("--pose-sigma", self.pose_sigma_deg, low=0, high=90, low_open=True,
+                     unit="deg")
         check_topic_pattern("--image-topic", self.image_topic)
         check_topic_pattern("--pose-topic", self.pose_topic)
         if self.truth_topic is not None and not (
@@ -226,7 +251,13 @@ class ReplayOptions:
             start_ns=stamp(self.start_s, self.start_absolute),
             end_ns=stamp(self.end_s, self.end_absolute),
             clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
+            lead_ns=round(FIT_LEAD_S * NS_PER_S) if self.localising else 0,
         )
+
+    @property
+    def localising(self) -> bool:
+        """Whether the poses are corrected from the field lines."""
+        return self.localise != "none"
 
     def limits(self) -> Limits:
         """The reader's size limits in bytes."""
@@ -280,6 +311,8 @@ class ReplayOptions:
             **({"end_absolute": True} if self.end_absolute else {}),
             **({"detector": "real", "ball": self.ball.name}
                if self.detector_name == "real" and self.ball is not None else {}),
+            **({"localise": self.localise, "pose_sigma_m": self.pose_sigma_m,
+                "pose_sigma_deg": self.pose_sigma_deg} if self.localising else {}),
         }
 
     @property
@@ -297,5 +330,8 @@ class ReplayOptions:
         thread count, which changes nothing in the outputs."""
         d = asdict(self)
         d.pop("threads")
+        if not self.localising:  # as before the option existed: the same recording ids
+            for key in ("localise", "pose_sigma_m", "pose_sigma_deg"):
+                d.pop(key)
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

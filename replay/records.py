@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from estimator.constants import PAPER_CENTRE_PX
 from estimator.detection import Detection
@@ -18,7 +20,8 @@ from estimator.detection.real import Candidate
 from estimator.estimates import Covariance, FusedEstimate
 from estimator.geometry import RobotPose
 
-__all__ = ["FRAME_STATUSES", "FrameResult", "FrameStatus", "RobotEstimate", "StepResult"]
+__all__ = ["FRAME_STATUSES", "FrameResult", "FrameStatus", "Localisation", "RobotEstimate",
+           "StepResult"]
 
 
 class FrameStatus(str, enum.Enum):
@@ -56,6 +59,33 @@ class RobotEstimate:
     """Detected blob area / a whole ball's expected area at this range (1: unknown)."""
 
 
+Covariance3 = tuple[tuple[float, float, float], ...]
+"""A 3 x 3 covariance over (x_m, y_m, yaw_rad), row by row."""
+
+
+@dataclass(frozen=True)
+class Localisation:
+    """A frame's pose corrected from the field lines in its image (``--localise lines``):
+    the pose the ball is located with, beside the believed one (:attr:`FrameResult.pose`)."""
+
+    pose: RobotPose
+    covariance: Covariance3
+    """Of ``pose`` [m^2, m rad, rad^2]: the fit's, a held fit's grown with its age, or the
+    belief's (``--pose-sigma``) when the prior stays."""
+    status: str
+    """The fit's: "ok", "too_few_points", "poor_fit", "jump", or "no_camera" (the log
+    names no camera model for the robot)."""
+    source: str
+    """Where ``pose`` comes from: "lines" (this frame's fit), "held" (the robot's last fit,
+    recent, applied to this belief) or "prior" (the believed pose itself)."""
+    points: int
+    """Line points on the field under the believed pose."""
+    inliers: int
+    """Of them, within the fit's inlier distance of a line at the result."""
+    pixels: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """(N, 2) float32 (u, v) of the line points in the image, for the viewer."""
+
+
 @dataclass(frozen=True)
 class FrameResult:
     """What replay made of one image."""
@@ -73,6 +103,10 @@ class FrameResult:
     estimate: RobotEstimate | None = None
     truth: tuple[float, float] | None = None
     error_m: float | None = None
+    localisation: Localisation | None = None
+    """The pose from the field lines (``--localise lines``); None when not localising.
+    With it, ``estimate`` is located from ``localisation.pose``; ``pose`` stays the
+    believed one."""
     estimator_s: float = 0.0
     """Wall time of detection + estimation [s]: for display only, never in results files."""
     candidates: tuple[Candidate, ...] = ()

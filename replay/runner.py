@@ -29,7 +29,9 @@ import hashlib
 import math
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -39,11 +41,13 @@ from dsp.ball_file import read_ball_file, shipped_check
 from dsp.errors import UsageError
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
-from replay.ahead import Ahead, decode_and_detect
+from estimator.localisation import PoseCorrection
+from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
+from replay.localise import Localiser, check_field
 from replay.log import (
     ImageMessage,
     LogInfo,
@@ -54,7 +58,7 @@ from replay.log import (
 )
 from replay.options import ReplayOptions, Timing
 from replay.real_ball import BallFinder
-from replay.records import FrameResult, FrameStatus
+from replay.records import FrameResult, FrameStatus, Localisation
 from replay.selection import check_selected, check_selection, log_origin_ns
 from replay.sink import Sink
 from replay.sinks.outputs import OutputContext, open_outputs
@@ -104,14 +108,17 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
             smooth=options.smooth, noise=options.noise, finder=finder)
+        localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots)
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
-                decode_and_detect, max_pixels=options.max_image_pixels, finder=finder)))
+                decode_and_detect, max_pixels=options.max_image_pixels, finder=finder,
+                line_points=None if localiser is None else localiser.points)))
             stream = _Stream(reader, estimator, options.timing(log_origin_ns(info)),
-                             estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead)
+                             estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead,
+                             localiser)
             with _progress(options, reader) as bar:
                 stream.run(bar)
             estimator.flush()  # smoothing: the steps, once the whole log is read
@@ -126,6 +133,18 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
         if p is not None))
     return dataclasses.replace(summary, warnings=tuple(warnings))
+
+
+def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
+               path: Path) -> Localiser | None:
+    """The field-line correction the options ask for, on the field the log names."""
+    if not options.localising:
+        return None
+    field = check_field(None if info.scenario is None else info.scenario.field, str(path))
+    cams = estimator.cameras
+    return Localiser(field, cams.models, sigma_m=options.pose_sigma_m,
+                     sigma_deg=options.pose_sigma_deg,
+                     mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models})
 
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
@@ -181,12 +200,34 @@ def _progress(options: ReplayOptions, reader: LogReader) -> Iterator[Progress | 
         yield bar
 
 
+MAX_PENDING = 64
+"""The most frames held back for their line fits (the oldest go on early beyond it)."""
+
+
+def _nothing() -> None:
+    return None
+
+
+def _same(pose: PoseMatch | None) -> PoseMatch | None:
+    return pose
+
+
+@dataclass(frozen=True)
+class _Pending:
+    """A frame whose poses are known, waiting for its line fit."""
+
+    img: ImageMessage
+    decoded: Decoded
+    pose: PoseMatch | None
+    fit: Callable[[], PoseCorrection | None]
+
+
 class _Stream:
     """One pass over the log: histories of poses and truth, images delayed until their
     poses and step are complete, frames grouped into fusion steps, results to the sinks."""
 
     def __init__(self, reader: LogReader, estimator: FrameEstimator, timing: Timing,
-                 sinks: Sequence[Sink], ahead: Ahead) -> None:
+                 sinks: Sequence[Sink], ahead: Ahead, localiser: Localiser | None = None) -> None:
         self.reader = reader
         self.robots = reader.info.robots
         self.has_truth = reader.info.has_truth
@@ -194,7 +235,9 @@ class _Stream:
         self.timing = timing
         self.sinks = sinks
         self.ahead = ahead
-        horizon = 2 * timing.lookahead_ns + timing.window_ns
+        self.localiser = localiser
+        self.pending: deque[_Pending] = deque()
+        horizon = 2 * timing.lookahead_ns + timing.window_ns + timing.lead_ns
         self.poses: dict[str, History[PoseMessage]] = {r: History(horizon) for r in self.robots}
         self.truth: History[TruthMessage] = History(horizon)
         self.delay = DelayLine(timing.lookahead_ns)
@@ -225,9 +268,13 @@ class _Stream:
                     self.ahead.push(msg)  # decoded and detected in the pool meanwhile
                 now = msg.log_time_ns
             for ready in self.delay.ready(now):
-                self._image(ready)
+                self._ready(ready)
+            if self.pending:
+                self._settle(now)
         for ready in self.delay.drain():
-            self._image(ready)
+            self._ready(ready)
+        if self.pending:
+            self._settle(None)
         for t0, frames in self.grouper.flush():
             self._step(t0, frames)
 
@@ -249,17 +296,46 @@ class _Stream:
         return not ((t.start_ns is not None and img.stamp_ns < t.start_ns)
                     or (t.end_ns is not None and img.stamp_ns > t.end_ns))
 
-    def _image(self, img: ImageMessage) -> None:
+    def _ready(self, img: ImageMessage) -> None:
+        """An image whose poses are all in: estimated now, or (localising) its line fit
+        started in the pool, from the believed pose now known, and the frame held back
+        until the log is ``lead`` further on (:meth:`_settle`)."""
         if not self._wanted(img):
             return
         decoded = self.ahead.take(img)
+        if self.localiser is None:
+            self._image(img, decoded,
+                        functools.partial(self._pose_at, img.robot, img.stamp_ns), None)
+            return
+        pose = self._pose_at(img.robot, img.stamp_ns)
+        field_pose = None if pose is None else self.estimator.field_pose(img.robot, pose)
+        fit: Callable[[], PoseCorrection | None] = _nothing
+        if field_pose is not None and decoded.points is not None:
+            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose)
+        self.pending.append(_Pending(img, decoded, pose, fit))
+
+    def _settle(self, now_ns: int | None) -> None:
+        """The held-back frames whose lead has passed at log time ``now_ns`` (None: all),
+        in order: each robot's correction settled (a failed fit holds the last one), then
+        the frame estimated from it."""
+        assert self.localiser is not None
+        t = self.timing
+        while self.pending and (now_ns is None or len(self.pending) > MAX_PENDING or (
+                self.pending[0].img.stamp_ns + t.lookahead_ns + t.lead_ns < now_ns)):
+            p = self.pending.popleft()
+            loc = None if p.pose is None else self.localiser.settle(
+                p.img.robot, p.img.stamp_ns, self.estimator.field_pose(p.img.robot, p.pose).pose,
+                p.fit(), p.decoded.points)
+            self._image(p.img, p.decoded, functools.partial(_same, p.pose), loc)
+
+    def _image(self, img: ImageMessage, decoded: Decoded,
+               pose_at: Callable[[], PoseMatch | None], loc: Localisation | None) -> None:
         image = decoded.image
         if decoded.problem is not None:
             self.bad_images[decoded.problem] = self.bad_images.get(decoded.problem, 0) + 1
         t_start = time.perf_counter()
-        outcome = self.estimator.estimate(
-            img.robot, image, functools.partial(self._pose_at, img.robot, img.stamp_ns),
-            detected=decoded.detected)
+        outcome = self.estimator.estimate(img.robot, image, pose_at,
+                                          detected=decoded.detected, localisation=loc)
         elapsed = decoded.seconds + time.perf_counter() - t_start
         # the truth goes with every frame, so a missed ball can be told from an absent one
         truth = self._truth_at(img.stamp_ns)
@@ -275,8 +351,8 @@ class _Stream:
             pose=None if pose is None else pose.pose,
             pose_gap_ns=None if pose is None else pose.gap_ns,
             pose_interpolated=False if pose is None else pose.interpolated,
-            estimate=est, truth=truth, error_m=err, estimator_s=elapsed,
-            candidates=outcome.candidates,
+            estimate=est, truth=truth, error_m=err, localisation=outcome.localisation,
+            estimator_s=elapsed, candidates=outcome.candidates,
         )
         self.frames += 1
         self._emit_frame(result, image)

@@ -93,6 +93,9 @@ class ReplaySummary:
     holds the true one."""
     loss: RecoveryLoss | None = None
     """``recovered`` as read (None without ``--recover``)."""
+    pose_sources: dict[str, int] | None = None
+    """With ``--localise lines``: frames by where their pose came from ("lines", "held",
+    "prior"); None without it."""
     warnings: tuple[str, ...] = ()
     """What the user must know about a replay that worked (:mod:`replay.diagnosis`); the
     commands print them on stderr (``-q`` does not hide them)."""
@@ -131,6 +134,8 @@ class ReplayStats(SinkBase):
         self.estimator_n = 0
         self.undecodable = 0
         self.recovered: RecoveryLoss | None = None
+        self.pose_sources: dict[str, int] = {}
+        self.fit_statuses: dict[str, int] = {}
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         self.frames += 1
@@ -141,6 +146,10 @@ class ReplayStats(SinkBase):
         if image_bgr is not None:
             self.estimator_s += result.estimator_s
             self.estimator_n += 1
+        loc = result.localisation
+        if loc is not None:
+            self.pose_sources[loc.source] = self.pose_sources.get(loc.source, 0) + 1
+            self.fit_statuses[loc.status] = self.fit_statuses.get(loc.status, 0) + 1
         if result.detection is not None:
             counts.detections += 1
         if result.estimate is not None:
@@ -178,7 +187,15 @@ class ReplayStats(SinkBase):
             "fused": {"estimates": self.fused_steps, **self.fused_errors.to_dict(),
                       **self._velocity_dict()},
             "undecodable_messages": self.undecodable,
+            **self._localisation_dict(),
         }
+
+    def _localisation_dict(self) -> dict[str, Json]:
+        """``{"localisation": {...}}`` when frames were localised, else nothing."""
+        if not self.pose_sources:
+            return {}
+        return {"localisation": {"sources": dict(sorted(self.pose_sources.items())),
+                                 "statuses": dict(sorted(self.fit_statuses.items()))}}
 
     def _velocity_dict(self) -> dict[str, Json]:
         """``{"velocity": {...}}`` when there are velocity errors, else nothing (so a
@@ -211,4 +228,5 @@ class ReplayStats(SinkBase):
                 self.velocity_errors.n, self.velocity_errors.rmse_m, self.velocity_errors.mean_m,
                 self.velocity_errors.max_abs),
             loss=self.recovered,
+            pose_sources=dict(sorted(self.pose_sources.items())) if self.pose_sources else None,
         )

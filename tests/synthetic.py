@@ -85,12 +85,13 @@ def ball_pixel(
 
 
 def render(u: float, v: float, size: int | tuple[int, int] = SIZE_PX,
-           colour: tuple[int, int, int] = ORANGE_BGR) -> np.ndarray:
-    """A dark-green frame (``size`` px square, or (width, height)) with a disc of ``colour``
-    centred at (u, v) (sub-pixel accurate)."""
+           colour: tuple[int, int, int] = ORANGE_BGR, *,
+           background: np.ndarray | None = None) -> np.ndarray:
+    """A dark-green frame (``size`` px square, or (width, height); or ``background``) with a
+    disc of ``colour`` centred at (u, v) (sub-pixel accurate)."""
     width, height = (size, size) if isinstance(size, int) else size
     img = np.empty((height, width, 3), np.uint8)
-    img[:] = GREEN_BGR
+    img[:] = GREEN_BGR if background is None else background
     shift = 4
     centre = (round(u * (1 << shift)), round(v * (1 << shift)))
     cv2.circle(img, centre, DISC_RADIUS_PX << shift, colour, -1, cv2.LINE_8, shift)
@@ -135,6 +136,8 @@ def write_log(
     ball_path: Callable[[int], tuple[tuple[float, float], tuple[float, float]]] | None = None,
     with_odometry: bool = False,
     pose_bias_m: dict[str, tuple[float, float]] | None = None,
+    yaw_bias_rad: dict[str, float] | None = None,
+    carpet: bool = False,
     image_size_px: tuple[int, int] = (SIZE_PX, SIZE_PX),
     mount_yaw_rad: float = 0.0,
     map_origin: tuple[float, float] = (0.0, 0.0),
@@ -162,7 +165,11 @@ def write_log(
     ``stamp_offset_ns`` moves every stamp (a robot's clock in Unix time); the truth goes on
     ``truth_topic``; ``ball_colour`` paints the ball (BGR); ``image_topic`` is a pattern for
     the images (default: the contract's, less ``/compressed`` for raw images);
-    ``robot_velocity`` (m/s) moves every robot."""
+    ``robot_velocity`` (m/s) moves every robot; ``yaw_bias_rad`` turns the pose a robot
+    believes; ``carpet`` draws the ball on the 18x12 field's carpet seen through the ideal
+    camera model from the true pose (:mod:`field_images`; the camera and the field are in
+    the metadata), for the field-line localisation."""
+    with_cameras = with_cameras or carpet
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
     log = SyntheticLog(path, robots, ball)
@@ -186,6 +193,15 @@ def write_log(
     def ball_at(t_ns: int) -> tuple[float, float]:
         return ball_state(t_ns)[0]
 
+    def _carpet(name: str, t_ns: int) -> np.ndarray:
+        from field_images import render_carpet
+
+        from estimator.camera import make_camera
+        from estimator.geometry import RobotPose
+
+        cam = make_camera("ideal", cu_px=centre_px[0], cv_px=centre_px[1])
+        return render_carpet(cam, RobotPose(*robot_at(name, t_ns)), noise=2.0, seed=t_ns)
+
     # events: (time, order, kind, robot); at equal times poses precede images
     events: list[tuple[int, int, str, str]] = []
     for t in range(0, end_ns + 1, pose_dt):
@@ -208,7 +224,8 @@ def write_log(
         writer.add_metadata(
             contract.SCENARIO_METADATA,
             {"name": "synthetic", "seed": "0", "params": json.dumps(
-                {"field_length_m": 18.0, "field_width_m": 12.0}, sort_keys=True)},
+                {"field_length_m": 18.0, "field_width_m": 12.0,
+                 **({"field": "18x12"} if carpet else {})}, sort_keys=True)},
         )
         cam: dict[str, object] | None = None
         if with_cameras:
@@ -236,7 +253,8 @@ def write_log(
                 x, y, yaw = robot_at(name, t)
                 bias = (pose_bias_m or {}).get(name, (0.0, 0.0))
                 x, y = x + bias[0] - map_origin[0], y + bias[1] - map_origin[1]
-                msg = _pose_msg(t + stamp_offset_ns, x, y, yaw)
+                msg = _pose_msg(t + stamp_offset_ns, x, y,
+                                yaw + (yaw_bias_rad or {}).get(name, 0.0))
                 if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
                     msg = {"header": msg["header"],
                            "pose": {"pose": msg["pose"], "covariance": [0.0] * 36}}
@@ -260,7 +278,8 @@ def write_log(
                         publish_time=t)
             else:
                 u, v = ball_pixel(robot_at(name, t), ball_at(t), centre_px, mount_yaw_rad)
-                img = render(u, v, image_size_px, ball_colour)
+                img = render(u, v, image_size_px, ball_colour,
+                             background=_carpet(name, t) if carpet else None)
                 topic = contract.topic_for(contract.IMAGE_TOPIC, name)
                 header = _header(t + stamp_offset_ns, contract.camera_frame(name))
                 if image_encoding in ("png", "jpeg"):

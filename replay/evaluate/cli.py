@@ -30,6 +30,7 @@ from dsp.errors import CalibrationError, InputError, UsageError
 from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
+from dsp.realism import REALISM, realism_preset
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
@@ -100,6 +101,10 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
                    help="render resolution (default: the recorder's, 1024)")
     g.add_argument("--distractors", type=int, default=3, metavar="N",
                    help="orange boxes beside the field per match (default %(default)s)")
+    p.add_argument("--realism", choices=REALISM, default="none",
+                   help="record every scene with this preset of localisation error and "
+                   "camera effects (dsp-record --realism; field: a real field's); the logs "
+                   "and tables are named after it (default none: exact poses, ideal images)")
 
 
 def _add_images_arguments(p: argparse.ArgumentParser) -> None:
@@ -126,12 +131,14 @@ class SimRecorder:
 
     camera: str
     renderer: str
+    realism: str = "none"
 
     def __call__(self, path: Path, scenario: str, seed: int) -> None:
         from recorder.record import RecordOptions, record  # lazy: replay alone needs no pybullet
 
         record(path, RecordOptions(scenario=scenario, seed=seed, camera=self.camera,
-                                   renderer=self.renderer))
+                                   renderer=self.renderer).with_realism(
+            realism_preset(self.realism).for_scenario(scenario)))
 
 
 def _check(args: argparse.Namespace) -> None:
@@ -180,17 +187,17 @@ def _run_suite(args: argparse.Namespace,
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
     if args.suite == "match":
         return _run_match_suite(args, workers)
-    record = SimRecorder(args.camera, args.renderer)
+    record = SimRecorder(args.camera, args.renderer, args.realism)
     stem = _stem(args)
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
     with progress_bar(scenes, PROG, progress_enabled(args), unit="scene") as bar:
         map_scenes = _scene_mapper(workers, bar)
         if args.suite == "paper":
-            suite = run_paper_suite(record, args.out_dir, camera=args.camera,
+            suite = run_paper_suite(record, _log_dir(args), camera=args.camera,
                                     calibration=args.calibration, seed=args.seed,
                                     map_scenes=map_scenes)
             return stem, paper_markdown(suite), suite.to_dict()
-        rsuite = run_random_suite(record, args.out_dir, camera=args.camera, count=args.count,
+        rsuite = run_random_suite(record, _log_dir(args), camera=args.camera, count=args.count,
                                   seed=args.seed, calibration=args.calibration,
                                   map_scenes=map_scenes)
     return stem, random_markdown(rsuite), rsuite.to_dict()
@@ -199,14 +206,24 @@ def _run_suite(args: argparse.Namespace,
 def _stem(args: argparse.Namespace) -> str:
     """The tables' file stem in --out-dir."""
     stem = f"{args.suite}-{args.camera}"
+    if args.realism != "none":
+        stem += f"-{args.realism}"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
+
+
+def _log_dir(args: argparse.Namespace) -> Path:
+    """Where the paper and random suites' logs go: --out-dir, or a folder of it named after
+    the --realism preset (their log names do not say it, and a log is reused by name)."""
+    out: Path = args.out_dir
+    return out if args.realism == "none" else out / f"realism-{args.realism}"
 
 
 def _run_match_suite(args: argparse.Namespace,
                      workers: Workers) -> tuple[str, str, dict[str, Json]]:
     options = MatchOptions(camera=args.camera, duration_s=args.duration, rate_hz=args.rate,
                            face_px=args.face_px, distractors=args.distractors,
-                           renderer=args.renderer, calibration=args.calibration)
+                           renderer=args.renderer, calibration=args.calibration,
+                           realism=args.realism)
     sync = args.count if args.sync_count is None else min(args.sync_count, args.count)
     with progress_bar(args.count + sync, PROG, progress_enabled(args), unit="log") as bar:
 

@@ -28,6 +28,7 @@ options) alone, so logs can be scored in any order, in a process pool or as Ray 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -39,6 +40,7 @@ import numpy as np
 from dsp import contract
 from dsp.jsonio import Json
 from dsp.metadata import MetadataError, ScenarioMetadata
+from dsp.realism import realism_preset
 from estimator.fusion import FUSION_METHODS
 from replay.evaluate.scenes import serial_map
 from replay.evaluate.suites import rounded_doc
@@ -98,6 +100,9 @@ class MatchOptions:
     distractors: int = 3
     renderer: str = "auto"
     calibration: Path | None = None
+    realism: str = "none"
+    """The recorder's preset of localisation error and camera effects (:mod:`dsp.realism`);
+    ``distractors`` stays as given."""
 
     def log_name(self, seed: int, phase: str) -> str:
         return match_log_name(seed, phase, self)
@@ -108,8 +113,9 @@ def match_log_name(seed: int, phase: str, options: MatchOptions) -> str:
     reused only by a run that would record the same one."""
     rate = "" if options.rate_hz is None else f"-r{options.rate_hz:g}"
     face = "" if options.face_px is None else f"-f{options.face_px}"
+    realism = "" if options.realism == "none" else f"-{options.realism}"
     return (f"match-{seed}-{phase}-{options.camera}-d{options.distractors}"
-            f"-{options.duration_s:g}s{rate}{face}.mcap")
+            f"-{options.duration_s:g}s{rate}{face}{realism}.mcap")
 
 
 @dataclass
@@ -158,10 +164,11 @@ class MatchRecorder:
         from recorder.record import RecordOptions, record
 
         o = self.options
+        effects = dataclasses.replace(realism_preset(o.realism), distractors=o.distractors)
         record(path, RecordOptions(
             scenario="match", seed=seed, camera=o.camera, renderer=o.renderer,
-            camera_phase=self.phase, distractors=o.distractors, duration_s=o.duration_s,
-            rate_hz=o.rate_hz, face_px=DEFAULT_FACE_PX if o.face_px is None else o.face_px))
+            camera_phase=self.phase, duration_s=o.duration_s, rate_hz=o.rate_hz,
+            face_px=DEFAULT_FACE_PX if o.face_px is None else o.face_px).with_realism(effects))
 
 
 @dataclass(frozen=True)
@@ -311,6 +318,8 @@ class MatchSuite:
             "options": {"camera": self.options.camera, "duration_s": self.options.duration_s,
                         "rate_hz": self.options.rate_hz, "face_px": self.options.face_px,
                         "distractors": self.options.distractors,
+                        **({"realism": self.options.realism}
+                           if self.options.realism != "none" else {}),
                         "calibration": (self.options.calibration.name
                                         if self.options.calibration else None)},
             "capture": {"error_m": CAPTURE_ERROR_M, "radius_m": CAPTURE_RADIUS_M,
@@ -359,7 +368,9 @@ def match_markdown(suite: MatchSuite) -> str:
     rate = "20" if o.rate_hz is None else f"{o.rate_hz:g}"
     lines = [f"{suite.count} matches from seed {suite.seed}: {o.duration_s:g} s each, camera "
              f"`{o.camera}` at {rate} Hz per robot, random phases, {o.distractors} "
-             "distractors.", "",
+             "distractors" + ("" if o.realism == "none" else
+                              f", localisation error and camera effects `--realism {o.realism}`")
+             + ".", "",
              "| fusion | steps | RMSE [m] | median [m] | p95 [m] | max [m] | "
              "velocity median [m/s] | velocity p95 [m/s] | captures (matches) |",
              "|---|---|---|---|---|---|---|---|---|"]

@@ -23,11 +23,11 @@ import numpy as np
 
 from dsp.atomic import AtomicFile
 from estimator.constants import NS_PER_S
-from replay.records import FrameResult, StepResult
+from replay.records import FrameResult, Localisation, StepResult
 from replay.sink import SinkBase
 from replay.sinks.results_json import DECIMALS
 
-__all__ = ["CSV_COLUMNS", "CsvSink", "csv_rows"]
+__all__ = ["CSV_COLUMNS", "LOCALISATION_COLUMNS", "CsvSink", "csv_rows"]
 
 CSV_COLUMNS = (
     "kind", "index", "robot", "stamp_ns", "t_s", "status",
@@ -39,6 +39,15 @@ CSV_COLUMNS = (
     "robot_x_m", "robot_y_m", "robot_yaw_rad", "robots",
 )
 """The CSV's columns, a stable contract: new columns are only ever appended."""
+LOCALISATION_COLUMNS = (
+    "pose_source", "pose_status", "corrected_x_m", "corrected_y_m", "corrected_yaw_rad",
+    "corrected_cov_xx_m2", "corrected_cov_xy_m2", "corrected_cov_yy_m2",
+    "corrected_cov_yawyaw_rad2", "line_points", "line_inliers",
+)
+"""With ``--localise lines``, after :data:`CSV_COLUMNS`: each frame's pose corrected from
+the field lines (the believed one stays ``robot_x_m``...), its covariance and where it came
+from (:class:`replay.records.Localisation`); empty on fused rows. Without it the file has
+only :data:`CSV_COLUMNS`."""
 
 
 def _cell(value: object) -> str:
@@ -75,7 +84,20 @@ def _frame_row(f: FrameResult) -> dict[str, object]:
         "robot_x_m": None if pose is None else pose.x_m,
         "robot_y_m": None if pose is None else pose.y_m,
         "robot_yaw_rad": None if pose is None else pose.yaw_rad,
+        **_localisation_cells(f.localisation),
     }
+
+
+def _localisation_cells(loc: Localisation | None) -> dict[str, object]:
+    if loc is None:
+        return {}
+    (cxx, cxy, _), (_, cyy, _), (_, _, caa) = loc.covariance
+    return {"pose_source": loc.source, "pose_status": loc.status,
+            "corrected_x_m": loc.pose.x_m, "corrected_y_m": loc.pose.y_m,
+            "corrected_yaw_rad": loc.pose.yaw_rad, "corrected_cov_xx_m2": cxx,
+            "corrected_cov_xy_m2": cxy, "corrected_cov_yy_m2": cyy,
+            "corrected_cov_yawyaw_rad2": caa, "line_points": loc.points,
+            "line_inliers": loc.inliers}
 
 
 def _step_row(s: StepResult) -> dict[str, object]:
@@ -99,26 +121,29 @@ def _step_row(s: StepResult) -> dict[str, object]:
     return row
 
 
-def csv_rows(result: FrameResult | StepResult) -> list[str]:
-    """A frame's or step's CSV row: one cell per :data:`CSV_COLUMNS` entry."""
+def csv_rows(result: FrameResult | StepResult,
+             columns: tuple[str, ...] = CSV_COLUMNS) -> list[str]:
+    """A frame's or step's CSV row: one cell per entry of ``columns``."""
     row = _frame_row(result) if isinstance(result, FrameResult) else _step_row(result)
-    return [_cell(row.get(col)) for col in CSV_COLUMNS]
+    return [_cell(row.get(col)) for col in columns]
 
 
 class CsvSink(SinkBase):
-    """Sink writing the estimates as CSV to ``path`` (see the module docstring)."""
+    """Sink writing the estimates as CSV to ``path`` (see the module docstring);
+    ``localised``: with the :data:`LOCALISATION_COLUMNS` too."""
 
-    def __init__(self, path: Path, *, force: bool = False) -> None:
+    def __init__(self, path: Path, *, force: bool = False, localised: bool = False) -> None:
+        self.columns = CSV_COLUMNS + (LOCALISATION_COLUMNS if localised else ())
         self._out = AtomicFile(path, force=force)
         self._file = self._out.tmp.open("w", encoding="utf-8", newline="")
         self._csv = csv.writer(self._file, lineterminator="\n")
-        self._csv.writerow(CSV_COLUMNS)
+        self._csv.writerow(self.columns)
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
-        self._csv.writerow(csv_rows(result))
+        self._csv.writerow(csv_rows(result, self.columns))
 
     def step(self, result: StepResult) -> None:
-        self._csv.writerow(csv_rows(result))
+        self._csv.writerow(csv_rows(result, self.columns))
 
     def close(self, ok: bool) -> None:
         try:

@@ -53,7 +53,8 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
     if options.out_csv is not None:
         from replay.sinks.csv_export import CsvSink
 
-        sinks.append(stack.enter_context(CsvSink(Path(options.out_csv), force=options.force)))
+        sinks.append(stack.enter_context(CsvSink(Path(options.out_csv), force=options.force,
+                                                 localised=options.localising)))
     if options.plot is not None:
         from replay.sinks.plot import PlotSink
 

@@ -14,7 +14,9 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                                "circularity"} | null,
                  "pose": {"x_m", "y_m", "yaw_rad", "gap_s", "interpolated"} | null,
                  "estimate": {"x_m", "y_m", "range_m", "bearing_rad", "visibility"} | null,
-                 "truth": {"x_m", "y_m"} | null, "error_m": float | null}, ...],
+                 "truth": {"x_m", "y_m"} | null, "error_m": float | null,
+                 "localisation": {"x_m", "y_m", "yaw_rad", "covariance": 3 x 3,
+                                  "status", "source", "points", "inliers"}}, ...],
      "fused": [{"step", "stamp_ns", "t_s", "robots": [...], "x_m", "y_m",
                 "covariance": [[xx, xy], [yx, yy]], "truth": {...} | null,
                 "error_m": float | null,
@@ -26,9 +28,16 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                  "fused": {"estimates", "rmse_m", "mean_error_m", "max_error_m", "errors",
                            "velocity": {"errors", "rmse_m_s", "mean_error_m_s",
                                         "max_error_m_s"}},
-                 "undecodable_messages"}}
+                 "undecodable_messages",
+                 "localisation": {"sources": {source: n}, "statuses": {status: n}}}}
 
-``status`` is one of :data:`~replay.records.FRAME_STATUSES`. Errors are Euclidean distances
+``status`` is one of :data:`~replay.records.FRAME_STATUSES`. ``localisation`` is there only
+with ``--localise lines``, on the frames with a believed pose: the pose corrected from the
+image's field lines, which the estimate is located from, beside the believed ``pose``; its
+covariance over (x, y, yaw) [m^2, m rad, rad^2], the fit's ``status`` ("ok",
+"too_few_points", "poor_fit", "jump", "no_camera") and the pose's ``source`` ("lines",
+"held": the robot's last fit carried over, "prior": the believed pose kept); see
+:class:`replay.records.Localisation`. Errors are Euclidean distances
 [m] to the ground truth interpolated at the frame's (step's) stamp; RMSE =
 sqrt(mean(error^2)). The velocity keys are there only when the fusion estimates a velocity
 (``track``): the velocity [m/s] and its covariance [m^2/s^2]; the truth's velocity and the
@@ -44,9 +53,10 @@ import math
 from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from estimator.estimates import Covariance
-from replay.records import FrameResult, StepResult
+from replay.records import FrameResult, Localisation, StepResult
 
-__all__ = ["DECIMALS", "dumps", "frame_to_dict", "normalise", "step_to_dict"]
+__all__ = ["DECIMALS", "dumps", "frame_to_dict", "localisation_to_dict", "normalise",
+           "step_to_dict"]
 
 DECIMALS = 6
 
@@ -104,7 +114,17 @@ def frame_to_dict(f: FrameResult) -> dict[str, Json]:
         },
         "truth": None if f.truth is None else {"x_m": f.truth[0], "y_m": f.truth[1]},
         "error_m": f.error_m,
+        # only when localising: files made without it stay as they were
+        **({} if f.localisation is None else {
+            "localisation": localisation_to_dict(f.localisation)}),
     }
+
+
+def localisation_to_dict(loc: Localisation) -> dict[str, Json]:
+    """A frame's corrected pose as the results file holds it."""
+    return {"x_m": loc.pose.x_m, "y_m": loc.pose.y_m, "yaw_rad": loc.pose.yaw_rad,
+            "covariance": [list(row) for row in loc.covariance], "status": loc.status,
+            "source": loc.source, "points": loc.points, "inliers": loc.inliers}
 
 
 def step_to_dict(s: StepResult) -> dict[str, Json]:

@@ -20,12 +20,14 @@ __all__ = [
     "FIELD_BACKGROUND",
     "FIELD_LINE_COLOUR",
     "FUSED_COLOUR",
+    "LINE_POINT_COLOUR",
     "OUTLINE_COLOUR",
     "RADIUS_COLOUR",
     "ROBOT_COLOURS",
     "ROBOT_FOOTPRINT_M",
     "TRACK_COLOUR",
     "TRUTH_COLOUR",
+    "Rgb",
     "footprint",
     "hex_colour",
     "robot_colour",
@@ -56,6 +58,8 @@ CANDIDATE_COLOUR: Rgb = (200, 200, 200)
 FIELD_BACKGROUND: Rgb = (38, 102, 56)
 """The field view's background: grass, whatever the viewer's theme."""
 FIELD_LINE_COLOUR: Rgb = (245, 245, 245)
+LINE_POINT_COLOUR: Rgb = (90, 255, 90)
+"""The field-line points the pose fit used, in the camera images (``--localise lines``)."""
 ROBOT_FOOTPRINT_M = 0.5
 """Side of the square a robot is drawn as [m] (to scale)."""
 

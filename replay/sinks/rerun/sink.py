@@ -21,6 +21,7 @@ import uuid
 from collections import deque
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import rerun as rr
@@ -31,6 +32,7 @@ from dsp.errors import UsageError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
 from estimator.constants import NS_PER_S
 from estimator.estimates import Covariance
+from estimator.geometry import RobotPose
 from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
 from replay.records import FrameResult, StepResult
@@ -50,16 +52,18 @@ from replay.sinks.style import (
     CANDIDATE_COLOUR,
     FIELD_LINE_COLOUR,
     FUSED_COLOUR,
+    LINE_POINT_COLOUR,
     OUTLINE_COLOUR,
     RADIUS_COLOUR,
     ROBOT_FOOTPRINT_M,
     TRACK_COLOUR,
     TRUTH_COLOUR,
+    Rgb,
     robot_colour,
 )
 
-__all__ = ["APPLICATION_ID", "ENTITY_PATHS", "TIMELINES", "RerunSink", "field_lines",
-           "recording_id"]
+__all__ = ["APPLICATION_ID", "ENTITY_PATHS", "LOCALISED_PATHS", "TIMELINES", "RerunSink",
+           "field_lines", "recording_id"]
 
 APPLICATION_ID = "dual_sight_replay"
 TIMELINES = ("sim_time", "frame", "step")
@@ -69,16 +73,22 @@ ENTITY_PATHS = (
     "/field", "/field/lines",
     "/field/robots/{robot}", "/field/robots/{robot}/heading",
     "/field/robots/{robot}/estimate", "/field/robots/{robot}/ray",
+    "/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
     "/field/fused", "/field/fused/covariance", "/field/ground_truth/ball",
     "/field/track", "/field/track/trail", "/field/track/velocity",
     "/robots/{robot}/camera/image", "/robots/{robot}/camera/centre",
     "/robots/{robot}/camera/detection",
     "/robots/{robot}/camera/detection/centroid", "/robots/{robot}/camera/detection/outline",
     "/robots/{robot}/camera/detection/radius", "/robots/{robot}/camera/candidates",
+    "/robots/{robot}/camera/lines",
     "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
     "/plots/blob_area/{robot}", "/plots/estimator_ms/{robot}",
 )
-"""Every entity the sink logs (``{robot}`` per robot; the track's only with the tracker)."""
+"""Every entity the sink logs (``{robot}`` per robot; the track's only with the tracker, the
+corrected pose and the line points only with ``--localise lines``)."""
+LOCALISED_PATHS = ("/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
+                   "/robots/{robot}/camera/lines")
+"""The entities only ``--localise lines`` logs."""
 TRAIL_S = 3.0
 """How much of the track's past the trail shows [s]."""
 _BALL_Z = BALL_RADIUS_M
@@ -274,21 +284,9 @@ class RerunSink(SinkBase):
     def _robot(self, result: FrameResult) -> None:
         rec, robot = self.rec, result.robot
         colour = self.colours[robot]
-        pose = result.pose
-        if pose is not None:
-            c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
-            h = ROBOT_FOOTPRINT_M / 2
-            rec.log(f"/field/robots/{robot}",
-                    rr.Boxes3D(centers=[(pose.x_m, pose.y_m, 0.02)], half_sizes=[(h, h, 0.02)],
-                               quaternions=[rr.Quaternion(xyzw=[0.0, 0.0, math.sin(
-                                   pose.yaw_rad / 2), math.cos(pose.yaw_rad / 2)])],
-                               colors=[colour], fill_mode="solid", labels=[robot],
-                               show_labels=True))
-            rec.log(f"/field/robots/{robot}/heading",
-                    rr.Arrows3D(origins=[(pose.x_m, pose.y_m, 0.05)],
-                                vectors=[(0.9 * ROBOT_FOOTPRINT_M * c,
-                                          0.9 * ROBOT_FOOTPRINT_M * s, 0.0)],
-                                colors=[FIELD_LINE_COLOUR], radii=0.035))
+        if result.pose is not None:
+            self._pose(f"/field/robots/{robot}", result.pose, colour, "solid", robot)
+        self._corrected(result)
         est = result.estimate
         if est is None:
             rec.log(f"/field/robots/{robot}/estimate", rr.Clear(recursive=False))
@@ -301,6 +299,42 @@ class RerunSink(SinkBase):
                     rr.LineStrips3D([[(est.robot_x_m, est.robot_y_m, 0.05),
                                       (est.x_m, est.y_m, 0.05)]], colors=[colour], radii=0.025))
         self._scalar(f"/plots/error/{robot}", result.error_m)
+
+    def _pose(self, path: str, pose: RobotPose, colour: Rgb,
+              fill: Literal["solid", "majorwireframe"], label: str) -> None:
+        """A robot's footprint at ``pose`` and its heading arrow (``path``/heading)."""
+        c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
+        h = ROBOT_FOOTPRINT_M / 2
+        self.rec.log(path, rr.Boxes3D(
+            centers=[(pose.x_m, pose.y_m, 0.02)], half_sizes=[(h, h, 0.02)],
+            quaternions=[rr.Quaternion(xyzw=[0.0, 0.0, math.sin(pose.yaw_rad / 2),
+                                             math.cos(pose.yaw_rad / 2)])],
+            colors=[colour], fill_mode=fill, labels=[label], show_labels=True))
+        self.rec.log(f"{path}/heading", rr.Arrows3D(
+            origins=[(pose.x_m, pose.y_m, 0.05)],
+            vectors=[(0.9 * ROBOT_FOOTPRINT_M * c, 0.9 * ROBOT_FOOTPRINT_M * s, 0.0)],
+            colors=[FIELD_LINE_COLOUR if fill == "solid" else colour], radii=0.035))
+
+    def _corrected(self, result: FrameResult) -> None:
+        """With ``--localise lines``: the pose the field lines give, a wireframe beside the
+        believed (solid) one, labelled with the correction, and the line points the fit used
+        in the camera image."""
+        loc, believed = result.localisation, result.pose
+        if loc is None:
+            return
+        robot = result.robot
+        label = f"{robot} {loc.source}"
+        if believed is not None:
+            shift = math.hypot(loc.pose.x_m - believed.x_m, loc.pose.y_m - believed.y_m)
+            turn = math.degrees(math.remainder(loc.pose.yaw_rad - believed.yaw_rad, math.tau))
+            label += f" {100 * shift:.1f} cm {turn:+.2f} deg"
+        self._pose(f"/field/robots/{robot}/corrected", loc.pose, self.colours[robot],
+                   "majorwireframe", label)
+        if loc.pixels is None or not len(loc.pixels):
+            self.rec.log(f"/robots/{robot}/camera/lines", rr.Clear(recursive=False))
+        else:
+            self.rec.log(f"/robots/{robot}/camera/lines",
+                         rr.Points2D(loc.pixels, colors=[LINE_POINT_COLOUR], radii=1.5))
 
     def step(self, result: StepResult) -> None:
         if not self._alive():

@@ -11,7 +11,7 @@ import pytest
 
 from replay.options import ReplayOptions, RerunTarget
 from replay.runner import replay
-from replay.sinks.rerun.sink import ENTITY_PATHS, TIMELINES
+from replay.sinks.rerun.sink import ENTITY_PATHS, LOCALISED_PATHS, TIMELINES
 
 chunk = pytest.importorskip("rerun.chunk")
 ROOT = Path(__file__).resolve().parents[4]
@@ -68,8 +68,10 @@ def test_every_entity_in_the_rrd_is_documented_on_its_timelines(chunks: list) ->
             assert set(ch.timeline_names) == documented[match[0]], path
     assert "log_time" not in {t for ch in chunks for t in ch.timeline_names}
     # the default fusion tracks the ball: every documented entity is there but the Clear of
-    # a track that never was lost, and the real detector's candidates (the paper's chain here)
-    assert set(documented) - seen <= {"/field/track", "/robots/{robot}/camera/candidates"}
+    # a track that never was lost, the real detector's candidates (the paper's chain here) and
+    # what only --localise lines logs
+    assert set(documented) - seen <= {"/field/track", "/robots/{robot}/camera/candidates",
+                                      *LOCALISED_PATHS}
     assert {"/field/track/trail", "/field/track/velocity"} <= seen
 
 

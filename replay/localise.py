@@ -1,0 +1,171 @@
+"""``--localise lines``: each frame's pose corrected from its own image before the ball is
+located (:mod:`estimator.localisation`).
+
+A robot believes a pose (its ``/robotN/pose``), which a real robot's localisation gets wrong
+by centimetres and a degree or so; the same omni image that sees the ball sees the field's
+white lines. :class:`Localiser` is built once per replay from the field the log's scenario
+metadata names (:mod:`dsp.field`) and each robot's camera model, and splits the work three
+ways, so that the costly parts run in the look-ahead's threads (:mod:`replay.ahead`) and the
+results are the same bytes whatever the thread count:
+
+1. :meth:`Localiser.points`: the image's line points (needs the image alone; pure);
+2. :meth:`Localiser.fit`: the pose that fits them, around the believed pose at the image's
+   stamp with the covariance ``--pose-sigma`` states (pure);
+3. :meth:`Localiser.settle`: in frame order, on the replay's own thread: a failed fit takes
+   the robot's last correction while it is recent (:class:`~estimator.localisation.
+   CorrectionHold`), else the believed pose stays; the frame's :class:`~replay.records.
+   Localisation` says which.
+
+A robot whose log names no camera model is not corrected (status ``no_camera``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from dsp.errors import UsageError
+from dsp.field import Circle, FieldSpec, Rect, Segment, markings
+from estimator.camera import CameraModel
+from estimator.errors import LocalisationError
+from estimator.geometry import RobotPose
+from estimator.localisation import (
+    CorrectionHold,
+    DistanceGrid,
+    FieldLines,
+    GroundGrid,
+    LinePoints,
+    PoseCorrection,
+    correct_pose,
+    detect_line_points,
+)
+from replay.records import Localisation
+
+__all__ = [
+    "NO_CAMERA",
+    "LocalisedPoints",
+    "Localiser",
+    "check_field",
+    "field_lines_for",
+    "prior_covariance",
+]
+
+NO_CAMERA = "no_camera"
+"""The status of a robot the log names no camera model for (not corrected)."""
+
+
+def field_lines_for(spec: FieldSpec) -> FieldLines:
+    """The field's markings (:func:`dsp.field.markings`) as the pose fit measures them."""
+    rects: list[tuple[float, float, float, float]] = []
+    segments: list[tuple[float, float, float, float]] = []
+    circles: list[tuple[float, float, float]] = []
+    marks: list[tuple[float, float, float]] = []
+    for m in markings(spec):
+        if isinstance(m, Rect):
+            rects.append((m.x0, m.y0, m.x1, m.y1))
+        elif isinstance(m, Segment):
+            segments.append((m.x0, m.y0, m.x1, m.y1))
+        elif isinstance(m, Circle):
+            (marks if m.filled else circles).append((m.x, m.y, m.radius_m))
+    return FieldLines.from_shapes(half_length_m=spec.half_length_m,
+                                  half_width_m=spec.half_width_m, rects=rects,
+                                  segments=segments, circles=circles, marks=marks,
+                                  line_width_m=spec.line_width_m)
+
+
+@dataclass(frozen=True, eq=False)
+class LocalisedPoints:
+    """An image's line points (robot frame) and where they are in the image [px]."""
+
+    points: LinePoints
+    pixels: np.ndarray
+    """(N, 2) float32: (u, v) of each point, for the viewer."""
+
+
+def prior_covariance(sigma_m: float, sigma_deg: float) -> np.ndarray:
+    """The believed pose's covariance over (x, y, yaw) from its standard deviations."""
+    s_yaw = math.radians(sigma_deg)
+    return np.diag([sigma_m**2, sigma_m**2, s_yaw**2])
+
+
+class Localiser:
+    """The field-line correction of every robot's pose in one replay (module docstring)."""
+
+    def __init__(self, field: FieldSpec, cameras: Mapping[str, CameraModel], *,
+                 sigma_m: float, sigma_deg: float,
+                 mount_yaw_rad: Mapping[str, float] | None = None) -> None:
+        self.field = field
+        self.lines = field_lines_for(field)
+        self.distance = DistanceGrid.build(self.lines)
+        self.cameras = dict(cameras)
+        self.mount_yaw_rad = dict(mount_yaw_rad or {})
+        """Robot -> how far its camera is turned on it [rad]: the points are turned back."""
+        by_model: dict[str, GroundGrid] = {}
+        self.grids: dict[str, GroundGrid] = {}
+        for robot, camera in sorted(self.cameras.items()):  # one grid per distinct model
+            key = json.dumps(camera.to_dict(), sort_keys=True)
+            if key not in by_model:
+                by_model[key] = GroundGrid.build(camera)
+            self.grids[robot] = by_model[key]
+        self.prior_covariance = prior_covariance(sigma_m, sigma_deg)
+        self.hold = CorrectionHold()
+
+    def points(self, robot: str, image: np.ndarray | None) -> LocalisedPoints | None:
+        """The image's line points (None: no image, or no camera model for the robot).
+        Pure and thread-safe."""
+        grid = self.grids.get(robot)
+        if image is None or grid is None:
+            return None
+        try:
+            pts = detect_line_points(image, grid)
+        except LocalisationError:  # an image of another size than the camera's
+            return None
+        camera = self.cameras[robot]
+        rays = np.column_stack([pts.xy_m, np.full(len(pts), -camera.height_m)])
+        pixels = (np.asarray(camera.ray_to_pixel(rays), np.float32).reshape(-1, 2)
+                  if len(pts) else np.zeros((0, 2), np.float32))
+        yaw = self.mount_yaw_rad.get(robot, 0.0)
+        if yaw:  # the camera's frame turned into the robot's
+            c, s = math.cos(yaw), math.sin(yaw)
+            xy = pts.xy_m @ np.array([[c, s], [-s, c]])
+            pts = LinePoints(xy, pts.sigma_m, pts.contrast)
+        return LocalisedPoints(pts, pixels)
+
+    def fit(self, points: LocalisedPoints | None, believed: RobotPose) -> PoseCorrection | None:
+        """The pose the points give around ``believed`` (None: no points to fit). Pure and
+        thread-safe."""
+        if points is None:
+            return None
+        return correct_pose(believed, self.prior_covariance, points.points, self.distance,
+                            self.lines)
+
+    def settle(self, robot: str, stamp_ns: int, believed: RobotPose,
+               correction: PoseCorrection | None,
+               points: LocalisedPoints | None) -> Localisation:
+        """The frame's pose, in frame order: the fit, a held earlier one or the belief."""
+        if correction is None:
+            cov = self.prior_covariance
+            status = NO_CAMERA if robot not in self.grids else "too_few_points"
+            return Localisation(believed, _rows3(cov), status, "prior", 0, 0,
+                                None if points is None else points.pixels)
+        held = self.hold.update(robot, stamp_ns, believed, self.prior_covariance, correction)
+        return Localisation(held.pose, _rows3(held.covariance), correction.status.value,
+                            held.source, correction.points, correction.inliers,
+                            None if points is None else points.pixels)
+
+
+def _rows3(m: np.ndarray) -> tuple[tuple[float, float, float], ...]:
+    a = np.asarray(m, dtype=np.float64)
+    return tuple((float(r[0]), float(r[1]), float(r[2])) for r in a)
+
+
+def check_field(scenario_field: FieldSpec | None, log: str) -> FieldSpec:
+    """The field to localise on: the one the log's scenario metadata names."""
+    if scenario_field is None:
+        raise UsageError(f"--localise lines: {log} has no dsp.scenario metadata naming the "
+                         "field; the lines' geometry is unknown (use --localise none)")
+    return scenario_field

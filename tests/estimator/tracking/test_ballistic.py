@@ -69,7 +69,7 @@ def test_through_a_bounce_and_down_to_rolling() -> None:
             assert tr.x is not None and tr.x[5] == pytest.approx(
                 0.6 * v[2] - G_MPS2 * (t - first), abs=0.5)
     assert accepted >= 0.9 * len(times)  # the last, small hops may be refused a few times
-    assert tr.x is not None and not tr.airborne and tr.x[2] == R  # rolls at the end
+    assert tr.x is not None and not tr.airborne and abs(tr.x[2] - R) < 0.005  # rolls at the end
     assert tr.x[3] == pytest.approx(5.0, abs=0.2)
     assert tr.landing() is None
 

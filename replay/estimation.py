@@ -137,8 +137,11 @@ class FrameEstimator:
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
+            # (triangulate always: its 3-D covariance feeds a tracker, and CAMBADA's range
+            # law, made for a ground-plane average, puts a lob's height metres wide)
+            calibrated = noise == "calibrated" or fusion_method == "triangulate"
             self.fusion = fusion.get_fusion(
-                fusion_method, noise=self.noise if noise == "calibrated" else None)
+                fusion_method, noise=self.noise if calibrated else None)
         self._deferred: SmoothedSteps | None = None
 
     @property

@@ -20,7 +20,8 @@ A measurement's covariance directions wider than ``unknown_variance_m2`` are not
 one robot's ground estimate, whose covariance spreads along its ray, moves the track
 across the ray only (a bearing), so its height stays as unknown as it is. Measurements
 farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
-``max_misses`` refusals in a row the track restarts at the next measurement. A rolling
+two refusals in a row the track restarts at the second, its velocity from the two (the
+ball hit a robot or a post); after ``max_misses`` the next measurement restarts it. A rolling
 track that is shown a ball clearly in the air restarts flying at once (a kick up), its
 velocity from the way from the last measurement.
 
@@ -43,6 +44,8 @@ __all__ = ["GATE_CHI2_3DOF_999", "G_MPS2", "BallisticParams", "BallisticTracker"
 G_MPS2 = 9.81
 GATE_CHI2_3DOF_999 = 16.27
 """The chi-square of 3 degrees of freedom at 99.9 %."""
+_LAUNCH_ABOVE_M = 0.1
+"""A measurement the rolling track refuses starts a flight when it is this high."""
 _GATE_CHI2 = {1: 10.83, 2: 13.82, 3: GATE_CHI2_3DOF_999}
 """The gate by the measured directions' count (99.9 %)."""
 
@@ -55,6 +58,8 @@ class BallisticParams:
     """A bounce keeps this much of the normal speed (a football on turf)."""
     bounce_sigma: float = 0.15
     """The spread of the kept share at a bounce."""
+    bounce_level_sigma: float = 0.2
+    """The spread of the level speed kept at a bounce (friction)."""
     rest_mps: float = 0.5
     """A bounce slower than this leaves the ball rolling."""
     airborne_m: float = 0.02
@@ -87,6 +92,8 @@ class BallisticTracker:
         self._last: tuple[int, Matrix] | None = None
         """The last accepted measurement's stamp and the track's position after it."""
         self._last_airborne = False
+        self._refused: tuple[int, Matrix] | None = None
+        """The last refused measurement, while refusals run in a row."""
 
     @property
     def airborne(self) -> bool:
@@ -132,6 +139,10 @@ class BallisticTracker:
             J[2, 2] = 0.0
         self.P = J @ self.P @ J.T
         self.P[5, 5] += (p.bounce_sigma * vz) ** 2
+        # friction at the contact trades level speed for spin: a share of it is lost
+        level = float(np.hypot(self.x[3], self.x[4]))
+        self.P[3, 3] += (p.bounce_level_sigma * level) ** 2
+        self.P[4, 4] += (p.bounce_level_sigma * level) ** 2
 
     def predict(self, stamp_ns: int) -> None:
         """Move the track to ``stamp_ns`` (no-op before the first measurement or backwards)."""
@@ -167,8 +178,12 @@ class BallisticTracker:
             self._start(stamp_ns, z, Rm)
             self._remember(stamp_ns)
             return True
+        rolling = not self.airborne
         self.predict(stamp_ns)
         assert self.x is not None
+        if rolling and z[2] - BALL_RADIUS_M > 3.0 * math.sqrt(max(Rm[2, 2], 0.0)) + 0.05 and (
+                self._launched(stamp_ns, z, Rm)):
+            return True  # clearly in the air: kicked up
         w, V = np.linalg.eigh(0.5 * (Rm + Rm.T))
         keep = w < self.params.unknown_variance_m2
         if not keep.any():
@@ -179,8 +194,12 @@ class BallisticTracker:
         innovation = H[:, :3] @ (z - self.x[:3])
         d2 = float(innovation @ np.linalg.solve(S, innovation))
         if d2 > _GATE_CHI2[int(keep.sum())]:
-            if self._launched(stamp_ns, z, Rm):
+            if rolling and z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M and (
+                    self._launched(stamp_ns, z, Rm)):
+                return True  # the rolling ball does not explain it, a flying one may
+            if self._refused is not None and self._restarted(stamp_ns, z, Rm):
                 return True
+            self._refused = (stamp_ns, z.copy())
             self.misses += 1
             return False
         K = np.linalg.solve(S, H @ self.P).T
@@ -190,6 +209,7 @@ class BallisticTracker:
         if self.x[2] < BALL_RADIUS_M:
             self.x[2] = BALL_RADIUS_M
         self.misses = 0
+        self._refused = None
         self._remember(stamp_ns)
         return True
 
@@ -199,19 +219,37 @@ class BallisticTracker:
         self._last_airborne = self.airborne
 
     def _launched(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
-        """A rolling track refuses a ball clearly in the air: it was kicked up. Restart it
-        flying from where it rolled, launched at the last measurement: v from the way there
-        (vz with the gravity of that time), its sigma ``launch_sigma_mps``."""
+        """A rolling track shown a ball clearly in the air (3 sigma and 5 cm above the
+        ground), or refusing one above 0.1 m: it was kicked up. Restart it flying from
+        where it rolled, launched at the last measurement: v from the way there (vz with
+        the gravity of that time), its sigma ``launch_sigma_mps``."""
         assert self.x is not None
         rolled_at = self._last
-        if rolled_at is None or self._last_airborne or not (
-                z[2] - BALL_RADIUS_M > 3.0 * math.sqrt(max(Rm[2, 2], 0.0)) + 0.05):
+        if rolled_at is None or self._last_airborne:
             return False
         dt = (stamp_ns - rolled_at[0]) / NS_PER_S
         if dt <= 0.0:
             return False
         v = (z - rolled_at[1]) / dt
         v[2] += 0.5 * G_MPS2 * dt
+        self._start(stamp_ns, z, Rm)
+        assert self.x is not None
+        self.x[3:] = v
+        self.P[3:, 3:] = np.eye(3) * self.params.launch_sigma_mps ** 2
+        self._remember(stamp_ns)
+        return True
+
+    def _restarted(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """Two refusals in a row (the ball hit something): restart at the second, its
+        velocity from the two (a flight between them, when the second is in the air)."""
+        assert self._refused is not None
+        t0, z0 = self._refused
+        dt = (stamp_ns - t0) / NS_PER_S
+        if not 0.0 < dt < 0.5:
+            return False
+        v = (z - z0) / dt
+        if z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M:
+            v[2] -= 0.5 * G_MPS2 * dt
         self._start(stamp_ns, z, Rm)
         assert self.x is not None
         self.x[3:] = v
@@ -227,6 +265,7 @@ class BallisticTracker:
         self.P[3:, 3:] = np.eye(3) * self.params.initial_speed_sigma_mps ** 2
         self.stamp_ns = stamp_ns
         self.misses = 0
+        self._refused = None
 
     def landing(self) -> Landing | None:
         """Where and when the ball next meets the ground, if it is flying."""

@@ -28,6 +28,7 @@ from typing import Any
 
 from dsp.jsonio import Json
 from estimator.constants import BALL_RADIUS_M
+from replay.evaluate.lobs_track import LEAD_S, TrackScore, score_track, true_landings
 from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
 from replay.runner import replay
@@ -87,8 +88,11 @@ class LobsScore:
     """The ground-plane fusion on the steps of ``flight_3d``, at z = R."""
     plane_ground_3d: list[float] = field(default_factory=list)
     robots_flight: dict[str, list[float]] = field(default_factory=dict)
+    track: TrackScore = field(default_factory=TrackScore)
+    """The ballistic tracker fed with the 3-D fusion's steps (:mod:`replay.evaluate.lobs_track`)."""
 
     def add(self, other: LobsScore) -> None:
+        self.track.add(other.track)
         self.flight_3d += other.flight_3d
         self.flight_z += other.flight_z
         self.flight_steps += other.flight_steps
@@ -107,6 +111,11 @@ class LobsScore:
             "ground": {"steps": len(self.ground_3d), "rmse_3d_m": _rmse(self.ground_3d),
                        "ground_plane_rmse_3d_m": _rmse(self.plane_ground_3d)},
             "robots_flight_rmse_3d_m": {r: _rmse(e) for r, e in sorted(self.robots_flight.items())},
+            "track": {"flight_rmse_3d_m": _rmse(self.track.flight_3d),
+                      "landings": self.track.landings,
+                      "landings_predicted": len(self.track.landing_errors),
+                      "landing_median_error_m": _median_abs(self.track.landing_errors),
+                      "landing_median_lead_s": _median_abs(self.track.landing_leads_s)},
         }
 
 
@@ -169,7 +178,9 @@ def score_lobs_log(log: Path, calibration: Path | None = None) -> LobsScore:
     """Replay one lobs log with ``triangulate`` and ``robust``, and score it."""
     tri = _replay(log, "triangulate", calibration)
     plane = _replay(log, "robust", calibration)
-    return score_lobs(tri.fused, plane.fused, tri.frames)
+    score = score_lobs(tri.fused, plane.fused, tri.frames)
+    score.track = score_track(tri.fused, true_landings(log, FLIGHT_ABOVE_M), FLIGHT_ABOVE_M)
+    return score
 
 
 @dataclass
@@ -226,6 +237,14 @@ def lobs_markdown(suite: LobsSuite) -> str:
         f"| on the ground | {len(p.ground_3d)} | {_fmt(_rmse(p.ground_3d))} | | "
         f"{_fmt(_rmse(p.plane_ground_3d))} |",
     ]
+    t = p.track
+    lines.append(
+        f"| the ballistic tracker on those steps in flight | {len(t.flight_3d)} | "
+        f"{_fmt(_rmse(t.flight_3d))} | | |")
+    lines += ["", f"Landing point predicted {LEAD_S:g} s ahead (median lead "
+              f"{_fmt(_median_abs(t.landing_leads_s))} s): median error "
+              f"{_fmt(_median_abs(t.landing_errors))} m over {len(t.landing_errors)} of "
+              f"{t.landings} landings (the others: no prediction then)."]
     robots = ", ".join(f"{r} {_fmt(_rmse(e))}" for r, e in sorted(p.robots_flight.items()))
     lines += ["", f"Each robot's own ground-plane estimates in flight, 3-D RMSE [m]: {robots}."]
     return "\n".join(lines) + "\n"

@@ -99,3 +99,28 @@ def test_one_robot_s_ray_leaves_the_height_unknown() -> None:
     for t in np.arange(0.0, 1.0, 1 / RATE_HZ):
         tr.update(round(t * NS_PER_S), (1.0, 0.0, R), cov)
     assert tr.P[2, 2] > 0.5 ** 2
+
+
+def test_a_lob_that_hits_a_robot_is_picked_up_again_after_two_refusals() -> None:
+    """At 0.3 s the ball bounces back off a robot (vx turns to -0.5 vx): the track refuses
+    the next measurement, restarts at the second with the velocity between them, and
+    follows the new flight from then on."""
+    rng = np.random.default_rng(8)
+    v = (6.0, 0.0, 5.0)
+    hit = 0.3
+    x_hit, _, _ = arc(hit, v)
+
+    def where(t: float) -> tuple[float, float, float]:
+        _, _, z = arc(t, v)
+        x = v[0] * t if t < hit else x_hit - 0.5 * v[0] * (t - hit)
+        return x, 0.0, z
+
+    tr = BallisticTracker()
+    results = []
+    for t in np.arange(0.0, 0.9, 1 / RATE_HZ):
+        p = np.array(where(float(t))) + rng.normal(0.0, 0.01, 3)
+        results.append(tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4))
+    refused = [i for i, ok in enumerate(results) if not ok]
+    assert 1 <= len(refused) <= 2 and refused[0] >= round(hit * RATE_HZ)
+    assert all(results[refused[-1] + 1:])
+    assert tr.x is not None and tr.x[3] == pytest.approx(-3.0, abs=0.3)

@@ -221,8 +221,8 @@ class BallisticTracker:
     def _launched(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """A rolling track shown a ball clearly in the air (3 sigma and 5 cm above the
         ground), or refusing one above 0.1 m: it was kicked up. Restart it flying from
-        where it rolled, launched at the last measurement: v from the way there (vz with
-        the gravity of that time), its sigma ``launch_sigma_mps``."""
+        where it rolled, launched at the last measurement: v from the way there (a flight
+        under gravity), its sigma ``launch_sigma_mps``."""
         assert self.x is not None
         rolled_at = self._last
         if rolled_at is None or self._last_airborne:
@@ -230,14 +230,7 @@ class BallisticTracker:
         dt = (stamp_ns - rolled_at[0]) / NS_PER_S
         if dt <= 0.0:
             return False
-        v = (z - rolled_at[1]) / dt
-        v[2] += 0.5 * G_MPS2 * dt
-        self._start(stamp_ns, z, Rm)
-        assert self.x is not None
-        self.x[3:] = v
-        self.P[3:, 3:] = np.eye(3) * self.params.launch_sigma_mps ** 2
-        self._remember(stamp_ns)
-        return True
+        return self._fly_from(rolled_at[1], dt, stamp_ns, z, Rm)
 
     def _restarted(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """Two refusals in a row (the ball hit something): restart at the second, its
@@ -247,6 +240,11 @@ class BallisticTracker:
         dt = (stamp_ns - t0) / NS_PER_S
         if not 0.0 < dt < 0.5:
             return False
+        return self._fly_from(z0, dt, stamp_ns, z, Rm)
+
+    def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a
+        flight under gravity when ``z`` is in the air (vz now = dz / dt - g dt / 2)."""
         v = (z - z0) / dt
         if z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M:
             v[2] -= 0.5 * G_MPS2 * dt

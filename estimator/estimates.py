@@ -14,10 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["BallEstimate", "Covariance", "FusedEstimate", "Matrix", "covariance_rows"]
+__all__ = ["BallEstimate", "Covariance", "Covariance3", "FusedEstimate", "Matrix",
+           "covariance3_rows", "covariance_rows"]
 
 Covariance = tuple[tuple[float, float], tuple[float, float]]
 """A 2 x 2 covariance [m^2] as a tuple of rows."""
+
+Covariance3 = tuple[tuple[float, float, float], tuple[float, float, float],
+                    tuple[float, float, float]]
+"""A 3 x 3 covariance [m^2] (x, y, z) as a tuple of rows."""
 
 Matrix = npt.NDArray[np.float64]
 
@@ -25,6 +30,12 @@ Matrix = npt.NDArray[np.float64]
 def covariance_rows(m: Matrix) -> Covariance:
     """The top-left 2 x 2 block of ``m`` as plain floats, row by row."""
     return ((float(m[0, 0]), float(m[0, 1])), (float(m[1, 0]), float(m[1, 1])))
+
+
+def covariance3_rows(m: Matrix) -> Covariance3:
+    """A 3 x 3 matrix as plain floats, row by row."""
+    r = [(float(m[i, 0]), float(m[i, 1]), float(m[i, 2])) for i in range(3)]
+    return (r[0], r[1], r[2])
 
 
 @dataclass(frozen=True)
@@ -48,13 +59,21 @@ class BallEstimate:
     """Pixel radius of the centroid from the image centre (eq. 3), None when unknown: the
     calibrated noise model (:class:`estimator.noise.CalibratedNoise`) takes the
     calibration's slope there."""
+    camera_height_m: float | None = None
+    """The camera's optical centre above the ground [m], None when unknown: with it the
+    estimate is also a ray (:func:`estimator.rays.ball_ray`)."""
 
 
 @dataclass(frozen=True)
 class FusedEstimate:
-    """The team's ball estimate: field position [m], its covariance [m^2], robots used."""
+    """The team's ball estimate: field position [m], its covariance [m^2], robots used;
+    a 3-D fusion also gives the height of the ball's centre and the 3 x 3 covariance."""
 
     x_m: float
     y_m: float
     covariance: Covariance
     robots: tuple[str, ...]
+    z_m: float | None = None
+    covariance_3d: Covariance3 | None = None
+    triangulated: bool = False
+    """True when the height comes from crossing rays, False when it is assumed (z = R)."""

@@ -5,6 +5,9 @@
   and CAMBADA do.
 - ``weighted``: inverse-covariance weighting of all estimates.
 - ``robust``: ``weighted`` with iterative n-sigma outlier rejection (Falcons).
+- ``triangulate``: each estimate as a ray (:mod:`estimator.rays`), two or more rays crossed
+  into a 3-D point, with rejection of rays that do not meet the others; the ground-plane
+  ``robust`` fusion, at z = R and a covariance saying the height is unknown, otherwise.
 - ``track``: the ball tracker (:mod:`estimator.tracking`), a Kalman filter over position and
   velocity; as a one-shot :class:`Fusion` it gates the estimates against each other.
 
@@ -15,16 +18,25 @@ by robot name first), and the ``robots`` of a result are listed in input order.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from estimator.errors import FusionError, UnknownFusionError
-from estimator.estimates import BallEstimate, FusedEstimate, Matrix, covariance_rows
+from estimator.constants import BALL_RADIUS_M
+from estimator.errors import EstimatorError, FusionError, UnknownFusionError
+from estimator.estimates import (
+    BallEstimate,
+    FusedEstimate,
+    Matrix,
+    covariance3_rows,
+    covariance_rows,
+)
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
+from estimator.rays import BallRay, ball_ray, height_unknown_covariance, triangulate
 from estimator.tracking.tracker import TrackFusion
 
 __all__ = [
@@ -34,6 +46,7 @@ __all__ = [
     "MeanFusion",
     "NearestFusion",
     "RobustFusion",
+    "TriangulateFusion",
     "WeightedFusion",
     "get_fusion",
 ]
@@ -191,11 +204,103 @@ class RobustFusion:
         return _fused(position, covariance, [estimates[i].robot for i in kept])
 
 
+def _ray_residual(ray: BallRay, point: Matrix) -> float:
+    """How far ``point`` lies off ``ray``, in the ray's sigmas (root of the chi-square)."""
+    o = np.array(ray.origin)
+    e_az, e_el = ray.across()
+    length = max(float(np.array(ray.direction) @ (point - o)), 1e-6)
+    a = float(e_az @ (point - o)) / (length * ray.sigma_azimuth_rad)
+    b = float(e_el @ (point - o)) / (length * ray.sigma_elevation_rad)
+    return math.hypot(a, b)
+
+
+@dataclass(frozen=True)
+class TriangulateFusion:
+    """The ball in 3-D from the robots' rays (:func:`estimator.rays.triangulate`).
+
+    Rays from estimates with a ``camera_height_m``, their sigmas from the noise model. Each
+    pair of rays fixes a point; the rays within ``n_sigma`` of it (in their sigmas) are its
+    support, and the largest support is triangulated (a false blob's ray meets no other).
+    Two rays that miss each other by more than ``n_sigma`` do not say which is wrong: the
+    ground-plane fusion is used. So it is when the
+    rays fix no point (one robot, near-parallel rays): the ``robust`` fusion of the ground
+    estimates at z = R, with a 3-D covariance that spreads along the nearest robot's ray up
+    to ``top_m`` (:func:`estimator.rays.height_unknown_covariance`).
+    """
+
+    noise: Noise = field(default_factory=NoiseModel)
+    n_sigma: float = 4.0
+    top_m: float = 3.5
+    """The highest a ball flies (a lob's apex is at most 3 m) [m]."""
+
+    @property
+    def name(self) -> str:
+        return "triangulate"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        if not estimates:
+            return None
+        rays: list[BallRay] = []
+        for e in estimates:
+            if e.camera_height_m is not None:
+                try:
+                    rays.append(ball_ray(e, e.camera_height_m, self.noise.covariance(e)))
+                except EstimatorError:
+                    continue
+        inliers = self._consistent(rays)
+        if inliers:
+            solved = triangulate(inliers)
+            if solved is not None:
+                point, cov = solved
+                return FusedEstimate(point[0], point[1], covariance_rows(cov),
+                                     tuple(r.robot for r in inliers), z_m=point[2],
+                                     covariance_3d=covariance3_rows(cov), triangulated=True)
+        return self._on_the_ground(estimates, rays)
+
+    def _consistent(self, rays: Sequence[BallRay]) -> list[BallRay]:
+        """The largest set of rays within ``n_sigma`` of the point a pair of them fixes (the
+        pairs in input order; on ties the smaller sum of residuals, then the first pair);
+        empty when no pair's rays both pass."""
+        best: tuple[int, float] = (0, 0.0)
+        chosen: list[BallRay] = []
+        for i, j in itertools.combinations(range(len(rays)), 2):
+            solved = triangulate([rays[i], rays[j]])
+            if solved is None:
+                continue
+            point = np.array(solved[0])
+            residuals = [_ray_residual(r, point) for r in rays]
+            kept = [k for k, res in enumerate(residuals) if res <= self.n_sigma]
+            if i not in kept or j not in kept:
+                continue
+            score = (len(kept), -sum(residuals[k] for k in kept))
+            if score > best:
+                best, chosen = score, [rays[k] for k in kept]
+        return chosen
+
+    def _on_the_ground(self, estimates: Sequence[BallEstimate], rays: Sequence[BallRay]
+                       ) -> FusedEstimate | None:
+        ground = RobustFusion(self.noise).fuse(estimates)
+        if ground is None:
+            return None
+        cov2 = np.array(ground.covariance)
+        nearest = {e.robot: e.range_m for e in estimates}
+        used = [r for r in rays if r.robot in ground.robots]
+        if used:
+            ray = min(used, key=lambda r: (nearest[r.robot], r.robot))
+            cov3 = height_unknown_covariance(cov2, ray, self.top_m)
+        else:
+            cov3 = np.zeros((3, 3))
+            cov3[:2, :2] = cov2
+            cov3[2, 2] = (self.top_m - BALL_RADIUS_M) ** 2 / 3.0
+        return replace(ground, z_m=BALL_RADIUS_M, covariance_3d=covariance3_rows(cov3))
+
+
 _METHODS: dict[str, Callable[[Noise | None], Fusion]] = {
     "mean": lambda noise: MeanFusion(noise or NoiseModel()),
     "nearest": lambda noise: NearestFusion(noise or NoiseModel()),
     "weighted": lambda noise: WeightedFusion(noise or NoiseModel()),
     "robust": lambda noise: RobustFusion(noise or NoiseModel()),
+    "triangulate": lambda noise: TriangulateFusion(noise or NoiseModel()),
     "track": lambda noise: TrackFusion(noise=noise or CalibratedNoise()),
 }
 

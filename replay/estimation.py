@@ -140,6 +140,7 @@ class FrameEstimator:
         self.cameras = cameras
         self.finder = finder
         self._centres = dict(cameras.centres)
+        self._heights = {r: m.height_m for r, m in cameras.models.items()}
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
                                  else CorrectedLocator(self.cameras))
         self.noise: Noise = CalibratedNoise(
@@ -149,8 +150,11 @@ class FrameEstimator:
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
+            # (triangulate always: its 3-D covariance feeds a tracker, and CAMBADA's range
+            # law, made for a ground-plane average, puts a lob's height metres wide)
+            calibrated = noise == "calibrated" or fusion_method == "triangulate"
             self.fusion = fusion.get_fusion(
-                fusion_method, noise=self.noise if noise == "calibrated" else None)
+                fusion_method, noise=self.noise if calibrated else None)
         self._deferred: SmoothedSteps | None = None
 
     @property
@@ -229,12 +233,14 @@ class FrameEstimator:
 
     def step(self, index: int, stamp_ns: int, frames: tuple[FrameResult, ...],
              truth: tuple[float, float] | None,
-             truth_velocity: tuple[float, float] | None = None) -> StepResult:
+             truth_velocity: tuple[float, float] | None = None,
+             truth_z: float | None = None) -> StepResult:
         """One fusion step at ``stamp_ns`` from its frames (in robot order), scored against
         the truth when given."""
         velocity = velocity_cov = None
         if self.tracker is None:
-            balls = [_ball(f.estimate, f.r_px) for f in frames if f.estimate is not None]
+            balls = [_ball(f.estimate, f.r_px, self._heights.get(f.robot))
+                     for f in frames if f.estimate is not None]
             fused = self.fusion.fuse(balls) if balls else None
         else:
             fused, velocity, velocity_cov = self._track(self.tracker, stamp_ns, frames)
@@ -242,7 +248,8 @@ class FrameEstimator:
         if fused is not None and truth is not None:
             err = math.hypot(fused.x_m - truth[0], fused.y_m - truth[1])
         return StepResult(index, stamp_ns, frames, fused, truth, err, velocity_m_s=velocity,
-                          velocity_covariance=velocity_cov, truth_velocity_m_s=truth_velocity)
+                          velocity_covariance=velocity_cov, truth_velocity_m_s=truth_velocity,
+                          truth_z_m=truth_z)
 
     def _track(self, tracker: BallTracker, stamp_ns: int, frames: tuple[FrameResult, ...]) -> (
         tuple[FusedEstimate | None, tuple[float, float] | None, Covariance | None]
@@ -262,7 +269,8 @@ class FrameEstimator:
         return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
 
 
-def _ball(e: RobotEstimate, r_px: float | None = None) -> BallEstimate:
+def _ball(e: RobotEstimate, r_px: float | None = None,
+          camera_height_m: float | None = None) -> BallEstimate:
     return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
                         range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
-                        visibility=e.visibility, r_px=r_px)
+                        visibility=e.visibility, r_px=r_px, camera_height_m=camera_height_m)

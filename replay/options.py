@@ -127,7 +127,8 @@ class ReplayOptions:
     noise: str = "cambada"
     """The window fusions' per-estimate covariance: "cambada" (the fixed range law,
     :class:`~estimator.noise.NoiseModel`) or "calibrated" (from the calibration,
-    :class:`~estimator.noise.CalibratedNoise`, as the tracker always uses)."""
+    :class:`~estimator.noise.CalibratedNoise`, as the tracker and ``triangulate`` always
+    use)."""
     smooth: bool = False
     """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
     (``track`` fusion only); steps reach the sinks once the log is read."""

@@ -130,6 +130,23 @@ class StepResult:
     """Its 2 x 2 covariance [m^2/s^2]."""
     truth_velocity_m_s: tuple[float, float] | None = None
     """The ball's true velocity at the step's stamp, when the log holds it."""
+    truth_z_m: float | None = None
+    """The true height of the ball's centre at the step's stamp, when the log holds it."""
+
+    @property
+    def z_error_m(self) -> float | None:
+        """z - z_true [m] when a 3-D fusion gave a height and the truth has one."""
+        if self.fused is None or self.fused.z_m is None or self.truth_z_m is None:
+            return None
+        return self.fused.z_m - self.truth_z_m
+
+    @property
+    def error_3d_m(self) -> float | None:
+        """The 3-D distance to the truth [m] when both are 3-D."""
+        dz = self.z_error_m
+        if dz is None or self.error_m is None:
+            return None
+        return math.hypot(self.error_m, dz)
 
     @property
     def velocity_error_m_s(self) -> float | None:

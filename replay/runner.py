@@ -71,6 +71,7 @@ from replay.sync import (
     interpolate_pose,
     interpolate_truth,
     interpolate_truth_velocity,
+    interpolate_truth_z,
 )
 
 __all__ = ["file_digest", "replay"]
@@ -385,7 +386,10 @@ class _Stream:
         ordered = tuple(frames[r] for r in self.robots if r in frames)
         velocity = None if not self.has_truth else interpolate_truth_velocity(
             self.truth, t0, self.timing.tolerance_ns)
-        step = self.estimator.step(self.steps, t0, ordered, self._truth_at(t0), velocity)
+        height = None if not self.has_truth else interpolate_truth_z(
+            self.truth, t0, self.timing.tolerance_ns)
+        step = self.estimator.step(self.steps, t0, ordered, self._truth_at(t0), velocity,
+                                   height)
         self.steps += 1
         for sink in self.sinks:
             sink.step(step)

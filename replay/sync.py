@@ -31,6 +31,7 @@ __all__ = [
     "interpolate_pose",
     "interpolate_truth",
     "interpolate_truth_velocity",
+    "interpolate_truth_z",
 ]
 
 T = TypeVar("T", PoseMessage, TruthMessage)
@@ -139,6 +140,22 @@ def interpolate_truth(history: History[TruthMessage], t_ns: int, tolerance_ns: i
     p = before if before is not None else after
     assert p is not None
     return (p.x_m, p.y_m)
+
+
+def interpolate_truth_z(history: History[TruthMessage], t_ns: int, tolerance_ns: int) -> (
+    float | None
+):
+    """The true height of the ball's centre at ``t_ns`` (linear), None when no sample is
+    near enough or the nearest has no height."""
+    before, after = history.neighbours(t_ns)
+    near = [p for p in (before, after) if p is not None]
+    if not near or min(abs(t_ns - p.stamp_ns) for p in near) > tolerance_ns:
+        return None
+    if (before is not None and after is not None and before.z_m is not None
+            and after.z_m is not None and after.stamp_ns != before.stamp_ns):
+        s = (t_ns - before.stamp_ns) / (after.stamp_ns - before.stamp_ns)
+        return before.z_m + s * (after.z_m - before.z_m)
+    return min(near, key=lambda p: abs(t_ns - p.stamp_ns)).z_m
 
 
 def _velocity(p: TruthMessage | None) -> tuple[float, float] | None:

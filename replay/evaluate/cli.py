@@ -4,6 +4,7 @@
     dsp-eval --suite random --count 200 --seed 1 [--workers N | --ray]
     dsp-eval --suite match --count 20 [--workers N | --ray]
     dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
+    dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, in 3-D
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
@@ -34,6 +35,7 @@ from dsp.realism import REALISM, realism_preset
 from estimator.calibration import calibration_from_json
 from estimator.errors import EstimatorError
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
+from replay.evaluate.lobs import LobsOptions, lobs_markdown, run_lobs_suite
 from replay.evaluate.match import (
     MatchLogScore,
     MatchOptions,
@@ -69,12 +71,14 @@ def build_parser() -> argparse.ArgumentParser:
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
-    p.add_argument("--suite", choices=("paper", "random", "match", "images"), default="paper",
+    p.add_argument("--suite", choices=("paper", "random", "match", "lobs", "images"),
+                   default="paper",
                    help="the paper's four scenarios (default), random scenes, seeded "
-                   "matches (the tracker against window fusion), or the ball detector on "
-                   "folders of labelled real images (DIR ...)")
+                   "matches (the tracker against window fusion), lobs (3-D, triangulated), "
+                   "or the ball detector on folders of labelled real images (DIR ...)")
     p.add_argument("--count", type=int, default=None,
-                   help="random scenes (default 200) or matches (default 20)")
+                   help="random scenes (default 200), matches (default 20) or lobs scenes "
+                   "(default 3)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first scene (default 0)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration from dsp-calibrate for the corrected estimator "
@@ -89,14 +93,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_match_arguments(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("--suite match")
+    g = p.add_argument_group("--suite match, --suite lobs")
     g.add_argument("--sync-count", type=int, metavar="N",
                    help="record the first N matches again with synchronised cameras "
                    "(default: all)")
-    g.add_argument("--duration", type=float, default=10.0, metavar="S",
-                   help="sim seconds per match (default %(default)s)")
+    g.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="sim seconds per match (default 10) or lobs scene (default 4)")
     g.add_argument("--rate", type=float, metavar="HZ",
-                   help="camera frames per second per robot (default: the scenario's, 20)")
+                   help="camera frames per second per robot (default: the scenario's, 20; "
+                   "lobs: 10)")
     g.add_argument("--face-px", type=int, metavar="PX",
                    help="render resolution (default: the recorder's, 1024)")
     g.add_argument("--distractors", type=int, default=3, metavar="N",
@@ -144,7 +149,12 @@ class SimRecorder:
 def _check(args: argparse.Namespace) -> None:
     """Refuse bad options and a bad calibration before recording anything."""
     if args.count is None:
-        args.count = 20 if args.suite == "match" else 200
+        args.count = {"match": 20, "lobs": 3}.get(args.suite, 200)
+    if args.duration is None:
+        args.duration = 4.0 if args.suite == "lobs" else 10.0
+    if args.realism != "none" and args.suite in ("lobs", "images"):
+        raise UsageError(f"--realism records its scenes with a field's errors; --suite "
+                         f"{args.suite} does not take it")
     check_int("--count", args.count, low=1, high=MAX_COUNT)
     check_int("--seed", args.seed, low=0, high=MAX_SEED)
     check_int("--sync-count", args.sync_count, low=0, high=MAX_COUNT)
@@ -187,6 +197,12 @@ def _run_suite(args: argparse.Namespace,
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
     if args.suite == "match":
         return _run_match_suite(args, workers)
+    if args.suite == "lobs":
+        options = LobsOptions(camera=args.camera, duration_s=args.duration,
+                              rate_hz=10.0 if args.rate is None else args.rate,
+                              renderer=args.renderer, calibration=args.calibration)
+        lobs = run_lobs_suite(args.out_dir, options, count=args.count, seed=args.seed)
+        return _stem(args), lobs_markdown(lobs), lobs.to_dict()
     record = SimRecorder(args.camera, args.renderer, args.realism)
     stem = _stem(args)
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count

@@ -65,6 +65,9 @@ class TruthMessage:
     y_m: float
     vx_m_s: float | None = None
     vy_m_s: float | None = None
+    z_m: float | None = None
+    """The height of the ball's centre, when the message has one (every geometry type
+    does; a ball on the ground is at its radius)."""
 
 
 class BadMessage(Exception):
@@ -114,14 +117,14 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
     if kind == "truth":
         if hasattr(msg, "twist"):  # nav_msgs/Odometry: the true position and velocity
             p, v = msg.pose.pose.position, msg.twist.twist.linear
-            tx, ty, vx, vy = _finite(p.x, p.y, v.x, v.y)
-            return TruthMessage(stamp, tx, ty, vx, vy)
+            tx, ty, tz, vx, vy = _finite(p.x, p.y, p.z, v.x, v.y)
+            return TruthMessage(stamp, tx, ty, vx, vy, z_m=tz)
         pose = getattr(msg, "pose", None)
         if pose is not None and hasattr(pose, "pose"):  # PoseWithCovarianceStamped (mocap)
             pose = pose.pose
         p = msg.point if pose is None else pose.position
-        tx, ty = _finite(p.x, p.y)
-        return TruthMessage(stamp, tx, ty)
+        tx, ty, tz = _finite(p.x, p.y, p.z)
+        return TruthMessage(stamp, tx, ty, z_m=tz)
     data = bytes(msg.data)
     if not data:
         raise BadMessage("empty image")

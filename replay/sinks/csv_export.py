@@ -37,6 +37,7 @@ CSV_COLUMNS = (
     "range_m", "bearing_rad", "visibility",
     "cx_px", "cy_px", "r_px", "area_px",
     "robot_x_m", "robot_y_m", "robot_yaw_rad", "robots",
+    "z_m", "cov_zz_m2", "truth_z_m", "error_3d_m",
 )
 """The CSV's columns, a stable contract: new columns are only ever appended."""
 LOCALISATION_COLUMNS = (
@@ -118,6 +119,10 @@ def _step_row(s: StepResult) -> dict[str, object]:
         (cxx, cxy), (_, cyy) = fused.covariance
         row.update(x_m=fused.x_m, y_m=fused.y_m, cov_xx_m2=cxx, cov_xy_m2=cxy, cov_yy_m2=cyy,
                    robots=";".join(sorted(fused.robots)))
+        if fused.z_m is not None:  # a 3-D fusion
+            row.update(z_m=fused.z_m, truth_z_m=s.truth_z_m, error_3d_m=s.error_3d_m,
+                       cov_zz_m2=None if fused.covariance_3d is None
+                       else fused.covariance_3d[2][2])
     return row
 
 

@@ -21,7 +21,9 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                 "covariance": [[xx, xy], [yx, yy]], "truth": {...} | null,
                 "error_m": float | null,
                 "velocity_m_s": [vx, vy], "velocity_covariance": [[..], [..]],
-                "truth_velocity_m_s": [vx, vy], "velocity_error_m_s": float}, ...],
+                "truth_velocity_m_s": [vx, vy], "velocity_error_m_s": float,
+                "z_m", "covariance_3d": 3 x 3, "triangulated", "truth_z_m", "z_error_m",
+                "error_3d_m"}, ...],
      "summary": {"frames", "steps", "fused_steps", "skipped": {reason: n},
                  "robots": {name: {"frames", "detections", "estimates", "rmse_m", "mean_error_m",
                                    "max_error_m", "errors"}},
@@ -42,7 +44,11 @@ covariance over (x, y, yaw) [m^2, m rad, rad^2], the fit's ``status`` ("ok",
 sqrt(mean(error^2)). The velocity keys are there only when the fusion estimates a velocity
 (``track``): the velocity [m/s] and its covariance [m^2/s^2]; the truth's velocity and the
 error's norm [m/s] only when the log holds the ball's true velocity
-(``/ground_truth/ball/odometry``), and so the summary's ``fused.velocity``.
+(``/ground_truth/ball/odometry``), and so the summary's ``fused.velocity``. The 3-D keys are
+there only when the fusion gives a height (``triangulate``): the height of the ball's
+centre [m], the 3 x 3 covariance of (x, y, z) [m^2], whether rays crossed (else the height
+is assumed, z = R, and the covariance spreads along a ray), and against the truth's height
+when the log has one: z - z_true and the 3-D error [m].
 """
 
 from __future__ import annotations
@@ -152,4 +158,13 @@ def step_to_dict(s: StepResult) -> dict[str, Json]:
         out["truth_velocity_m_s"] = list(s.truth_velocity_m_s)
     if s.velocity_error_m_s is not None:
         out["velocity_error_m_s"] = s.velocity_error_m_s
+    # 3-D keys only from a 3-D fusion (triangulate): the other files stay as they were
+    if fused is not None and fused.z_m is not None:
+        out["z_m"] = fused.z_m
+        out["covariance_3d"] = (None if fused.covariance_3d is None
+                                else [list(row) for row in fused.covariance_3d])
+        out["triangulated"] = fused.triangulated
+        out["truth_z_m"] = s.truth_z_m
+        out["z_error_m"] = s.z_error_m
+        out["error_3d_m"] = s.error_3d_m
     return out

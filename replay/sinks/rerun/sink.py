@@ -74,7 +74,8 @@ ENTITY_PATHS = (
     "/field/robots/{robot}", "/field/robots/{robot}/heading",
     "/field/robots/{robot}/estimate", "/field/robots/{robot}/ray",
     "/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
-    "/field/fused", "/field/fused/covariance", "/field/ground_truth/ball",
+    "/field/fused", "/field/fused/covariance", "/field/fused/height",
+    "/field/ground_truth/ball",
     "/field/track", "/field/track/trail", "/field/track/velocity",
     "/robots/{robot}/camera/image", "/robots/{robot}/camera/centre",
     "/robots/{robot}/camera/detection",
@@ -82,10 +83,12 @@ ENTITY_PATHS = (
     "/robots/{robot}/camera/detection/radius", "/robots/{robot}/camera/candidates",
     "/robots/{robot}/camera/lines",
     "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
+    "/plots/height/fused", "/plots/height/truth",
     "/plots/blob_area/{robot}", "/plots/estimator_ms/{robot}",
 )
 """Every entity the sink logs (``{robot}`` per robot; the track's only with the tracker, the
-corrected pose and the line points only with ``--localise lines``)."""
+corrected pose and the line points only with ``--localise lines``, the heights only with a
+3-D fusion)."""
 LOCALISED_PATHS = ("/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
                    "/robots/{robot}/camera/lines")
 """The entities only ``--localise lines`` logs."""
@@ -115,9 +118,11 @@ def _ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -
     return np.column_stack([pts, np.full(len(pts), 0.01)])
 
 
-def _ring(x: float, y: float, r: float, n: int = 32) -> np.ndarray:
+def _ring(x: float, y: float, r: float, n: int = 32, *, z: float | None = None) -> np.ndarray:
+    """A ring of radius r around (x, y) at height z (default 2 r: atop a ball on the ground)."""
     a = np.linspace(0.0, 2 * math.pi, n + 1)
-    return np.column_stack([x + r * np.cos(a), y + r * np.sin(a), np.full(n + 1, 2 * r)])
+    return np.column_stack([x + r * np.cos(a), y + r * np.sin(a),
+                            np.full(n + 1, 2 * r if z is None else z)])
 
 
 class RerunSink(SinkBase):
@@ -345,22 +350,39 @@ class RerunSink(SinkBase):
         if fused is None:
             rec.log("/field/fused", rr.Clear(recursive=True))
         else:
+            z = _BALL_Z if fused.z_m is None else fused.z_m
+            label = (f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})" if fused.z_m is None
+                     else f"fused ({fused.x_m:.2f}, {fused.y_m:.2f}, {fused.z_m:.2f})")
             rec.log("/field/fused",
-                    rr.Points3D([(fused.x_m, fused.y_m, _BALL_Z)], colors=[FUSED_COLOUR],
-                                radii=BALL_RADIUS_M, show_labels=True,
-                                labels=[f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})"]))
+                    rr.Points3D([(fused.x_m, fused.y_m, z)], colors=[FUSED_COLOUR],
+                                radii=BALL_RADIUS_M, show_labels=True, labels=[label]))
+            self._height(result, z)
             rec.log("/field/fused/covariance",
                     rr.LineStrips3D([_ellipse(fused.x_m, fused.y_m, fused.covariance)],
                                     colors=[FUSED_COLOUR], radii=0.025))
         if result.truth is None:
             rec.log("/field/ground_truth/ball", rr.Clear(recursive=False))
         else:
+            z_true = BALL_RADIUS_M if result.truth_z_m is None else result.truth_z_m
             rec.log("/field/ground_truth/ball",
-                    rr.LineStrips3D([_ring(result.truth[0], result.truth[1], BALL_RADIUS_M)],
+                    rr.LineStrips3D([_ring(result.truth[0], result.truth[1], BALL_RADIUS_M,
+                                           z=z_true + BALL_RADIUS_M)],
                                     colors=[TRUTH_COLOUR], radii=0.03))
         self._scalar("/plots/error/fused", result.error_m)
         self._track(result)
         rec.reset_time()
+
+    def _height(self, result: StepResult, z: float) -> None:
+        """A 3-D fusion's ball: a line down to its shadow on the ground, its height plotted
+        beside the truth's."""
+        fused = result.fused
+        if fused is None or fused.z_m is None:
+            return
+        self.rec.log("/field/fused/height",
+                     rr.LineStrips3D([[(fused.x_m, fused.y_m, 0.0), (fused.x_m, fused.y_m, z)]],
+                                     colors=[FUSED_COLOUR], radii=0.01))
+        self._scalar("/plots/height/fused", fused.z_m)
+        self._scalar("/plots/height/truth", result.truth_z_m)
 
     def _track(self, result: StepResult) -> None:
         """The tracker's trail, velocity arrow and speed, when the step carries a velocity."""

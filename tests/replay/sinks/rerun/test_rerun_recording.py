@@ -17,6 +17,8 @@ chunk = pytest.importorskip("rerun.chunk")
 ROOT = Path(__file__).resolve().parents[4]
 DOC = (ROOT / "docs" / "viewer.md").read_text()
 ROBOTS = ("robot1", "robot2", "robot3")
+HEIGHTS = {"/field/fused/height", "/plots/height/fused", "/plots/height/truth"}
+"""Logged only by a 3-D fusion (``triangulate``)."""
 
 
 def _documented() -> dict[str, set[str]]:
@@ -68,10 +70,10 @@ def test_every_entity_in_the_rrd_is_documented_on_its_timelines(chunks: list) ->
             assert set(ch.timeline_names) == documented[match[0]], path
     assert "log_time" not in {t for ch in chunks for t in ch.timeline_names}
     # the default fusion tracks the ball: every documented entity is there but the Clear of
-    # a track that never was lost, the real detector's candidates (the paper's chain here) and
-    # what only --localise lines logs
+    # a track that never was lost, the real detector's candidates (the paper's chain here),
+    # what only --localise lines logs and the heights only a 3-D fusion logs
     assert set(documented) - seen <= {"/field/track", "/robots/{robot}/camera/candidates",
-                                      *LOCALISED_PATHS}
+                                      *LOCALISED_PATHS} | HEIGHTS
     assert {"/field/track/trail", "/field/track/velocity"} <= seen
 
 
@@ -109,3 +111,32 @@ def test_the_real_detector_logs_its_candidates_under_the_camera(
     names = {n for ch in found for n in ch.to_record_batch().schema.names}
     assert any("Boxes2D:half_sizes" in n for n in names), names
     assert any("Boxes2D:labels" in n for n in names), names
+
+
+def test_a_3d_fusion_shows_the_ball_s_height(tmp_path: Path) -> None:
+    """--fusion triangulate: the fused ball drawn at the height the results file gives, a
+    line from the ground up to it, the height plotted beside the truth's."""
+    import json
+
+    rrd, out = tmp_path / "tri.rrd", tmp_path / "tri.json"
+    replay(ROOT / "logs" / "golden" / "scenario2.mcap",
+           ReplayOptions(fusion="triangulate", rerun=RerunTarget("save", str(rrd)), out=out,
+                         progress=False))
+    heights = [s["z_m"] for s in json.loads(out.read_text())["fused"]]
+    truths = [s["truth_z_m"] for s in json.loads(out.read_text())["fused"]]
+    chunks = [ch for ch in chunk.RrdReader(rrd).stream() if not ch.is_static]
+
+    def values(path: str, column: str) -> list:
+        return [v for ch in chunks if ch.entity_path == path
+                for v in ch.to_record_batch().column(column).to_pylist()]
+
+    drawn = [p[0][2] for p in values("/field/fused", "Points3D:positions")]
+    assert drawn == pytest.approx(heights, abs=1e-6)
+    assert [v[0] for v in values("/plots/height/fused", "Scalars:scalars")] == pytest.approx(
+        heights, abs=1e-6)
+    assert [v[0] for v in values("/plots/height/truth", "Scalars:scalars")] == pytest.approx(
+        truths, abs=1e-6)
+    lines = values("/field/fused/height", "LineStrips3D:strips")
+    assert len(lines) == len(heights)
+    assert all(line[0][0][2] == 0.0 and line[0][1][2] == pytest.approx(z, abs=1e-6)
+               for line, z in zip(lines, heights, strict=True))

@@ -1,0 +1,276 @@
+"""A 3-D ball tracker that flies: rolling on the ground, ballistic flight, bounces.
+
+The state is (x, y, z, vx, vy, vz) of the ball's centre in the field frame; a Kalman filter
+over 3-D measurements with their 3 x 3 covariances (:class:`~estimator.fusion.TriangulateFusion`'s:
+crossed rays, or one robot's ground estimate whose covariance spreads along its ray, so a
+single robot's view moves the track along that ray and not up or down at will).
+
+Between measurements the ball moves:
+
+- **in the air** (centre above R + ``airborne_m`` or rising): under gravity, x' = x + v dt,
+  z' = z + vz dt - g dt^2 / 2, vz' = vz - g dt (air drag neglected: a few centimetres over
+  the 0.3 s a landing is predicted ahead);
+- **at a bounce** (the flight reaches z = R going down): the step is split at the contact;
+  vz turns to -``restitution`` vz (0 when that is below ``rest_mps``: it rolls on), and the
+  covariance of vz grows by (``bounce_sigma`` vz)^2;
+- **on the ground**: z = R, vz = 0, constant velocity (the rolling ball).
+
+Process noise: white acceleration noise, ``accel_sigma`` horizontally and vertically.
+A measurement's covariance directions wider than ``unknown_variance_m2`` are not measured:
+one robot's ground estimate, whose covariance spreads along its ray, moves the track
+across the ray only (a bearing), so its height stays as unknown as it is. Measurements
+farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
+two refusals in a row the track restarts at the second, its velocity from the two (the
+ball hit a robot or a post); after ``max_misses`` the next measurement restarts it. A rolling
+track that is shown a ball clearly in the air restarts flying at once (a kick up), its
+velocity from the way from the last measurement.
+
+:meth:`BallisticTracker.landing` predicts where and when a flying ball next meets the
+ground: t = (vz + sqrt(vz^2 + 2 g (z - R))) / g from now, (x + vx t, y + vy t).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimator.constants import BALL_RADIUS_M, NS_PER_S
+from estimator.estimates import Matrix
+
+__all__ = ["GATE_CHI2_3DOF_999", "G_MPS2", "BallisticParams", "BallisticTracker", "Landing"]
+
+G_MPS2 = 9.81
+GATE_CHI2_3DOF_999 = 16.27
+"""The chi-square of 3 degrees of freedom at 99.9 %."""
+_LAUNCH_ABOVE_M = 0.1
+"""A measurement the rolling track refuses starts a flight when it is this high."""
+_GATE_CHI2 = {1: 10.83, 2: 13.82, 3: GATE_CHI2_3DOF_999}
+"""The gate by the measured directions' count (99.9 %)."""
+
+
+@dataclass(frozen=True)
+class BallisticParams:
+    accel_sigma_mps2: float = 3.0
+    """White acceleration noise [m/s^2] (the ball's unmodelled manoeuvres: kicks, drag)."""
+    restitution: float = 0.6
+    """A bounce keeps this much of the normal speed (a football on turf)."""
+    bounce_sigma: float = 0.15
+    """The spread of the kept share at a bounce."""
+    bounce_level_sigma: float = 0.2
+    """The spread of the level speed kept at a bounce (friction)."""
+    rest_mps: float = 0.5
+    """A bounce slower than this leaves the ball rolling."""
+    airborne_m: float = 0.02
+    unknown_variance_m2: float = 0.5
+    """A measurement's covariance direction wider than this is not measured (one robot's
+    ray: the spread along it says the height is unknown; the track keeps its own there)."""
+    max_misses: int = 3
+    initial_speed_sigma_mps: float = 10.0
+    launch_sigma_mps: float = 2.0
+
+
+@dataclass(frozen=True)
+class Landing:
+    """Where and when a flying ball is predicted to meet the ground."""
+
+    stamp_ns: int
+    x_m: float
+    y_m: float
+
+
+class BallisticTracker:
+    """The ball in 3-D, through flight, bounces and rolling (see the module doc)."""
+
+    def __init__(self, params: BallisticParams | None = None) -> None:
+        self.params = params or BallisticParams()
+        self.x: Matrix | None = None
+        self.P: Matrix = np.zeros((6, 6))
+        self.stamp_ns = 0
+        self.misses = 0
+        self._last: tuple[int, Matrix] | None = None
+        """The last accepted measurement's stamp and the track's position after it."""
+        self._last_airborne = False
+        self._refused: tuple[int, Matrix] | None = None
+        """The last refused measurement, while refusals run in a row."""
+
+    @property
+    def airborne(self) -> bool:
+        return self.x is not None and bool(
+            self.x[2] > BALL_RADIUS_M + self.params.airborne_m or self.x[5] > self.params.rest_mps)
+
+    def _flight(self, dt: float) -> None:
+        """Move state and covariance dt seconds under gravity, or rolling."""
+        assert self.x is not None
+        F = np.eye(6)
+        F[0:3, 3:6] = np.eye(3) * dt
+        x = F @ self.x
+        if self.airborne:
+            x[2] -= 0.5 * G_MPS2 * dt * dt
+            x[5] -= G_MPS2 * dt
+        else:  # rolling: z = R, vz = 0; z's variance kept (a single ray says no height)
+            x[2], x[5] = BALL_RADIUS_M, 0.0
+            F[2, 5] = 0.0
+            F[5, :] = 0.0
+        q = self.params.accel_sigma_mps2 ** 2
+        G = np.vstack([np.eye(3) * 0.5 * dt * dt, np.eye(3) * dt])
+        Q = G @ G.T * q
+        if not self.airborne:
+            Q[5, :] = 0.0
+            Q[:, 5] = 0.0
+        self.x = x
+        self.P = F @ self.P @ F.T + Q
+
+    def _bounce(self) -> None:
+        assert self.x is not None
+        p = self.params
+        vz = float(self.x[5])
+        kept = -p.restitution * vz
+        J = np.eye(6)
+        self.x[2] = BALL_RADIUS_M
+        if kept < p.rest_mps:
+            self.x[5] = 0.0
+            J[5, 5] = 0.0
+            J[2, 2] = 0.0
+        else:
+            self.x[5] = kept
+            J[5, 5] = -p.restitution
+            J[2, 2] = 0.0
+        self.P = J @ self.P @ J.T
+        self.P[5, 5] += (p.bounce_sigma * vz) ** 2
+        # friction at the contact trades level speed for spin: a share of it is lost
+        level = float(np.hypot(self.x[3], self.x[4]))
+        self.P[3, 3] += (p.bounce_level_sigma * level) ** 2
+        self.P[4, 4] += (p.bounce_level_sigma * level) ** 2
+
+    def predict(self, stamp_ns: int) -> None:
+        """Move the track to ``stamp_ns`` (no-op before the first measurement or backwards)."""
+        if self.x is None or stamp_ns <= self.stamp_ns:
+            return
+        dt = (stamp_ns - self.stamp_ns) / NS_PER_S
+        while dt > 1e-9:
+            contact = self._contact_in() if self.airborne else None
+            if contact is not None and contact < dt:
+                self._flight(contact)
+                self._bounce()
+                dt -= contact
+            else:
+                self._flight(dt)
+                dt = 0.0
+        self.stamp_ns = stamp_ns
+
+    def _contact_in(self) -> float | None:
+        """Seconds until a flight meets z = R going down (None: not flying)."""
+        assert self.x is not None
+        h = float(self.x[2]) - BALL_RADIUS_M
+        vz = float(self.x[5])
+        disc = vz * vz + 2.0 * G_MPS2 * max(h, 0.0)
+        t = (vz + math.sqrt(disc)) / G_MPS2
+        return t if t > 1e-6 else None
+
+    def update(self, stamp_ns: int, position: tuple[float, float, float],
+               covariance: Matrix) -> bool:
+        """One 3-D measurement; False when the gate refused it."""
+        z = np.array(position, dtype=np.float64)
+        Rm = np.asarray(covariance, dtype=np.float64)
+        if self.x is None or self.misses >= self.params.max_misses:
+            self._start(stamp_ns, z, Rm)
+            self._remember(stamp_ns)
+            return True
+        rolling = not self.airborne
+        self.predict(stamp_ns)
+        assert self.x is not None
+        if rolling and z[2] - BALL_RADIUS_M > 3.0 * math.sqrt(max(Rm[2, 2], 0.0)) + 0.05 and (
+                self._launched(stamp_ns, z, Rm)):
+            return True  # clearly in the air: kicked up
+        w, V = np.linalg.eigh(0.5 * (Rm + Rm.T))
+        keep = w < self.params.unknown_variance_m2
+        if not keep.any():
+            return False
+        H = np.zeros((int(keep.sum()), 6))
+        H[:, :3] = V[:, keep].T
+        S = H @ self.P @ H.T + np.diag(w[keep])
+        innovation = H[:, :3] @ (z - self.x[:3])
+        d2 = float(innovation @ np.linalg.solve(S, innovation))
+        if d2 > _GATE_CHI2[int(keep.sum())]:
+            if rolling and z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M and (
+                    self._launched(stamp_ns, z, Rm)):
+                return True  # the rolling ball does not explain it, a flying one may
+            if self._refused is not None and self._restarted(stamp_ns, z, Rm):
+                return True
+            self._refused = (stamp_ns, z.copy())
+            self.misses += 1
+            return False
+        K = np.linalg.solve(S, H @ self.P).T
+        self.x = self.x + K @ innovation
+        self.P = (np.eye(6) - K @ H) @ self.P
+        self.P = 0.5 * (self.P + self.P.T)
+        if self.x[2] < BALL_RADIUS_M:
+            self.x[2] = BALL_RADIUS_M
+        self.misses = 0
+        self._refused = None
+        self._remember(stamp_ns)
+        return True
+
+    def _remember(self, stamp_ns: int) -> None:
+        assert self.x is not None
+        self._last = (stamp_ns, self.x[:3].copy())
+        self._last_airborne = self.airborne
+
+    def _launched(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """A rolling track shown a ball clearly in the air (3 sigma and 5 cm above the
+        ground), or refusing one above 0.1 m: it was kicked up. Restart it flying from
+        where it rolled, launched at the last measurement: v from the way there (a flight
+        under gravity), its sigma ``launch_sigma_mps``."""
+        assert self.x is not None
+        rolled_at = self._last
+        if rolled_at is None or self._last_airborne:
+            return False
+        dt = (stamp_ns - rolled_at[0]) / NS_PER_S
+        if dt <= 0.0:
+            return False
+        return self._fly_from(rolled_at[1], dt, stamp_ns, z, Rm)
+
+    def _restarted(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """Two refusals in a row (the ball hit something): restart at the second, its
+        velocity from the two (a flight between them, when the second is in the air)."""
+        assert self._refused is not None
+        t0, z0 = self._refused
+        dt = (stamp_ns - t0) / NS_PER_S
+        if not 0.0 < dt < 0.5:
+            return False
+        return self._fly_from(z0, dt, stamp_ns, z, Rm)
+
+    def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a
+        flight under gravity when ``z`` is in the air (vz now = dz / dt - g dt / 2)."""
+        v = (z - z0) / dt
+        if z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M:
+            v[2] -= 0.5 * G_MPS2 * dt
+        self._start(stamp_ns, z, Rm)
+        assert self.x is not None
+        self.x[3:] = v
+        self.P[3:, 3:] = np.eye(3) * self.params.launch_sigma_mps ** 2
+        self._remember(stamp_ns)
+        return True
+
+    def _start(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> None:
+        self.x = np.concatenate([z, np.zeros(3)])
+        self.x[2] = max(self.x[2], BALL_RADIUS_M)
+        self.P = np.zeros((6, 6))
+        self.P[:3, :3] = Rm
+        self.P[3:, 3:] = np.eye(3) * self.params.initial_speed_sigma_mps ** 2
+        self.stamp_ns = stamp_ns
+        self.misses = 0
+        self._refused = None
+
+    def landing(self) -> Landing | None:
+        """Where and when the ball next meets the ground, if it is flying."""
+        if self.x is None or not self.airborne:
+            return None
+        t = self._contact_in()
+        if t is None:
+            return None
+        return Landing(self.stamp_ns + round(t * NS_PER_S), float(self.x[0] + self.x[3] * t),
+                       float(self.x[1] + self.x[4] * t))

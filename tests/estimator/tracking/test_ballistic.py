@@ -1,0 +1,126 @@
+"""The 3-D tracker: a lob's arc followed and its landing predicted, a bounce, a kick up from
+rolling, and one robot's view leaving the height unknown in the covariance."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from estimator.constants import BALL_RADIUS_M, NS_PER_S
+from estimator.tracking.ballistic import G_MPS2, BallisticTracker
+
+R = BALL_RADIUS_M
+RATE_HZ = 20.0
+
+
+def arc(t: float, v: tuple[float, float, float], start: tuple[float, float] = (0.0, 0.0),
+        e: float = 0.6) -> tuple[float, float, float]:
+    """A drag-free lob from the ground at t = 0 with bounces keeping e of vz."""
+    x, y = start[0] + v[0] * t, start[1] + v[1] * t
+    vz, t0 = v[2], 0.0
+    while vz > 0.5:
+        flight = 2 * vz / G_MPS2
+        if t < t0 + flight:
+            s = t - t0
+            return x, y, R + vz * s - 0.5 * G_MPS2 * s * s
+        t0 += flight
+        vz *= e
+    return x, y, R
+
+
+def feed(tracker: BallisticTracker, times: np.ndarray, v: tuple[float, float, float],
+         rng: np.random.Generator, sigma: float = 0.01) -> None:
+    for t in times:
+        p = np.array(arc(float(t), v)) + rng.normal(0.0, sigma, 3)
+        tracker.update(round(t * NS_PER_S), tuple(p), np.eye(3) * sigma ** 2)
+
+
+def test_a_lob_is_followed_and_its_landing_predicted_03_s_ahead() -> None:
+    rng = np.random.default_rng(5)
+    errors = []
+    for _ in range(20):
+        speed, elev = rng.uniform(6, 10), math.radians(rng.uniform(20, 50))
+        az = rng.uniform(-math.pi, math.pi)
+        h = speed * math.cos(elev)
+        v = (h * math.cos(az), h * math.sin(az), speed * math.sin(elev))
+        land_t = 2 * v[2] / G_MPS2
+        tr = BallisticTracker()
+        feed(tr, np.arange(0.0, land_t - 0.3, 1 / RATE_HZ), v, rng)
+        landing = tr.landing()
+        assert landing is not None
+        assert abs(landing.stamp_ns / NS_PER_S - land_t) < 0.05
+        errors.append(math.hypot(landing.x_m - v[0] * land_t, landing.y_m - v[1] * land_t))
+    assert np.median(errors) < 0.15 and max(errors) < 0.3, errors
+
+
+def test_through_a_bounce_and_down_to_rolling() -> None:
+    rng = np.random.default_rng(6)
+    v = (5.0, 0.0, 4.0)
+    first = 2 * v[2] / G_MPS2
+    tr = BallisticTracker()
+    times = np.arange(0.0, 3.0, 1 / RATE_HZ)
+    accepted = 0
+    for t in times:
+        p = np.array(arc(float(t), v)) + rng.normal(0.0, 0.01, 3)
+        accepted += tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4)
+        if t > first + 0.1 and t < first + 0.3:  # after the bounce: up again, 0.6 of vz
+            assert tr.x is not None and tr.x[5] == pytest.approx(
+                0.6 * v[2] - G_MPS2 * (t - first), abs=0.5)
+    assert accepted >= 0.9 * len(times)  # the last, small hops may be refused a few times
+    assert tr.x is not None and not tr.airborne and abs(tr.x[2] - R) < 0.005  # rolls at the end
+    assert tr.x[3] == pytest.approx(5.0, abs=0.2)
+    assert tr.landing() is None
+
+
+def test_a_rolling_ball_kicked_up_is_followed_at_once() -> None:
+    rng = np.random.default_rng(7)
+    tr = BallisticTracker()
+    for t in np.arange(0.0, 1.0, 1 / RATE_HZ):  # rolling at 2 m/s
+        tr.update(round(t * NS_PER_S), (2.0 * t + rng.normal(0, 0.01), 0.0, R), np.eye(3) * 1e-4)
+    assert not tr.airborne
+    v = (6.0, 0.0, 5.0)
+    for t in np.arange(0.05, 0.5, 1 / RATE_HZ):
+        x, y, z = arc(t, v, start=(2.0, 0.0))
+        assert tr.update(round((1.0 + t) * NS_PER_S), (x, y, z), np.eye(3) * 1e-4)
+    assert tr.airborne and tr.x is not None
+    assert tr.x[5] == pytest.approx(v[2] - G_MPS2 * 0.45, abs=0.3)
+
+
+def test_one_robot_s_ray_leaves_the_height_unknown() -> None:
+    """Measurements whose covariance spreads along a ray from a camera 12 m up (one robot:
+    no height): the track's z stays as uncertain as the rays say, it invents no height."""
+    tr = BallisticTracker()
+    u = np.array([0.4, 0.0, -0.9165])
+    u /= np.linalg.norm(u)
+    along = np.outer(u, u) * (3.4 / abs(u[2])) ** 2 / 3.0
+    cov = along + np.eye(3) * 1e-4
+    for t in np.arange(0.0, 1.0, 1 / RATE_HZ):
+        tr.update(round(t * NS_PER_S), (1.0, 0.0, R), cov)
+    assert tr.P[2, 2] > 0.5 ** 2
+
+
+def test_a_lob_that_hits_a_robot_is_picked_up_again_after_two_refusals() -> None:
+    """At 0.3 s the ball bounces back off a robot (vx turns to -0.5 vx): the track refuses
+    the next measurement, restarts at the second with the velocity between them, and
+    follows the new flight from then on."""
+    rng = np.random.default_rng(8)
+    v = (6.0, 0.0, 5.0)
+    hit = 0.3
+    x_hit, _, _ = arc(hit, v)
+
+    def where(t: float) -> tuple[float, float, float]:
+        _, _, z = arc(t, v)
+        x = v[0] * t if t < hit else x_hit - 0.5 * v[0] * (t - hit)
+        return x, 0.0, z
+
+    tr = BallisticTracker()
+    results = []
+    for t in np.arange(0.0, 0.9, 1 / RATE_HZ):
+        p = np.array(where(float(t))) + rng.normal(0.0, 0.01, 3)
+        results.append(tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4))
+    refused = [i for i, ok in enumerate(results) if not ok]
+    assert 1 <= len(refused) <= 2 and refused[0] >= round(hit * RATE_HZ)
+    assert all(results[refused[-1] + 1:])
+    assert tr.x is not None and tr.x[3] == pytest.approx(-3.0, abs=0.3)

@@ -14,7 +14,7 @@ from results_files import noisy_errors, results_doc, write
 
 import replay.cli
 from replay.compare import compare
-from replay.compare.bootstrap import _quantile
+from replay.compare.bootstrap import weighted_quantile
 from replay.compare.cli import main
 
 GOLDEN = Path(__file__).resolve().parents[2].parent / "logs" / "golden"
@@ -26,13 +26,22 @@ def _folder(root: Path, name: str, docs: dict[str, dict]) -> Path:
     return root / name
 
 
-def test_quantile_matches_numpy_percentile() -> None:
+def test_weighted_quantile_is_numpy_percentile_of_the_repeated_values() -> None:
     rng = np.random.default_rng(3)
-    rows = rng.normal(size=(50, 37))
-    rows[rng.random(rows.shape) < 0.3] = np.nan
-    rows[0] = np.nan
-    expected = [np.nan if np.isnan(r).all() else np.nanpercentile(r, 95) for r in rows]
-    np.testing.assert_allclose(_quantile(rows, 0.95), expected, rtol=0, atol=1e-12)
+    values = np.sort(rng.normal(size=37))
+    weights = rng.integers(0, 4, size=(60, 37)).astype(float)
+    weights[0] = 0
+    weights[1] = 0
+    weights[1, 5] = 1
+    expected = [np.nan if w.sum() == 0 else np.percentile(np.repeat(values, w.astype(int)), 95)
+                for w in weights]
+    full, reached = weighted_quantile(values, weights, 0.95)
+    np.testing.assert_allclose(full, expected, rtol=0, atol=1e-12)
+    assert reached.all()
+    # from the tail alone, with the rows' whole counts: the same where the tail reaches
+    tail, reached = weighted_quantile(values, weights[:, -8:], 0.95, weights.sum(axis=1))
+    assert reached.sum() > 30 and not reached.all()
+    np.testing.assert_allclose(tail[reached], full[reached], rtol=0, atol=1e-12)
 
 
 def test_metrics_are_those_of_the_paired_data(tmp_path: Path) -> None:

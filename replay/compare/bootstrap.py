@@ -22,6 +22,7 @@ give the same numbers, bit for bit.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -201,6 +202,11 @@ class _Pool:
         return _p95(self.values, gather, counts)
 
 
+def _tail(weights: np.ndarray, order: np.ndarray, m: int) -> np.ndarray:
+    """The weights of the m largest errors (``order``: the units by error)."""
+    return weights[:, order[len(order) - m:]]
+
+
 def _replicates(sides: Sequence[tuple[_Side, _Side]], pools: tuple[_Pool, _Pool],
                 steps: Sequence[np.ndarray],
                 frames: Sequence[np.ndarray]) -> Iterator[dict[str, np.ndarray]]:
@@ -212,9 +218,7 @@ def _replicates(sides: Sequence[tuple[_Side, _Side]], pools: tuple[_Pool, _Pool]
         for i, side in enumerate(pair):
             s = side.sums(ws, wf)
             totals[i] = totals[i] + s if i in totals else s
-            order = side.order
-            p95 = _p95(side.sorted_errors,
-                       lambda m, ws=ws, order=order: ws[:, order[len(order) - m:]], s.n_err)
+            p95 = _p95(side.sorted_errors, functools.partial(_tail, ws, side.order), s.n_err)
             for k, v in s.values(p95).items():
                 out[f"{'ab'[i]}.{k}"] = v
         yield out

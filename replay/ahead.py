@@ -24,6 +24,7 @@ import numpy as np
 
 from replay.estimation import Detected, detect
 from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image, image_problem
+from replay.plugins import Detector
 
 __all__ = ["Ahead", "Decoded", "decode_and_detect"]
 
@@ -40,12 +41,13 @@ class Decoded:
     """Why the image does not decode, when it does not (:func:`replay.log.image_problem`)."""
 
 
-def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> Decoded:
+def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS,
+                      detector: Detector | None = None) -> Decoded:
     """Decode an image message (none over ``max_pixels``) and detect the ball in it (pure,
-    thread-safe)."""
+    thread-safe; ``detector``: one from outside, else the paper's chain)."""
     t0 = time.perf_counter()
     image = decode_image(msg, max_pixels=max_pixels)
-    detected = detect(image)
+    detected = detect(image, detector)
     problem = None if image is not None else image_problem(msg, max_pixels=max_pixels)
     return Decoded(image, detected, time.perf_counter() - t0, problem)
 

@@ -65,10 +65,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
                    "(default)")
-    p.add_argument("--fusion", choices=FUSION_METHODS,
+    p.add_argument("--fusion", metavar="|".join(FUSION_METHODS),
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; for the corrected estimator track: a Kalman filter "
-                   "giving position and velocity at every image stamp)")
+                   "giving position and velocity at every image stamp); or a fusion from "
+                   "outside: an installed dual_sight.fusions entry point's name, or "
+                   "package.module:Class (docs/compare.md)")
+    p.add_argument("--detector", metavar="NAME|package.module:Class",
+                   help="a ball detector from outside (a dual_sight.detectors entry point's "
+                   "name, or package.module:Class; default: the paper's chain)")
     p.add_argument("--noise", choices=NOISE_MODELS, default="cambada",
                    help="the window fusions' covariance per estimate: cambada (a fixed range "
                    "law, default) or calibrated (from the calibration, as track uses; makes "
@@ -173,7 +178,8 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     start, start_absolute = args.start or (None, False)
     end, end_absolute = args.end or (None, False)
     return ReplayOptions(
-        method=args.method, fusion=args.fusion, calibration=_input(args.calibration),
+        method=args.method, fusion=args.fusion, detector=args.detector,
+        calibration=_input(args.calibration),
         cameras=_input(args.cameras), smooth=args.smooth, noise=args.noise,
         clock_hz=args.clock_hz, image_topic=args.image_topic, pose_topic=args.pose_topic,
         truth_topic=args.truth_topic, robots=robots, start_s=start, end_s=end,

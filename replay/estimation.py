@@ -33,6 +33,7 @@ from typing import Protocol
 
 import numpy as np
 
+from dsp.errors import UsageError
 from estimator import corrected, fusion, paper
 from estimator.detection import Detection, detect_ball
 from estimator.errors import EstimatorError
@@ -40,7 +41,9 @@ from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covaria
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
+from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
+from replay.plugins import Detector
 from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
 from replay.sink import Sink
 from replay.smoothing import SmoothedSteps
@@ -70,14 +73,19 @@ class Detected:
     detection: Detection | None = None
 
 
-def detect(image: np.ndarray | None) -> Detected:
-    """The ball in a decoded image (None: the image did not decode). Pure and thread-safe."""
+def detect(image: np.ndarray | None, detector: Detector | None = None) -> Detected:
+    """The ball in a decoded image (None: the image did not decode), by the paper's chain or
+    ``detector`` (:mod:`replay.plugins`). Pure and thread-safe."""
     if image is None:
         return Detected(FrameStatus.BAD_IMAGE)
     try:
-        return Detected(None, detect_ball(image))
+        found = detect_ball(image) if detector is None else detector.detect(image)
     except EstimatorError:
         return Detected(FrameStatus.DETECT_ERROR)
+    if found is not None and not isinstance(found, Detection):
+        raise UsageError(f"--detector {detector.name if detector else ''}: detect() returned "
+                         f"a {type(found).__name__}, not an estimator.detection.Detection")
+    return Detected(None, found)
 
 
 class Locator(Protocol):
@@ -124,7 +132,8 @@ class FrameEstimator:
     """The estimator as the options choose it: detection, the method's locator, the fusion."""
 
     def __init__(self, *, method: str, fusion_method: str, cameras: Cameras,
-                 smooth: bool = False, noise: str = "cambada") -> None:
+                 smooth: bool = False, noise: str = "cambada",
+                 detector: Detector | None = None) -> None:
         self.cameras = cameras
         self._centres = dict(cameras.centres)
         self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
@@ -132,7 +141,10 @@ class FrameEstimator:
         self.noise: Noise = CalibratedNoise(
             calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
         self.tracker: BallTracker | None = None
-        if fusion_method == "track":
+        self.detector = detector
+        if not plugins.is_builtin("fusion", fusion_method):  # a window fusion from outside
+            self.fusion = plugins.load_part("fusion", fusion_method).obj
+        elif fusion_method == "track":
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
@@ -154,7 +166,7 @@ class FrameEstimator:
         robot's pose at the image's stamp (None: none within the tolerance); ``detected``
         is :func:`detect` of the image when it ran already (e.g. ahead, in a thread)."""
         if detected is None:
-            detected = detect(image)
+            detected = detect(image, self.detector)
         if detected.status is not None:
             return FrameOutcome(detected.status)
         det = detected.detection

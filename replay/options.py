@@ -21,6 +21,7 @@ from dsp.errors import UsageError
 from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
+from replay import plugins
 from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
 
 __all__ = ["DEFAULT_FUSION", "MAX_WINDOW_S", "METHODS", "ReplayOptions", "RerunTarget",
@@ -84,7 +85,10 @@ class ReplayOptions:
 
     method: str = "corrected"
     fusion: str | None = None
-    """None: the method's own (:data:`DEFAULT_FUSION`)."""
+    """None: the method's own (:data:`DEFAULT_FUSION`); a built-in name, an entry point's
+    or ``package.module:Class`` (:mod:`replay.plugins`)."""
+    detector: str | None = None
+    """None: the paper's chain; else a detector from outside (:mod:`replay.plugins`)."""
     calibration: Path | str | None = None
     """A calibration file for every robot, or "paper" (the paper's eq. 4 and, for a robot
     the log describes no camera of, its image centre too)."""
@@ -147,9 +151,9 @@ class ReplayOptions:
         if self.method not in METHODS:
             raise UsageError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.fusion_method not in FUSION_METHODS:
-            raise UsageError(
-                f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
-            )
+            plugins.load_part("fusion", self.fusion_method)  # a fusion from outside, or one line
+        if not plugins.is_builtin("detector", self.detector):
+            plugins.load_part("detector", str(self.detector))
         if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
             raise UsageError(f"--threads {self.threads}; must be >= 1")
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
@@ -254,6 +258,7 @@ class ReplayOptions:
             "recover": self.recover,
             # new options appear only when set: files made without them stay as they were
             **({"noise": self.noise} if self.noise != "cambada" else {}),
+            **({"detector": self.detector} if self.detector is not None else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
             **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
@@ -270,6 +275,17 @@ class ReplayOptions:
             return max(1, len(os.sched_getaffinity(0)))
         except AttributeError:  # not on Linux
             return max(1, os.cpu_count() or 1)
+
+    def detector_part(self) -> plugins.Detector | None:
+        """The detector from outside, None for the paper's chain."""
+        if plugins.is_builtin("detector", self.detector):
+            return None
+        part: plugins.Detector = plugins.load_part("detector", str(self.detector)).obj
+        return part
+
+    def parts_view(self) -> dict[str, Json]:
+        """The parts from outside the package (:func:`replay.plugins.parts_view`)."""
+        return plugins.parts_view({"detector": self.detector, "fusion": self.fusion_method})
 
     def as_dict(self) -> dict[str, object]:
         """All options as plain values (for hashing into a Rerun recording id); not the

@@ -99,13 +99,14 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
-            smooth=options.smooth, noise=options.noise)
+            smooth=options.smooth, noise=options.noise, detector=options.detector_part())
         stats = ReplayStats(info.robots)
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
-                decode_and_detect, max_pixels=options.max_image_pixels)))
+                decode_and_detect, max_pixels=options.max_image_pixels,
+                detector=estimator.detector)))
             stream = _Stream(reader, estimator, options.timing(log_origin_ns(info)),
                              estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead)
             with _progress(options, reader) as bar:

@@ -17,8 +17,9 @@ from pathlib import Path
 from dsp.atomic import atomic_output, check_distinct, check_output_path
 from dsp.checks import check_int, check_suffix
 from dsp.cli import add_common_arguments, echo, run_main
+from dsp.errors import InputError, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
-from replay.compare import compare
+from replay.compare import Report, compare
 
 __all__ = ["build_parser", "main"]
 
@@ -44,6 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="compare results of different logs (paired by the log's file name)")
     p.add_argument("--fail-if-worse", action="store_true",
                    help="exit 1 when B is worse than A in a total (for CI)")
+    p.add_argument("--rerun", type=Path, metavar="LOG",
+                   help="replay LOG as A and as B into one Rerun recording, side by side "
+                   "(a viewer is spawned, or --save)")
+    p.add_argument("--save", type=Path, metavar="FILE.rrd",
+                   help="with --rerun: save the recording instead of showing it")
     add_common_arguments(p, force=True, progress=False)
     p.add_argument("-q", "--quiet", action="store_true", help="print no report")
     return p
@@ -54,9 +60,13 @@ def _outputs(args: argparse.Namespace) -> list[tuple[str, Path | None]]:
     check_suffix("--out-csv", args.out_csv, (".csv",))
     check_suffix("--out-md", args.out_md, (".md",))
     check_suffix("--plot", args.plot, FIGURE_SUFFIXES)
+    check_suffix("--save", args.save, (".rrd",))
+    if args.save is not None and args.rerun is None:
+        raise UsageError("--save saves the --rerun recording: give --rerun LOG")
     outs = [("--out", args.out), ("--out-csv", args.out_csv), ("--out-md", args.out_md),
-            ("--plot", args.plot)]
-    check_distinct(outs, [("the input A", args.a), ("the input B", args.b)])
+            ("--plot", args.plot), ("--save", args.save)]
+    check_distinct(outs, [("the input A", args.a), ("the input B", args.b),
+                          ("the --rerun log", args.rerun)])
     for flag, path in outs:
         if path is not None:
             check_output_path(path, force=args.force, label=flag)
@@ -82,10 +92,27 @@ def _main(argv: Sequence[str] | None) -> int:
         with atomic_output(args.plot, force=args.force, label="--plot") as tmp:
             draw(report, tmp, args.plot.suffix.lower().lstrip("."))
     echo(args, report.to_markdown().rstrip("\n"))
+    if args.rerun is not None:
+        _rerun(args, report)
     if args.fail_if_worse and report.worse:
         print(f"{PROG}: B is worse than A in total: {', '.join(report.worse)}", file=sys.stderr)
         return 1
     return 0
+
+
+def _rerun(args: argparse.Namespace, report: Report) -> None:
+    from replay.compare.side_by_side import side_by_side
+    from replay.runner import file_digest
+
+    if not args.rerun.is_file():
+        raise InputError(f"{args.rerun}: no such log")
+    digest = file_digest(args.rerun)
+    pair = next((p for p in report.pairs if digest in (p.a.sha256, p.b.sha256)), None)
+    if pair is None:
+        raise InputError(f"{args.rerun}: neither run holds results of this log")
+    side_by_side(args.rerun, pair.a, pair.b, save=args.save, force=args.force)
+    if args.save is not None:
+        echo(args, f"wrote {args.save}: A under /A, B under /B")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

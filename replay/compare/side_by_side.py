@@ -3,7 +3,9 @@
 Rerun shows one recording at a time, so the two runs go into one recording under two entity
 prefixes, ``/A`` and ``/B`` (each the entity tree of docs/viewer.md), and a blueprint puts
 A's cameras beside B's, A's field view beside B's, and the error plots of both in one panel
-(the series named "A fused", "B robot1", ...; B's fused error in the track colour). Each run
+(the series named "A fused", "B robot1", ...; B's fused error in the track colour). The
+images, the same in both runs, are logged once (under ``/A``); B's camera views show them
+under B's detections. Each run
 is replayed again from the log with the options its results file names (calibration and
 camera files by name: looked for beside the log, then in the working folder), so the log
 must be the one the results are of (its sha256).
@@ -64,11 +66,12 @@ def replay_options(run: ResultsRun, log: Path) -> ReplayOptions:
 class _Prefixed:
     """A recording stream's logging, every entity path under ``prefix``."""
 
-    def __init__(self, rec: rr.RecordingStream, prefix: str) -> None:
-        self._rec, self._prefix = rec, prefix
+    def __init__(self, rec: rr.RecordingStream, prefix: str, *, images: bool) -> None:
+        self._rec, self._prefix, self._images = rec, prefix, images
 
     def log(self, path: str, *args: Any, **kwargs: Any) -> None:
-        self._rec.log(f"{self._prefix}{path}", *args, **kwargs)
+        if self._images or not path.endswith("/camera/image"):
+            self._rec.log(f"{self._prefix}{path}", *args, **kwargs)
 
     def set_time(self, *args: Any, **kwargs: Any) -> None:
         self._rec.set_time(*args, **kwargs)
@@ -85,7 +88,9 @@ class _PrefixedSink(RerunSink):
         super().__init__(RerunTarget("save"), **kwargs)
 
     def _open(self, *, force: bool) -> None:
-        self.rec = cast(rr.RecordingStream, _Prefixed(self._shared, self._prefix))
+        # the images are the same in both runs: logged once, under A
+        self.rec = cast(rr.RecordingStream, _Prefixed(self._shared, self._prefix,
+                                                      images=self._prefix == PREFIXES[0]))
         self._static()
         label = self._prefix.strip("/")
         for name in (*self.info.robots, "fused"):
@@ -107,7 +112,8 @@ def side_by_side_blueprint(robots: tuple[str, ...], field: FieldSpec) -> rrb.Blu
                                 name="error vs ground truth [m], A and B",
                                 plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop))
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(cameras_view(robots, a), cameras_view(robots, b)),
+        rrb.Vertical(rrb.Horizontal(cameras_view(robots, a),
+                                    cameras_view(robots, b, images_from=a)),
                      rrb.Horizontal(field_view(field, a), field_view(field, b)),
                      errors, row_shares=[3.0, 2.4, 1.6]),
         rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),

@@ -36,16 +36,23 @@ def scenario_kind(scenario: str | None, *, tracked: bool = False) -> str:
     return "log"
 
 
-def cameras_view(robots: Sequence[str], prefix: str = "") -> rrb.Container:
-    """The cameras as tabs (and all of them in the last); ``prefix``: a run's entities'."""
+def cameras_view(robots: Sequence[str], prefix: str = "",
+                 images_from: str | None = None) -> rrb.Container:
+    """The cameras as tabs (and all of them in the last); ``prefix``: a run's entities';
+    ``images_from``: the prefix whose images to show under them (one copy for two runs)."""
     label = f"{prefix.strip('/')} " if prefix else ""
-    tabs: list[rrb.Container | rrb.View] = [
-        rrb.Spatial2DView(origin=f"{prefix}/robots/{r}/camera", name=f"{label}{r} camera")
-        for r in robots]
+
+    def view(r: str, name: str) -> rrb.View:
+        origin = f"{prefix}/robots/{r}/camera"
+        contents = ["$origin/**"]
+        if images_from is not None:
+            contents.insert(0, f"{images_from}/robots/{r}/camera/image")
+        return rrb.Spatial2DView(origin=origin, name=name, contents=contents)
+
+    tabs: list[rrb.Container | rrb.View] = [view(r, f"{label}{r} camera") for r in robots]
     if len(robots) > 1:
-        tabs.append(rrb.Grid(*[rrb.Spatial2DView(origin=f"{prefix}/robots/{r}/camera",
-                                                 name=f"{label}{r}")
-                               for r in robots], name=f"{label}all cameras"))
+        tabs.append(rrb.Grid(*[view(r, f"{label}{r}") for r in robots],
+                             name=f"{label}all cameras"))
     return rrb.Tabs(*tabs, active_tab=0, name=f"{label}cameras")
 
 

@@ -36,9 +36,11 @@ def test_both_runs_side_by_side(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert reader.blueprints()
     chunks = list(reader.stream())
     paths = {ch.entity_path for ch in chunks}
+    for robot in ("robot1", "robot2", "robot3"):  # the images once, the detections twice
+        assert f"/A/robots/{robot}/camera/image" in paths
+        assert f"/B/robots/{robot}/camera/image" not in paths
+        assert f"/B/robots/{robot}/camera/centre" in paths
     for prefix in ("/A", "/B"):
-        for robot in ("robot1", "robot2", "robot3"):
-            assert f"{prefix}/robots/{robot}/camera/image" in paths
         assert f"{prefix}/field/fused" in paths and f"{prefix}/plots/error/fused" in paths
     assert "/B/field/track/trail" in paths and "/A/field/track/trail" not in paths  # B tracks
     assert not any(p.startswith("/field") or p.startswith("/robots") for p in paths)

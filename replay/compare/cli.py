@@ -30,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG, description="Compare two replays of the same logs: per log and in total, "
         "fused RMSE, p95, detection rate and velocity error of A, B and B - A, with a paired "
-        "bootstrap 95%% interval and a verdict per metric (docs/compare.md).")
+        "bootstrap 95% interval and a verdict per metric (docs/compare.md).")
     p.add_argument("a", type=Path, metavar="A", help="results file or folder of run A")
     p.add_argument("b", type=Path, metavar="B", help="results file or folder of run B")
     p.add_argument("--out", type=Path, metavar="FILE.json", help="the report as JSON")

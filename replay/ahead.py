@@ -28,6 +28,7 @@ import numpy as np
 from replay.estimation import Detected, detect
 from replay.localise import LocalisedPoints
 from replay.log import DEFAULT_MAX_PIXELS, ImageMessage, decode_image, image_problem
+from replay.plugins import Detector
 from replay.real_ball import BallFinder
 
 __all__ = ["Ahead", "Decoded", "LinePointsFn", "decode_and_detect"]
@@ -54,14 +55,14 @@ class Decoded:
 
 
 def decode_and_detect(msg: ImageMessage, *, max_pixels: int = DEFAULT_MAX_PIXELS,
-                      finder: BallFinder | None = None,
+                      finder: BallFinder | None = None, detector: Detector | None = None,
                       line_points: LinePointsFn | None = None) -> Decoded:
     """Decode an image message (none over ``max_pixels``), detect the ball in it (the
-    paper's chain, or ``finder``'s real detector) and, with ``line_points``, find its field
-    lines (pure, thread-safe)."""
+    paper's chain, ``finder``'s real detector or ``detector``, one from outside) and, with
+    ``line_points``, find its field lines (pure, thread-safe)."""
     t0 = time.perf_counter()
     image = decode_image(msg, max_pixels=max_pixels)
-    detected = detect(image, finder)
+    detected = detect(image, finder, detector)
     points = None if line_points is None else line_points(msg.robot, image)
     problem = None if image is not None else image_problem(msg, max_pixels=max_pixels)
     return Decoded(image, detected, time.perf_counter() - t0, problem, points)

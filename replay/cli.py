@@ -35,7 +35,6 @@ from replay.options import (
     ReplayOptions,
     RerunTarget,
 )
-from replay.real_ball import DETECTORS
 from replay.runner import replay
 from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.stats import ReplaySummary
@@ -73,10 +72,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="corrected",
                    help="paper: eq. 3-14 as published; corrected: calibration on the range "
                    "(default)")
-    p.add_argument("--fusion", choices=FUSION_METHODS,
+    p.add_argument("--fusion", metavar="|".join(FUSION_METHODS),
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; for the corrected estimator track: a Kalman filter "
-                   "giving position and velocity at every image stamp)")
+                   "giving position and velocity at every image stamp); or a fusion from "
+                   "outside: an installed dual_sight.fusions entry point's name, or "
+                   "package.module:Class (docs/compare.md)")
     p.add_argument("--noise", choices=NOISE_MODELS, default="cambada",
                    help="the window fusions' covariance per estimate: cambada (a fixed range "
                    "law, default) or calibrated (from the calibration, as track uses; makes "
@@ -160,9 +161,11 @@ def _input(text: str | None) -> Path | str | None:
 
 def _add_input_arguments(p: argparse.ArgumentParser) -> None:
     """What describes the log: its cameras, its topics, the robots and times to replay."""
-    p.add_argument("--detector", choices=DETECTORS, default=None,
+    p.add_argument("--detector", metavar="paper|real|NAME|package.module:Class", default=None,
                    help="how the ball is found in an image: 'paper' (the paper's colour "
-                   "chain, the default) or 'real' (the real-ball detector of --ball)")
+                   "chain, the default), 'real' (the real-ball detector of --ball), or a "
+                   "detector from outside: an installed dual_sight.detectors entry point's "
+                   "name, or package.module:Class (docs/compare.md)")
     p.add_argument("--ball", type=Path, metavar="BALL.json",
                    help="a ball model (dsp-calibrate --ball-from DIR writes one): the real "
                    "detector, fitted to the venue's ball, light and look-alikes")

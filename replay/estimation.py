@@ -33,6 +33,7 @@ from typing import Protocol
 
 import numpy as np
 
+from dsp.errors import UsageError
 from estimator import corrected, fusion, paper
 from estimator.detection import Detection, detect_ball
 from estimator.detection.real import Candidate
@@ -41,7 +42,9 @@ from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covaria
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
+from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
+from replay.plugins import Detector
 from replay.real_ball import BallFinder
 from replay.records import FrameResult, FrameStatus, Localisation, RobotEstimate, StepResult
 from replay.sink import Sink
@@ -77,18 +80,24 @@ class Detected:
     """The real detector's checked candidates, the winner first (none from the paper's)."""
 
 
-def detect(image: np.ndarray | None, finder: BallFinder | None = None) -> Detected:
-    """The ball in a decoded image (None: the image did not decode), by the paper's chain
-    or, with a ``finder``, the real-ball detector. Pure and thread-safe."""
+def detect(image: np.ndarray | None, finder: BallFinder | None = None,
+           detector: Detector | None = None) -> Detected:
+    """The ball in a decoded image (None: the image did not decode), by the paper's chain,
+    with a ``finder`` the real-ball detector, or ``detector`` (one from outside,
+    :mod:`replay.plugins`). Pure and thread-safe."""
     if image is None:
         return Detected(FrameStatus.BAD_IMAGE)
     try:
         if finder is not None:
-            found = finder(image)
-            return Detected(None, found.detection, found.candidates)
-        return Detected(None, detect_ball(image))
+            real = finder(image)
+            return Detected(None, real.detection, real.candidates)
+        found = detect_ball(image) if detector is None else detector.detect(image)
     except EstimatorError:
         return Detected(FrameStatus.DETECT_ERROR)
+    if found is not None and not isinstance(found, Detection):
+        raise UsageError(f"--detector {detector.name if detector else ''}: detect() returned "
+                         f"a {type(found).__name__}, not an estimator.detection.Detection")
+    return Detected(None, found)
 
 
 class Locator(Protocol):
@@ -136,7 +145,8 @@ class FrameEstimator:
 
     def __init__(self, *, method: str, fusion_method: str, cameras: Cameras,
                  smooth: bool = False, noise: str = "cambada",
-                 finder: BallFinder | None = None) -> None:
+                 finder: BallFinder | None = None,
+                 detector: Detector | None = None) -> None:
         self.cameras = cameras
         self.finder = finder
         self._centres = dict(cameras.centres)
@@ -146,7 +156,10 @@ class FrameEstimator:
         self.noise: Noise = CalibratedNoise(
             calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
         self.tracker: BallTracker | None = None
-        if fusion_method == "track":
+        self.detector = detector
+        if not plugins.is_builtin("fusion", fusion_method):  # a window fusion from outside
+            self.fusion = plugins.load_part("fusion", fusion_method).obj
+        elif fusion_method == "track":
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
@@ -174,7 +187,7 @@ class FrameEstimator:
         ``localisation``, the pose corrected from the image's field lines, is the pose the
         ball is located from when given (the believed one stays the outcome's ``pose``)."""
         if detected is None:
-            detected = detect(image, self.finder)
+            detected = detect(image, self.finder, self.detector)
         outcome = self._locate(robot, detected, pose_at, localisation)
         return replace(outcome, candidates=detected.candidates) if detected.candidates \
             else outcome

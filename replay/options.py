@@ -21,6 +21,7 @@ from dsp.errors import UsageError
 from dsp.jsonio import Json
 from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
+from replay import plugins
 from replay.log import DEFAULT_MAX_MESSAGE_BYTES, Limits
 from replay.real_ball import DETECTORS
 
@@ -96,12 +97,15 @@ class ReplayOptions:
 
     method: str = "corrected"
     detector: str | None = None
-    """How the ball is found in an image: "paper" (the paper's chain) or "real" (the
-    real-ball detector of ``ball``); None: "real" with a ball model, else "paper"."""
+    """How the ball is found in an image: "paper" (the paper's chain), "real" (the
+    real-ball detector of ``ball``) or a detector from outside (:mod:`replay.plugins`: an
+    entry point's name or ``package.module:Class``); None: "real" with a ball model, else
+    "paper"."""
     ball: Path | None = None
     """A ball model file (``dsp-calibrate --ball-from``) for the real detector."""
     fusion: str | None = None
-    """None: the method's own (:data:`DEFAULT_FUSION`)."""
+    """None: the method's own (:data:`DEFAULT_FUSION`); a built-in name, an entry point's
+    or ``package.module:Class`` (:mod:`replay.plugins`)."""
     calibration: Path | str | None = None
     """A calibration file for every robot, or "paper" (the paper's eq. 4 and, for a robot
     the log describes no camera of, its image centre too)."""
@@ -171,18 +175,16 @@ class ReplayOptions:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise UsageError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
-        if self.detector not in (None, *DETECTORS):
-            raise UsageError(f"--detector {self.detector!r}; choose one of "
-                             f"{', '.join(DETECTORS)}")
         if self.detector_name == "real" and self.ball is None:
             raise UsageError("--detector real needs --ball ball.json (dsp-calibrate "
                              "--ball-from DIR writes one from labelled images)")
-        if self.detector_name == "paper" and self.ball is not None:
-            raise UsageError("--ball goes with the real detector, not --detector paper")
+        if self.detector_name != "real" and self.ball is not None:
+            raise UsageError(f"--ball goes with the real detector, not --detector "
+                             f"{self.detector_name}")
         if self.fusion_method not in FUSION_METHODS:
-            raise UsageError(
-                f"--fusion {self.fusion!r}; choose one of {', '.join(FUSION_METHODS)}"
-            )
+            plugins.load_part("fusion", self.fusion_method)  # a fusion from outside, or one line
+        if not plugins.is_builtin("detector", self.detector):
+            plugins.load_part("detector", str(self.detector))
         if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
             raise UsageError(f"--threads {self.threads}; must be >= 1")
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
@@ -305,6 +307,8 @@ class ReplayOptions:
             "recover": self.recover,
             # new options appear only when set: files made without them stay as they were
             **({"noise": self.noise} if self.noise != "cambada" else {}),
+            **({"detector": self.detector}
+               if self.detector is not None and self.detector not in DETECTORS else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
             **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
@@ -325,6 +329,17 @@ class ReplayOptions:
             return max(1, len(os.sched_getaffinity(0)))
         except AttributeError:  # not on Linux
             return max(1, os.cpu_count() or 1)
+
+    def detector_part(self) -> plugins.Detector | None:
+        """The detector from outside, None for the paper's chain."""
+        if plugins.is_builtin("detector", self.detector):
+            return None
+        part: plugins.Detector = plugins.load_part("detector", str(self.detector)).obj
+        return part
+
+    def parts_view(self) -> dict[str, Json]:
+        """The parts from outside the package (:func:`replay.plugins.parts_view`)."""
+        return plugins.parts_view({"detector": self.detector, "fusion": self.fusion_method})
 
     def as_dict(self) -> dict[str, object]:
         """All options as plain values (for hashing into a Rerun recording id); not the

@@ -108,7 +108,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
-            smooth=options.smooth, noise=options.noise, finder=finder)
+            smooth=options.smooth, noise=options.noise, finder=finder,
+            detector=options.detector_part())
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots)
         diagnosis = Diagnosis(path, info.robots, cameras)
@@ -116,6 +117,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             outputs = _open_outputs(stack, reader, options, estimator, stats)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels, finder=finder,
+                detector=estimator.detector,
                 line_points=None if localiser is None else localiser.points)))
             stream = _Stream(reader, estimator, options.timing(log_origin_ns(info)),
                              estimator.sinks([stats, diagnosis, *outputs, *sinks]), ahead,

@@ -97,7 +97,7 @@ def _where(found: list[Import]) -> list[str]:
 
 
 CORE_ROOMS = ("replay.batch", "replay.evaluate", "replay.parallel", "replay.info",
-              "replay.calibrate")
+              "replay.calibrate", "replay.compare")
 RULES = {
     "the estimator imports nothing else of the project":
         lambda i: _in(i.source, "estimator") and not _in(i.target, "estimator"),

@@ -43,7 +43,7 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
     sinks: list[Sink] = []
     if options.out is not None:
         header = ResultsHeader(file=context.name, sha256=context.digest, robots=info.robots,
-                               options=options.results_view())
+                               options=options.results_view(), parts=options.parts_view())
         sinks.append(stack.enter_context(ResultsWriter(
             Path(options.out), header=header, stats=context.stats, force=options.force)))
     if options.out_mcap is not None:

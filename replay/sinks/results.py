@@ -11,7 +11,7 @@ from __future__ import annotations
 import io
 import json
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, Protocol
 
@@ -43,6 +43,9 @@ class ResultsHeader:
     robots: tuple[str, ...]
     options: dict[str, Json]
     """:meth:`replay.options.ReplayOptions.results_view`."""
+    parts: dict[str, Json] = field(default_factory=dict)
+    """The estimator's parts from outside the package (:mod:`replay.plugins`); the key is
+    left out when there are none, so files made without them stay as they were."""
 
 
 class ResultsCollector(SinkBase):
@@ -77,6 +80,7 @@ def _head(header: ResultsHeader, stats: SummarySource) -> dict[str, Json]:
         "log": {"file": header.file, "sha256": header.sha256, "robots": list(header.robots),
                 "recovered": recovered},
         "options": header.options,
+        **({"parts": header.parts} if header.parts else {}),
         "summary": stats.summary_dict(),
     }
 

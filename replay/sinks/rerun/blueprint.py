@@ -22,7 +22,7 @@ import rerun.blueprint as rrb
 from dsp.field import FieldSpec
 from replay.sinks.style import FIELD_BACKGROUND
 
-__all__ = ["KINDS", "blueprint", "scenario_kind"]
+__all__ = ["KINDS", "blueprint", "cameras_view", "field_view", "scenario_kind"]
 
 KINDS = ("paper", "moving", "log")
 
@@ -36,21 +36,34 @@ def scenario_kind(scenario: str | None, *, tracked: bool = False) -> str:
     return "log"
 
 
-def _cameras(robots: Sequence[str]) -> rrb.Container:
-    tabs: list[rrb.Container | rrb.View] = [
-        rrb.Spatial2DView(origin=f"/robots/{r}/camera", name=f"{r} camera") for r in robots]
+def cameras_view(robots: Sequence[str], prefix: str = "",
+                 images_from: str | None = None) -> rrb.Container:
+    """The cameras as tabs (and all of them in the last); ``prefix``: a run's entities';
+    ``images_from``: the prefix whose images to show under them (one copy for two runs)."""
+    label = f"{prefix.strip('/')} " if prefix else ""
+
+    def view(r: str, name: str) -> rrb.View:
+        origin = f"{prefix}/robots/{r}/camera"
+        contents = ["$origin/**"]
+        if images_from is not None:
+            contents.insert(0, f"{images_from}/robots/{r}/camera/image")
+        return rrb.Spatial2DView(origin=origin, name=name, contents=contents)
+
+    tabs: list[rrb.Container | rrb.View] = [view(r, f"{label}{r} camera") for r in robots]
     if len(robots) > 1:
-        tabs.append(rrb.Grid(*[rrb.Spatial2DView(origin=f"/robots/{r}/camera", name=r)
-                               for r in robots], name="all cameras"))
-    return rrb.Tabs(*tabs, active_tab=0, name="cameras")
+        tabs.append(rrb.Grid(*[view(r, f"{label}{r}") for r in robots],
+                             name=f"{label}all cameras"))
+    return rrb.Tabs(*tabs, active_tab=0, name=f"{label}cameras")
 
 
-def _field(field: FieldSpec) -> rrb.View:
+def field_view(field: FieldSpec, prefix: str = "") -> rrb.View:
+    """The field from above; ``prefix``: a run's entities'."""
     # straight down from high enough that the field and its border fit a wide panel (the
     # viewer's vertical field of view is about 55 deg)
     eye_height_m = field.width_m + 2 * field.border_m
     return rrb.Spatial3DView(
-        origin="/field", name=f"field, top-down ({field.name})",
+        origin=f"{prefix}/field",
+        name=f"{prefix.strip('/') + ' ' if prefix else ''}field, top-down ({field.name})",
         background=rrb.Background(color=FIELD_BACKGROUND), line_grid=rrb.LineGrid3D(False),
         eye_controls=rrb.EyeControls3D(position=(0.0, -0.01, eye_height_m),
                                        look_target=(0.0, 0.0, 0.0), eye_up=(0.0, 1.0, 0.0)),
@@ -69,8 +82,8 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Container
     if kind == "paper":
         # a handful of frames of a still ball: the images and the field say most
         return rrb.Horizontal(
-            _cameras(robots),
-            rrb.Vertical(_field(field), rrb.Horizontal(error, *small), row_shares=[3.0, 1.2]),
+            cameras_view(robots),
+            rrb.Vertical(field_view(field), rrb.Horizontal(error, *small), row_shares=[3.0, 1.2]),
             column_shares=[1.0, 1.45])
     bottom: list[rrb.View] = small
     shares = [1.0, 1.0]
@@ -78,8 +91,8 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Container
         bottom = [_series("/plots/speed", "ball speed [m/s]"), *small]
         shares = [2.0, 1.0, 1.0]
     return rrb.Horizontal(
-        rrb.Vertical(_cameras(robots), error, row_shares=[3.0, 2.0]),
-        rrb.Vertical(_field(field), rrb.Horizontal(*bottom, column_shares=shares),
+        rrb.Vertical(cameras_view(robots), error, row_shares=[3.0, 2.0]),
+        rrb.Vertical(field_view(field), rrb.Horizontal(*bottom, column_shares=shares),
                      row_shares=[3.0, 1.3]),
         column_shares=[1.0, 1.6])
 

@@ -24,12 +24,11 @@ from typing import TypeVar
 from dsp.atomic import atomic_output, check_distinct
 from dsp.checks import check_int, check_number
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
-from dsp.errors import CalibrationError, InputError, UsageError
+from dsp.errors import UsageError
 from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
-from estimator.calibration import calibration_from_json
-from estimator.errors import EstimatorError
+from replay.cameras import read_calibration
 from replay.evaluate.match import (
     MatchLogScore,
     MatchOptions,
@@ -120,13 +119,8 @@ def _check(args: argparse.Namespace) -> None:
     check_number("--duration", args.duration, low=0, high=3600, low_open=True, unit="s")
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
-    if args.calibration is not None:
-        if not args.calibration.is_file():
-            raise InputError(f"{args.calibration}: calibration file not found")
-        try:  # a bad file would otherwise only show at the first replay
-            calibration_from_json(args.calibration.read_text(encoding="utf-8"))
-        except (EstimatorError, UnicodeDecodeError) as err:
-            raise CalibrationError(args.calibration, str(err)) from err
+    if args.calibration is not None:  # a bad file would otherwise only show at the first replay
+        read_calibration(args.calibration)
 
 
 @dataclass(frozen=True)

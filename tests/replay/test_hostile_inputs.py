@@ -146,3 +146,16 @@ def test_camera_metadata_with_a_null_field_is_one_line(
     assert info_main([str(bad)]) == 0  # the summary says what is wrong and goes on
     shown = capsys.readouterr()
     assert "Traceback" not in shown.err and f".{key}" in shown.out
+
+
+def test_a_folder_a_device_and_a_missing_log_get_their_own_message(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    missing = tmp_path / "missing.mcap"
+    for main, prog in ((replay_main, "dsp-replay"), (info_main, "dsp-info")):
+        err = one_line(main, [missing], capsys, 1)
+        assert err == f"{prog}: error: {missing}: no such file (check the path)"
+        err = one_line(main, [tmp_path], capsys, 1)
+        assert err.startswith(f"{prog}: error: {tmp_path}: is a folder, not a log")
+        err = one_line(main, ["/dev/zero"], capsys, 1)
+        assert err == (f"{prog}: error: /dev/zero: not a regular file (a device, pipe or "
+                       "socket): give the log file itself")

@@ -13,6 +13,7 @@ gap instead of a straight line across.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -25,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
+import rerun_bindings as rr_bindings
 
 from dsp.atomic import AtomicFile
 from dsp.errors import UsageError
@@ -44,6 +46,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
+from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
@@ -118,6 +121,8 @@ class RerunSink(SinkBase):
         self._save: AtomicFile | None = None
         self._liveness: Liveness | None = None
         self.lost: str | None = None
+        self.broken = False
+        """True once the .rrd's writer failed (its recording is then left, not closed)."""
         """Why the viewer is no longer logged to (it went away), else None."""
         self.info = info
         self.centres = centres
@@ -132,7 +137,11 @@ class RerunSink(SinkBase):
         name = info.scenario.name if info.scenario is not None else None
         self.kind = scenario_kind(name, tracked=options.fusion_method == "track")
         self._trail: deque[tuple[int, float, float]] = deque()
-        self._open(force=options.force)
+        try:
+            self._open(force=options.force)
+        except BaseException:
+            self._end()
+            raise
 
     def blueprint(self) -> rrb.Blueprint:
         return blueprint(self.info.robots, self.field, self.kind)
@@ -142,7 +151,14 @@ class RerunSink(SinkBase):
         bp = self.blueprint()
         if mode == "save":
             self._save = AtomicFile(Path(str(target)), force=force)
-            self.rec.save(self._save.tmp, default_blueprint=bp)
+            check_room(self._save.path)  # a nearly full disk can block Rerun's writer
+            try:
+                with blueprint_storage(APPLICATION_ID, bp) as storage:
+                    rr_bindings.save(path=str(self._save.tmp), default_blueprint=storage,
+                                     recording=self.rec.to_native(), write_footer=True)
+            except RuntimeError as err:
+                self.broken = True
+                raise write_failure(self._save.path, err) from err
         elif mode == "spawn":
             check_display()
             self.rec.spawn(default_blueprint=bp)
@@ -337,15 +353,23 @@ class RerunSink(SinkBase):
             if self.lost is None:
                 try:
                     self.rec.flush(timeout_sec=10.0)
-                except RuntimeError as err:  # the gRPC connection broke at the very end
+                except RuntimeError as err:  # a full disk, or the gRPC connection broke
                     if self._save is not None:
-                        raise
+                        self.broken = True
+                        raise write_failure(self._save.path, err) from err
                     print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
                     self.lost = str(err)
-            if self.lost is None:
-                self.rec.disconnect()
             if ok and self._save is not None:
+                release(self.rec)  # the file is complete (its footer written) once closed
                 self._save.commit()
         finally:
-            if self._save is not None:
-                self._save.discard()
+            self._end()
+
+    def _end(self) -> None:
+        """Close the recording (its threads end; a viewer that went away is not waited for)
+        and remove an uncommitted .rrd."""
+        if self.lost is None and not self.broken:  # a broken file writer blocks a disconnect
+            with contextlib.suppress(RuntimeError):
+                release(self.rec)
+        if self._save is not None:
+            self._save.discard()

@@ -79,7 +79,7 @@ def bench(renderer: str, face_px: int, runs: int) -> list[str]:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("--runs", type=int, default=7)
     p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX)
     p.add_argument("--renderers", default="egl,tiny")

@@ -112,7 +112,7 @@ def speed(args: argparse.Namespace) -> int:
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--seconds", type=float, default=None,
                    help="log length [s] (default 2; --recorded: 6)")
     p.add_argument("--factor", type=int, default=10, help="how much longer the long log is")

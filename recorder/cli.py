@@ -26,6 +26,7 @@ PROG = "dsp-record"
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Record a scenario of the simulated RoboCup MSL world (pybullet) to a "
         "ROS 2 MCAP log: omni images, poses, /tf and ground truth.",
         epilog=f"scenarios: {', '.join(SCENARIOS)}. Without --scenario the file name "

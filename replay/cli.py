@@ -40,6 +40,7 @@ PROG = "dsp-replay"
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
         "evaluate against ground truth, and show it in Rerun.",
     )

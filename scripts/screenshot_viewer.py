@@ -137,7 +137,7 @@ def _shrink(path: Path, width: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("rrd", type=Path, help="a replay saved with dsp-replay --save")
     p.add_argument("--out-dir", type=Path, default=Path("."))
     p.add_argument("--themes", default="light,dark", help="light, dark or both")

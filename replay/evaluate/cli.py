@@ -60,6 +60,7 @@ MAX_SEED = 2**63 - 1 - MAX_COUNT
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )

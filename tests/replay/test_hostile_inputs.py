@@ -159,3 +159,17 @@ def test_a_folder_a_device_and_a_missing_log_get_their_own_message(
         err = one_line(main, ["/dev/zero"], capsys, 1)
         assert err == (f"{prog}: error: /dev/zero: not a regular file (a device, pipe or "
                        "socket): give the log file itself")
+
+
+# --- options are spelled out ---------------------------------------------------------------
+@pytest.mark.parametrize(("main", "argv"), [
+    (replay_main, ["in.mcap", "--sav", "r.rrd"]),  # not --save
+    (info_main, ["in.mcap", "--js", "x"]),  # not --json
+    (record_main, ["out.mcap", "--scen", "scenario1"]),  # not --scenario
+    (eval_main, ["--sui", "paper"]),  # not --suite
+    (calibrate_main, ["-o", "c.json", "--start", "1"]),  # not --start-m
+])
+def test_an_abbreviated_option_is_refused(main: Main, argv: list[str],
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    assert "unrecognized arguments: " + argv[-2] in capsys.readouterr().err

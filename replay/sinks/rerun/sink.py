@@ -112,6 +112,17 @@ def _ring(x: float, y: float, r: float, n: int = 32) -> np.ndarray:
     return np.column_stack([x + r * np.cos(a), y + r * np.sin(a), np.full(n + 1, 2 * r)])
 
 
+def _fused_label(result: StepResult) -> str:
+    """The fused position's one label, with the tracker's speed when it has one (a label of
+    its own at the arrow would sit on this one, and neither could be read)."""
+    fused = result.fused
+    assert fused is not None
+    label = f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})"
+    if result.velocity_m_s is not None:
+        label += f", {math.hypot(*result.velocity_m_s):.2f} m/s"
+    return label
+
+
 class RerunSink(SinkBase):
     """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
 
@@ -307,7 +318,7 @@ class RerunSink(SinkBase):
             rec.log("/field/fused",
                     rr.Points3D([(fused.x_m, fused.y_m, _BALL_Z)], colors=[FUSED_COLOUR],
                                 radii=BALL_RADIUS_M, show_labels=True,
-                                labels=[f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})"]))
+                                labels=[_fused_label(result)]))
             rec.log("/field/fused/covariance",
                     rr.LineStrips3D([_ellipse(fused.x_m, fused.y_m, fused.covariance)],
                                     colors=[FUSED_COLOUR], radii=0.025))
@@ -342,8 +353,7 @@ class RerunSink(SinkBase):
         vx, vy = velocity
         self.rec.log("/field/track/velocity",
                      rr.Arrows3D(origins=[(fused.x_m, fused.y_m, _BALL_Z)],
-                                 vectors=[(vx, vy, 0.0)], colors=[TRACK_COLOUR], radii=0.04,
-                                 labels=[f"{math.hypot(vx, vy):.2f} m/s"], show_labels=True))
+                                 vectors=[(vx, vy, 0.0)], colors=[TRACK_COLOUR], radii=0.04))
         self._scalar("/plots/speed/track", math.hypot(vx, vy))
 
     def close(self, ok: bool) -> None:

@@ -88,3 +88,22 @@ def test_a_robot_that_never_sees_the_ball_has_gaps_not_values(chunks: list) -> N
     # the tracker's speed (the golden log predates the true velocity: no truth speed)
     assert "Scalars:scalars" in columns("/plots/speed/track")
     assert not columns("/plots/speed/truth")
+
+
+def test_the_fused_label_carries_the_speed_and_the_arrow_has_none(chunks: list) -> None:
+    def labels(path: str) -> list[str]:
+        out: list[str] = []
+        for ch in chunks:
+            if ch.entity_path != path or ch.is_static:
+                continue
+            batch = ch.to_record_batch()
+            for name in batch.schema.names:
+                if name.endswith(":labels"):
+                    for row in batch.column(name).to_pylist():
+                        out.extend(row or [])
+        return out
+
+    assert labels("/field/track/velocity") == []  # it would sit on the fused label
+    fused = labels("/field/fused")
+    assert fused and all(re.fullmatch(r"fused \(-?\d+\.\d\d, -?\d+\.\d\d\), \d+\.\d\d m/s", t)
+                         for t in fused), fused[:3]

@@ -5,11 +5,8 @@ each one line naming the file, through every command that reads one."""
 from __future__ import annotations
 
 import os
-import signal
 import threading
-from collections.abc import Iterator
 from pathlib import Path
-from types import FrameType
 
 import pytest
 
@@ -19,17 +16,7 @@ from dsp.textfile import read_text_file
 MAX = 1000
 
 
-@pytest.fixture(autouse=True)
-def no_hang() -> Iterator[None]:
-    """A read that blocks (a FIFO opened for reading without O_NONBLOCK) fails the test."""
-    def hang(_signum: int, _frame: FrameType | None) -> None:
-        raise TimeoutError("the read blocked")
-
-    previous = signal.signal(signal.SIGALRM, hang)
-    signal.alarm(10)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+pytestmark = pytest.mark.usefixtures("no_hang")
 
 
 def refused(path: Path) -> str:

@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from types import FrameType
 
 import pytest
 from fuzzing import read_raw, write_raw
@@ -24,16 +22,7 @@ from replay.info.cli import main as info_main
 Main = Callable[[Sequence[str] | None], int]
 
 
-@pytest.fixture(autouse=True)
-def no_hang() -> Iterator[None]:
-    def hang(_signum: int, _frame: FrameType | None) -> None:
-        raise TimeoutError("the command blocked")
-
-    previous = signal.signal(signal.SIGALRM, hang)
-    signal.alarm(60)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+pytestmark = pytest.mark.usefixtures("no_hang")
 
 
 @pytest.fixture(scope="module")

@@ -180,7 +180,7 @@ def _row(what: str, times: dict[str, list[float]], check: str) -> str:
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--count", type=int, default=6, help="random scenes (default 6)")
     p.add_argument("--workers", type=int, default=2, help="pool size and Ray CPUs (default 2)")
     p.add_argument("--repeat", type=int, default=1, help="runs of each mode (medians)")

@@ -71,7 +71,7 @@ def _time(argv: list[str]) -> float:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     p.add_argument("--logs", type=int, default=20)
     p.add_argument("--steps", type=int, default=2000)
     p.add_argument("--repeat", type=int, default=5)

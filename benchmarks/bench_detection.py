@@ -102,7 +102,7 @@ def row(name: str, frames: list[npt.NDArray[np.uint8]], params: DetectionParams,
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--repeat", type=int, default=10,
                         help="passes of each function over the frames")
     args = parser.parse_args()

@@ -56,7 +56,7 @@ class _Timer(SinkBase):
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     p.add_argument("log", nargs="?", type=Path, default=ROOT / "logs" / "golden" / "match.mcap")
     args = p.parse_args()
     cv2.setNumThreads(1)

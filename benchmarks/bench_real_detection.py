@@ -46,7 +46,7 @@ def _p90(detector: RealBallDetector, frames: list[npt.NDArray[np.uint8]]) -> lis
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3,
                         help="passes of each function over the images")
     args = parser.parse_args()

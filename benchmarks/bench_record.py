@@ -187,7 +187,7 @@ def bench_venue(renderer: str, camera: str, face_px: int, runs: int, rounds: int
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("--runs", type=int, default=7)
     p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX)
     p.add_argument("--renderers", default="egl,tiny")

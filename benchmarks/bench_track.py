@@ -31,7 +31,7 @@ MS = 1_000_000
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     parser.add_argument("--seconds", type=float, default=2.0)
     parser.add_argument("--speed", type=float, default=math.hypot(3.0, 1.0),
                         help="ball speed [m/s] along (3, -1) (default 3.16)")

@@ -83,8 +83,14 @@ def check_topic_pattern(flag: str, pattern: str) -> None:
 def check_suffix(flag: str, path: Path | None, suffixes: Sequence[str]) -> Path | None:
     """Refuse an output name whose extension is not one of ``suffixes`` (case-insensitive):
     ``--out-csv run.json`` is a mistake worth a word before a long run, not a surprise after.
+    A name that can only be a folder (``/``, ``.``, ``..``) is refused as one.
     Returns ``path`` (None passes)."""
-    if path is None or path.suffix.lower() in suffixes:
+    if path is None:
+        return path
+    if path.name in ("", ".", ".."):
+        raise UsageError(f"{flag} {path}: is a folder; give a file name "
+                         f"(e.g. {path / ('out' + suffixes[0])})")
+    if path.suffix.lower() in suffixes:
         return path
     wanted = " or ".join(suffixes)
     raise UsageError(f"{flag} {path}: the file name must end in {wanted} "

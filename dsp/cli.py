@@ -14,7 +14,8 @@ One place for what the four commands share:
 - :func:`run_main`: the one ``main`` wrapper. Exit codes: 0 done; 1 bad input
   (:class:`~dsp.errors.InputError`, an ``OSError``); 2 usage (argparse's own and
   :class:`~dsp.errors.UsageError`); 3 refused overwrite (:class:`~dsp.errors.OutputExistsError`);
-  130 interrupted (Ctrl-C). Any :class:`~dsp.errors.DspError` ends in one line
+  130 interrupted (Ctrl-C, or SIGTERM, which ends a command the same way, children
+  included). Any :class:`~dsp.errors.DspError` ends in one line
   ``prog: error: message`` on stderr, without a traceback; control characters in it (from
   names in a log) are escaped, as in everything :func:`echo` prints.
 
@@ -24,10 +25,13 @@ Importing this module imports neither pybullet nor mcap.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from importlib import metadata
+from types import FrameType
 from typing import IO
 
 from dsp.contract import RENDERERS
@@ -123,12 +127,31 @@ def _fail(prog: str, message: str) -> None:
     print(printable(f"{prog}: {message}"), file=sys.stderr)
 
 
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM ends a command as Ctrl-C does (outputs discarded, children such as the Rerun
+    server stopped, exit 130) instead of killing it where it stands."""
+    def terminate(_signum: int, _frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, terminate)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],
              argv: Sequence[str] | None = None) -> int:
     """Run a command's ``fn(argv)`` and turn how it ended into an exit code (see the module
     docstring); never lets a known error or Ctrl-C end in a traceback."""
     try:
-        code = fn(argv)
+        with _terminate_as_interrupt():
+            code = fn(argv)
     except SystemExit as exc:  # argparse: --help / --version (0), bad arguments (2)
         if exc.code is None or isinstance(exc.code, int):
             return exc.code or 0

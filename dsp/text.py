@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import unicodedata
 
-__all__ = ["printable"]
+__all__ = ["format_bytes", "printable"]
 
 _UNSAFE_CATEGORIES = frozenset({"Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp"})
 
@@ -44,3 +44,13 @@ def _escaped(s: str, lines: bool) -> str:
         else:
             out.append(_escape(ch))
     return "".join(out)
+
+
+def format_bytes(n: int) -> str:
+    """A size as every command prints it: binary units (B, KiB, MiB, GiB), one decimal."""
+    size = float(n)
+    for unit in ("B", "KiB", "MiB"):
+        if size < 1024:
+            return f"{n} B" if unit == "B" else f"{size:.1f} {unit}"
+        size /= 1024
+    return f"{size:.1f} GiB"

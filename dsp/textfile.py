@@ -2,10 +2,11 @@
 bounded and checked first.
 
 :func:`read_text_file` (and :func:`read_bytes_file`, without the decoding) refuses, each
-in one line naming the file: a path that is not a regular file (checked before opening, so
-a FIFO never blocks), a file over ``max_bytes`` (by its size and by what is read, should it
-grow meanwhile), and bytes that are not UTF-8 (a leading byte-order mark is dropped). The
-error is the caller's class, so each input keeps its own name in the error tree.
+in one line naming the file: a path that is not a regular file (opened without blocking and
+checked on the open descriptor, so neither a FIFO nor a device such as ``/dev/zero`` is
+read), a file over ``max_bytes`` (by its size and by what is read, should it grow
+meanwhile), and bytes that are not UTF-8 (a leading byte-order mark is dropped). The error
+is the caller's class, so each input keeps its own name in the error tree.
 """
 
 from __future__ import annotations
@@ -18,6 +19,10 @@ from pathlib import Path
 from dsp.errors import InputError
 
 __all__ = ["read_bytes_file", "read_text_file"]
+
+_OPEN = (os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+         | getattr(os, "O_CLOEXEC", 0))
+"""Never blocks on open (a FIFO without a writer) and never takes a terminal."""
 
 
 def read_text_file(path: Path, max_bytes: int, *, what: str = "the file",
@@ -35,15 +40,27 @@ def read_bytes_file(path: Path, max_bytes: int, *, what: str = "the file",
     """The bytes of ``path``, a regular file of at most ``max_bytes``; raises
     ``error(message)``."""
     try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            raise error(f"{path}: not a regular file")
-        with path.open("rb") as f:
-            size = os.fstat(f.fileno()).st_size
-            if size > max_bytes:
-                raise error(f"{path}: {size} bytes; {what} holds at most {max_bytes} bytes")
+        fd = os.open(path, _OPEN)
+    except IsADirectoryError:
+        raise error(f"{path}: is a folder; give {what}") from None
+    except OSError as err:
+        raise error(f"{path}: cannot read: {err.strerror or err}") from err
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise error(f"{path}: is a folder; give {what}")
+        if not stat.S_ISREG(st.st_mode):
+            raise error(f"{path}: not a regular file (a device, pipe or socket); give {what}")
+        if st.st_size > max_bytes:
+            raise error(f"{path}: {st.st_size} bytes; {what} holds at most {max_bytes} bytes")
+        with os.fdopen(fd, "rb") as f:
+            fd = -1
             data = f.read(max_bytes + 1)
     except OSError as err:
         raise error(f"{path}: cannot read: {err.strerror or err}") from err
+    finally:
+        if fd >= 0:
+            os.close(fd)
     if len(data) > max_bytes:
         raise error(f"{path}: more than {max_bytes} bytes")
     return data

@@ -46,6 +46,7 @@ MAX_PLACEMENTS = 10_000
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Fit the pixel-radius -> range calibration of a camera model the way the "
         "paper does (ball in front of a robot, 0.4 to 9.0 m in 0.1 m steps), in simulation.",
     )

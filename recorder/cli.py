@@ -15,7 +15,7 @@ from pathlib import Path
 
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.realism import REALISM, Realism, realism_preset
-from dsp.text import printable
+from dsp.text import format_bytes, printable
 from recorder.field import FIELDS
 from recorder.scenarios import SCENARIOS, scenario_from_path
 
@@ -27,6 +27,7 @@ PROG = "dsp-record"
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Record a scenario of the simulated RoboCup MSL world (pybullet) to a "
         "ROS 2 MCAP log: omni images, poses, /tf and ground truth.",
         epilog=f"scenarios: {', '.join(SCENARIOS)}. Without --scenario the file name "
@@ -185,7 +186,7 @@ def _main(argv: Sequence[str] | None) -> int:
          f"{s.path}: {s.scenario} seed {s.seed}, {s.frames} frames x {s.robots} robots "
          f"({s.camera}, {s.image_format}) at {s.rate_hz:g} Hz, "
          f"sim {s.sim_duration_ns / 1e9:.2f} s, "
-         f"{s.messages} messages, {s.file_size_bytes / 1e6:.2f} MB, renderer {s.renderer}, "
+         f"{s.messages} messages, {format_bytes(s.file_size_bytes)}, renderer {s.renderer}, "
          f"wall {s.wall_time_s:.1f} s")
     return 0
 

@@ -262,6 +262,7 @@ def _resolve_scenario(path: Path, scenario: str | None) -> str:
 def _plan(path: Path, options: RecordOptions) -> Plan:
     """The scenario, rates, frame count and camera phases; refuses a missing folder or an
     existing log."""
+    check_suffix("output", path, (".mcap",))  # first: "/" is a folder, not a scenario name
     name = _resolve_scenario(path, options.scenario)
     sc = make_scenario(name, options.seed, robots=options.robots, field=options.field,
                        distractors=options.distractors, lob_fraction=options.lob_fraction,

@@ -26,6 +26,7 @@ from typing import Any
 from dsp.camera_file import read_camera_file
 from dsp.cameras import PAPER_CAMERA, CameraSet, CameraSpec, FieldTransform
 from dsp.errors import CalibrationError
+from dsp.textfile import read_text_file
 from estimator.calibration import PAPER_CALIBRATION, Calibration, calibration_from_json
 from estimator.camera import CameraModel, ball_image_area_px
 from estimator.constants import PAPER_CENTRE_PX
@@ -34,12 +35,15 @@ from estimator.detection import Detection
 from estimator.errors import EstimatorError
 from replay.errors import NoCameraError
 
-__all__ = ["DEFAULT_CENTRE_PX", "PAPER", "Cameras", "cameras_for", "read_calibration"]
+__all__ = ["DEFAULT_CENTRE_PX", "MAX_CALIBRATION_BYTES", "PAPER", "Cameras", "cameras_for",
+           "read_calibration"]
 
 DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
 """The centre a sink draws for a robot it knows no camera of (none replays without one)."""
 PAPER = "paper"
 """``--cameras paper`` / ``--calibration paper``: the paper's constants, asked for by name."""
+MAX_CALIBRATION_BYTES = 1 << 20
+"""1 MiB: a calibration file is a model and its fit (a lookup table of 1000 points, 30 KiB)."""
 
 
 @dataclass(frozen=True)
@@ -131,12 +135,11 @@ def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
 
 def read_calibration(path: Path) -> tuple[Calibration, float]:
     """The calibration in ``path`` and its fit's residual RMS [m] (0 when not recorded)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise CalibrationError(path, f"cannot read: {err.strerror or err}") from err
-    except UnicodeDecodeError as err:
-        raise CalibrationError(path, f"not UTF-8 text (byte {err.start})") from err
+    def unusable(message: str) -> CalibrationError:  # "PATH: why" -> "PATH: unusable ...: why"
+        return CalibrationError(path, message.removeprefix(f"{path}: "))
+
+    text = read_text_file(path, MAX_CALIBRATION_BYTES, what="a calibration JSON file",
+                          error=unusable)
     try:
         model = calibration_from_json(text)
         fit = json.loads(text).get("fit") or {}

@@ -22,7 +22,7 @@ from pathlib import Path
 from dsp import contract
 from dsp.checks import check_suffix
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
-from dsp.errors import UsageError
+from dsp.errors import EXIT_INTERRUPTED, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
@@ -47,6 +47,7 @@ PROG = "dsp-replay"
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
         "evaluate against ground truth, and show it in Rerun.",
     )
@@ -289,9 +290,9 @@ def _serve(args: argparse.Namespace) -> int:
         echo(args, format_summary(summary))
         print(f"{PROG}: replay done; still serving at {server.web_url} until Ctrl-C",
               file=sys.stderr, flush=True)
-        server.serve_forever()
+        stopped = server.serve_forever()
     print(f"{PROG}: stopped serving", file=sys.stderr)
-    return 0
+    return EXIT_INTERRUPTED if stopped else 0  # Ctrl-C is how serving ends: 130, as listed
 
 
 def _main(argv: Sequence[str] | None) -> int:

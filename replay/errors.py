@@ -8,6 +8,8 @@ offending file (or value) and, where there is one, the fix.
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 from dsp.errors import InputError
@@ -34,10 +36,24 @@ class ReplayError(InputError):
 
 
 class InputNotFoundError(ReplayError):
-    """The input path does not exist or is not a regular file."""
+    """The input path does not exist or is not a regular file (the message says which)."""
 
     def __init__(self, path: Path | str) -> None:
-        super().__init__(f"{path}: not a file (check the path)")
+        super().__init__(f"{path}: {_not_a_file(Path(path))}")
+
+
+def _not_a_file(path: Path) -> str:
+    """Why ``path`` is not a log to read: missing, a folder, or not a regular file."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return "no such file (check the path)"
+    except OSError as err:
+        return f"cannot read it: {err.strerror or err}"
+    if stat.S_ISDIR(st.st_mode):
+        return ("is a folder, not a log (dsp-replay FOLDER --out-dir DIR replays every log "
+                "in it)")
+    return "not a regular file (a device, pipe or socket): give the log file itself"
 
 
 class NotMcapError(ReplayError):

@@ -132,8 +132,10 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                                           bad_messages=reader.bad_messages)
             if options.strict and warnings:
                 raise StrictError(warnings)  # before the outputs are committed
+    saved = options.rerun.target if options.rerun is not None and \
+        options.rerun.mode == "save" else None
     summary = stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
-        Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot)
+        Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot, saved)
         if p is not None))
     return dataclasses.replace(summary, warnings=tuple(warnings))
 

@@ -69,7 +69,7 @@ def layout() -> dict[str, Any]:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     p.add_argument("-o", type=Path, default=ROOT / "docs" / "foxglove-layout.json")
     args = p.parse_args()
     args.o.write_text(json.dumps(layout(), indent=2, sort_keys=True) + "\n", encoding="utf-8")

@@ -317,7 +317,7 @@ def load_manifest() -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     parser.add_argument("--force", action="store_true",
                         help="overwrite the existing goldens (explain why in the commit)")
     parser.add_argument("--expected-only", action="store_true",

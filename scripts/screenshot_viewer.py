@@ -1,7 +1,7 @@
 """Screenshots of a replay in the Rerun web viewer, in its light and dark themes.
 
     python scripts/screenshot_viewer.py run.rrd --out-dir shots/ [--themes light,dark]
-        [--size 1920x1080] [--wait 45] [--chromium chromium]
+        [--size 1920x1080] [--wait 180] [--chromium chromium]
 
 What a person would see when opening the replay: the ``rerun`` program that rerun-sdk ships
 serves the web viewer on 127.0.0.1 (free ports), which loads the .rrd over HTTP from a small
@@ -119,11 +119,29 @@ def screenshot(chromium: str, url: str, theme: str, size: tuple[int, int], wait_
                 {"name": "prefers-color-scheme", "value": theme}])
             tools.call("Page.enable", session)
             tools.call("Page.navigate", session, url=url)
-            time.sleep(wait_s)
-            shot = tools.call("Page.captureScreenshot", session, format="png")
-            out.write_bytes(base64.b64decode(shot["data"]))
+            out.write_bytes(_settled(tools, session, wait_s))
         finally:
             tools.close()
+
+
+def _settled(tools: DevTools, session: str, wait_s: float, every_s: float = 3.0) -> bytes:
+    """A screenshot once the page is loaded (``document.readyState`` complete) and has
+    stopped changing (two shots ``every_s`` apart alike: the viewer has drawn the data it
+    was sent), or the last one after ``wait_s``. A busy machine only makes it wait longer."""
+    deadline = time.monotonic() + wait_s
+    while time.monotonic() < deadline:
+        state = tools.call("Runtime.evaluate", session, expression="document.readyState")
+        if state.get("result", {}).get("value") == "complete":
+            break
+        time.sleep(0.5)
+    previous = b""
+    while True:
+        time.sleep(every_s)
+        shot = base64.b64decode(tools.call("Page.captureScreenshot", session,
+                                           format="png")["data"])
+        if shot == previous or time.monotonic() > deadline:
+            return shot
+        previous = shot
 
 
 def _shrink(path: Path, width: int) -> None:
@@ -137,13 +155,14 @@ def _shrink(path: Path, width: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("rrd", type=Path, help="a replay saved with dsp-replay --save")
     p.add_argument("--out-dir", type=Path, default=Path("."))
     p.add_argument("--themes", default="light,dark", help="light, dark or both")
     p.add_argument("--size", default="1920x1080", help="browser window, WIDTHxHEIGHT")
-    p.add_argument("--wait", type=float, default=45.0,
-                   help="seconds for the viewer to load and draw (default %(default)s)")
+    p.add_argument("--wait", type=float, default=180.0,
+                   help="at most this many seconds for the page to load and its drawing to settle "
+                   "(default %(default)s; it returns as soon as two shots 3 s apart agree)")
     p.add_argument("--out-width", type=int, metavar="PX",
                    help="scale the saved screenshot to this width (e.g. 1440 for a README)")
     p.add_argument("--chromium", default=shutil.which("chromium") or "chromium")

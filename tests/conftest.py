@@ -10,7 +10,9 @@ from __future__ import annotations
 import errno
 import io
 import os
-from collections.abc import Callable
+import signal
+from collections.abc import Callable, Iterator
+from types import FrameType
 from typing import Any
 
 import pytest
@@ -54,3 +56,17 @@ def full_disk(monkeypatch: pytest.MonkeyPatch) -> Callable[[int], None]:
         monkeypatch.setattr(AtomicFile, "stream", lambda self: FullDisk(real(self), room))
 
     return fill
+
+
+@pytest.fixture
+def no_hang() -> Iterator[None]:
+    """Fails the test (TimeoutError) when it blocks for a minute: a read of a FIFO, a
+    command waiting on nothing."""
+    def hang(_signum: int, _frame: FrameType | None) -> None:
+        raise TimeoutError("the test blocked")
+
+    previous = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(60)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, previous)

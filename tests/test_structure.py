@@ -218,3 +218,19 @@ def test_every_subpackage_names_its_public_names() -> None:
                     for n in tree.body):
                 missing.append(name)
     assert missing == []
+
+
+def test_every_parser_spells_its_options_out() -> None:
+    """argparse takes an unambiguous prefix (``--sav``) for an option unless told not to: every
+    parser the project builds, commands, scripts and benchmarks alike, passes
+    ``allow_abbrev=False``."""
+    missing = []
+    for folder in ("dsp", "estimator", "recorder", "replay", "scripts", "benchmarks", "train"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                        and node.func.attr == "ArgumentParser"
+                        and not any(k.arg == "allow_abbrev" and isinstance(k.value, ast.Constant)
+                                    and k.value.value is False for k in node.keywords)):
+                    missing.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not missing, missing

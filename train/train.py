@@ -193,7 +193,7 @@ def verify(net: CheckNet, data: bytes, x: np.ndarray, ctx: np.ndarray) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("root", type=Path, help="folder of labelled folders (each venue-day one)")
     ap.add_argument("--split", default="all")
     ap.add_argument("--seed", type=int, default=0)

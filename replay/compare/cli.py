@@ -28,6 +28,7 @@ PROG = "dsp-compare"
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
+        allow_abbrev=False,
         prog=PROG, description="Compare two replays of the same logs: per log and in total, "
         "fused RMSE, p95, detection rate and velocity error of A, B and B - A, with a paired "
         "bootstrap 95% interval and a verdict per metric (docs/compare.md).")

@@ -27,13 +27,12 @@ from dsp.atomic import atomic_output, check_distinct
 from dsp.ball_file import read_check_file, shipped_check
 from dsp.checks import check_int, check_number
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
-from dsp.errors import CalibrationError, InputError, UsageError
+from dsp.errors import UsageError
 from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
 from dsp.realism import REALISM, realism_preset
-from estimator.calibration import calibration_from_json
-from estimator.errors import EstimatorError
+from replay.cameras import read_calibration
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
 from replay.evaluate.lobs import LobsOptions, lobs_markdown, run_lobs_suite
 from replay.evaluate.match import (
@@ -68,6 +67,7 @@ MAX_SEED = 2**63 - 1 - MAX_COUNT
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
@@ -161,13 +161,8 @@ def _check(args: argparse.Namespace) -> None:
     check_number("--duration", args.duration, low=0, high=3600, low_open=True, unit="s")
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
-    if args.calibration is not None:
-        if not args.calibration.is_file():
-            raise InputError(f"{args.calibration}: calibration file not found")
-        try:  # a bad file would otherwise only show at the first replay
-            calibration_from_json(args.calibration.read_text(encoding="utf-8"))
-        except (EstimatorError, UnicodeDecodeError) as err:
-            raise CalibrationError(args.calibration, str(err)) from err
+    if args.calibration is not None:  # a bad file would otherwise only show at the first replay
+        read_calibration(args.calibration)
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ PROG = "dsp-info"
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
+        allow_abbrev=False,
         description="Summarise an MCAP log: duration, topics with types, counts and rates, "
         "robots, scenario, cameras, renderer, chunks and compression.",
     )

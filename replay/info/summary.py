@@ -19,7 +19,7 @@ from pathlib import Path
 from dsp import contract
 from dsp import metadata as meta
 from dsp.jsonio import Json
-from dsp.text import printable
+from dsp.text import format_bytes, printable
 from dsp.topics import infer_patterns
 from estimator.constants import NS_PER_S
 from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
@@ -188,26 +188,18 @@ def _metadata(cat: Catalogue) -> tuple[dict[str, Json] | None, dict[str, str], s
     return scenario, cameras, renderer
 
 
-def _size(n: int) -> str:
-    for unit in ("B", "KiB", "MiB", "GiB"):
-        if n < 1024 or unit == "GiB":
-            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
-        n /= 1024  # type: ignore[assignment]
-    return str(n)
-
-
 def format_info(s: LogSummary) -> str:
     """The summary as aligned text."""
     def secs(v: float | None) -> str:
         return "-" if v is None else f"{v:.3f} s"
 
-    lines = [f"file:        {s.path} ({_size(s.bytes)}, profile {s.profile or '-'})",
+    lines = [f"file:        {s.path} ({format_bytes(s.bytes)}, profile {s.profile or '-'})",
              f"duration:    {secs(s.duration_s)}  (start {secs(s.start_s)}, end "
              f"{secs(s.end_s)})",
              f"messages:    {'-' if s.messages is None else s.messages}"]
     comp = ", ".join(f"{k} {v}" for k, v in sorted(s.compression.items())) or "-"
-    lines.append(f"chunks:      {s.chunks} ({comp}; {_size(s.chunk_bytes)} -> "
-                 f"{_size(s.uncompressed_bytes)}), summary: {s.summary}")
+    lines.append(f"chunks:      {s.chunks} ({comp}; {format_bytes(s.chunk_bytes)} -> "
+                 f"{format_bytes(s.uncompressed_bytes)}), summary: {s.summary}")
     lines.append(f"robots:      {', '.join(s.robots) or '-'}")
     if s.robots and s.image_topic is not None and s.image_topic != contract.IMAGE_TOPIC:
         pose = s.pose_topic or "(none found: give --pose-topic)"

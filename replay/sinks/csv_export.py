@@ -15,8 +15,11 @@ It writes under a temporary name, and the file appears only after a whole replay
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -140,20 +143,27 @@ class CsvSink(SinkBase):
     def __init__(self, path: Path, *, force: bool = False, localised: bool = False) -> None:
         self.columns = CSV_COLUMNS + (LOCALISATION_COLUMNS if localised else ())
         self._out = AtomicFile(path, force=force)
-        self._file = self._out.tmp.open("w", encoding="utf-8", newline="")
+        self._file = io.TextIOWrapper(self._out.stream(), encoding="utf-8", newline="")
         self._csv = csv.writer(self._file, lineterminator="\n")
-        self._csv.writerow(self.columns)
+        self._row(self.columns)
+
+    def _row(self, row: Sequence[str]) -> None:
+        with self._out.guard():  # a full disk: one line naming the CSV file
+            self._csv.writerow(row)
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
-        self._csv.writerow(csv_rows(result, self.columns))
+        self._row(csv_rows(result, self.columns))
 
     def step(self, result: StepResult) -> None:
-        self._csv.writerow(csv_rows(result, self.columns))
+        self._row(csv_rows(result, self.columns))
 
     def close(self, ok: bool) -> None:
         try:
-            self._file.close()
             if ok:
+                with self._out.guard():
+                    self._file.close()
                 self._out.commit()
         finally:
+            with contextlib.suppress(OSError):  # the write that failed said so already
+                self._file.close()
             self._out.discard()

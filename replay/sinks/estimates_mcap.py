@@ -10,11 +10,13 @@
 
 Schemas and messages come from ``dsp.contract``; ``log_time`` = ``publish_time``
 = the estimate's stamp (sim time), never the wall clock. Written to a temporary name and
-renamed on success.
+renamed on success; a failing write (a full disk) is one error naming the output, and the
+temporary file is removed.
 """
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -53,18 +55,23 @@ class McapSink(SinkBase):
         if est is None or self._writer is None:
             return
         t = result.stamp_ns
-        self._writer.write_message(
-            contract.topic_for(ROBOT_TOPIC, result.robot),
-            self._schemas[contract.POINT_STAMPED],
-            contract.point_stamped(t, est.x_m, est.y_m, 0.0),
-            log_time=t,
-            publish_time=t,
-        )
+        with self._out.guard():  # a chunk is written when full: a full disk names the output
+            self._writer.write_message(
+                contract.topic_for(ROBOT_TOPIC, result.robot),
+                self._schemas[contract.POINT_STAMPED],
+                contract.point_stamped(t, est.x_m, est.y_m, 0.0),
+                log_time=t,
+                publish_time=t,
+            )
 
     def step(self, result: StepResult) -> None:
+        if result.fused is not None and self._writer is not None:
+            with self._out.guard():
+                self._step(result)
+
+    def _step(self, result: StepResult) -> None:
         fused = result.fused
-        if fused is None or self._writer is None:
-            return
+        assert fused is not None
         t = result.stamp_ns
         self._writer.write_message(
             FUSED_TOPIC,
@@ -97,5 +104,6 @@ class McapSink(SinkBase):
                     self._file.close()
                 self._out.commit()
         finally:
-            self._file.close()
+            with contextlib.suppress(OSError):  # the write that failed said so already
+                self._file.close()
             self._out.discard()

@@ -30,7 +30,9 @@ class PlotSink(ReplayTrace):
     def close(self, ok: bool) -> None:
         try:
             if ok:
-                save(replay_figure(self), self._out.tmp, fmt=self._fmt)
+                figure = replay_figure(self)
+                with self._out.guard(), self._out.stream() as stream:  # a full disk: one line
+                    save(figure, stream, fmt=self._fmt)
                 self._out.commit()
         finally:
             self._out.discard()

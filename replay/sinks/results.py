@@ -8,6 +8,7 @@ appears only after a whole replay.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import tempfile
@@ -18,6 +19,7 @@ from typing import IO, Any, Protocol
 import numpy as np
 
 from dsp.atomic import AtomicFile
+from dsp.errors import OutputError
 from dsp.jsonio import Json
 from replay.log import RecoveryLoss
 from replay.records import FrameResult, StepResult
@@ -94,13 +96,20 @@ class ResultsWriter(SinkBase):
         self.header = header
         self.stats = stats
         self._out = AtomicFile(path, force=force)
-        self._spools = {key: tempfile.TemporaryFile("w+", encoding="ascii")
-                        for key in ("frames", "fused")}
+        self._spools: dict[str, IO[str]] = {}
+        try:
+            for key in ("frames", "fused"):
+                self._spools[key] = tempfile.TemporaryFile("w+", encoding="ascii")
+        except OSError as err:  # no temporary folder with room: a full disk
+            self.close(ok=False)
+            raise OutputError(path, f"no room for its temporary files ({err.strerror or err})"
+                              ) from err
         self._counts = dict.fromkeys(self._spools, 0)
 
     def _spool(self, key: str, item: dict[str, Json]) -> None:
         f = self._spools[key]
-        f.write(("  " if self._counts[key] == 0 else ",\n  ") + dumps(item))
+        with self._out.guard():  # the spool's folder full: one line naming the results file
+            f.write(("  " if self._counts[key] == 0 else ",\n  ") + dumps(item))
         self._counts[key] += 1
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
@@ -117,9 +126,10 @@ class ResultsWriter(SinkBase):
                     self._write(self._out.stream())
                 self._out.commit()
         finally:
-            for spool in self._spools.values():
-                spool.close()
             self._out.discard()
+            for spool in self._spools.values():
+                with contextlib.suppress(OSError):  # its buffer on a full disk: said already
+                    spool.close()
 
     def _write(self, stream: IO[bytes]) -> None:
         doc: dict[str, Json] = {**_head(self.header, self.stats), "frames": None, "fused": None}

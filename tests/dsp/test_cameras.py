@@ -174,7 +174,7 @@ def test_a_file_is_bounded_and_regular(tmp_path: Path) -> None:
         read_camera_file(big)
     folder = tmp_path / "folder.yaml"
     folder.mkdir()
-    with pytest.raises(CameraDescriptionError, match="not a regular file"):
+    with pytest.raises(CameraDescriptionError, match="is a folder; give a camera file"):
         read_camera_file(folder)
     fifo = tmp_path / "pipe.yaml"
     os.mkfifo(fifo)

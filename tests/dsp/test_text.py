@@ -37,3 +37,10 @@ def test_errors_and_summaries_are_escaped(capsys: pytest.CaptureFixture[str]) ->
     assert err == "dsp-x: error: topic /r\\x1b[2J\\x0asecond line\n"
     echo(argparse.Namespace(quiet=False), "row r\x1b[2J\nrow 2")
     assert capsys.readouterr().out == "row r\\x1b[2J\nrow 2\n"
+
+
+def test_sizes_are_binary_units_everywhere() -> None:
+    from dsp.text import format_bytes
+
+    assert [format_bytes(n) for n in (0, 1023, 1024, 69_630_000, 3 << 30)] == [
+        "0 B", "1023 B", "1.0 KiB", "66.4 MiB", "3.0 GiB"]

@@ -69,8 +69,8 @@ def test_summary_on_stdout(logs: dict[str, Path], tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("name", "extra", "needles"),
     [
-        ("missing", (), ("missing.mcap", "not a file")),
-        ("dir", (), ("not a file",)),
+        ("missing", (), ("missing.mcap", "no such file (check the path)")),
+        ("dir", (), ("is a folder, not a log",)),
         ("junk", (), ("junk.mcap", "not an MCAP")),
         ("cut", (), ("cut.mcap", "truncated", "--recover")),
         ("corrupt", (), ("corrupt.mcap", "corrupt")),

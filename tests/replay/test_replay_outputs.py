@@ -175,3 +175,12 @@ def test_batch_errors_escape_names_from_the_log(tmp_path: Path,
     code, _, err = run([bad.path, "--out-dir", tmp_path / "out", "--workers", "1"], capsys)
     assert code == 1
     assert "r\\x1b]0;x\\x07\\x1b[2J" in err and "\x1b" not in err and "\x07" not in err
+
+
+def test_every_written_output_is_named_once_rrd_included(
+        log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rrd, out = tmp_path / "run.rrd", tmp_path / "run.json"
+    code, stdout, _ = run([log, "--save", rrd, "--out", out], capsys)
+    assert code == 0 and rrd.is_file() and out.is_file()
+    wrote = [line for line in stdout.splitlines() if line.startswith("wrote ")]
+    assert wrote == [f"wrote {out}", f"wrote {rrd}"]

@@ -186,16 +186,18 @@ class ViewerServer:
     def alive(self) -> bool:
         return self._proc is not None and self._proc.poll() is None
 
-    def serve_forever(self, poll_s: float = 0.5) -> None:
+    def serve_forever(self, poll_s: float = 0.5) -> bool:
         """Block until Ctrl-C (or the server ends); then stop it. Ctrl-C here is the normal
-        way to end serving, so it returns instead of raising."""
+        way to end serving, so it returns (True) instead of raising; False: the server
+        ended by itself."""
         try:
             while self.alive():
                 time.sleep(poll_s)
         except KeyboardInterrupt:
-            pass
+            return True
         finally:
             self.stop()
+        return False
 
     def stop(self) -> None:
         proc, self._proc = self._proc, None

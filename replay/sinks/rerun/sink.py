@@ -13,6 +13,7 @@ gap instead of a straight line across.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -26,6 +27,7 @@ from typing import Literal
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
+import rerun_bindings as rr_bindings
 
 from dsp.atomic import AtomicFile
 from dsp.errors import UsageError
@@ -46,6 +48,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
+from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
@@ -125,6 +128,18 @@ def _ring(x: float, y: float, r: float, n: int = 32, *, z: float | None = None) 
                             np.full(n + 1, 2 * r if z is None else z)])
 
 
+def _fused_label(result: StepResult) -> str:
+    """The fused position's one label, with the tracker's speed when it has one (a label of
+    its own at the arrow would sit on this one, and neither could be read)."""
+    fused = result.fused
+    assert fused is not None
+    label = (f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})" if fused.z_m is None
+             else f"fused ({fused.x_m:.2f}, {fused.y_m:.2f}, {fused.z_m:.2f})")
+    if result.velocity_m_s is not None:
+        label += f", {math.hypot(*result.velocity_m_s):.2f} m/s"
+    return label
+
+
 class RerunSink(SinkBase):
     """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
 
@@ -134,6 +149,8 @@ class RerunSink(SinkBase):
         self._save: AtomicFile | None = None
         self._liveness: Liveness | None = None
         self.lost: str | None = None
+        self.broken = False
+        """True once the .rrd's writer failed (its recording is then left, not closed)."""
         """Why the viewer is no longer logged to (it went away), else None."""
         self.info = info
         self.centres = centres
@@ -149,7 +166,11 @@ class RerunSink(SinkBase):
         self.kind = scenario_kind(name, tracked=options.fusion_method == "track")
         self.candidates = options.detector_name == "real"
         self._trail: deque[tuple[int, float, float]] = deque()
-        self._open(force=options.force)
+        try:
+            self._open(force=options.force)
+        except BaseException:
+            self._end()
+            raise
 
     def blueprint(self) -> rrb.Blueprint:
         return blueprint(self.info.robots, self.field, self.kind)
@@ -159,7 +180,14 @@ class RerunSink(SinkBase):
         bp = self.blueprint()
         if mode == "save":
             self._save = AtomicFile(Path(str(target)), force=force)
-            self.rec.save(self._save.tmp, default_blueprint=bp)
+            check_room(self._save.path)  # a nearly full disk can block Rerun's writer
+            try:
+                with blueprint_storage(APPLICATION_ID, bp) as storage:
+                    rr_bindings.save(path=str(self._save.tmp), default_blueprint=storage,
+                                     recording=self.rec.to_native(), write_footer=True)
+            except RuntimeError as err:
+                self.broken = True
+                raise write_failure(self._save.path, err) from err
         elif mode == "spawn":
             check_display()
             self.rec.spawn(default_blueprint=bp)
@@ -351,11 +379,10 @@ class RerunSink(SinkBase):
             rec.log("/field/fused", rr.Clear(recursive=True))
         else:
             z = _BALL_Z if fused.z_m is None else fused.z_m
-            label = (f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})" if fused.z_m is None
-                     else f"fused ({fused.x_m:.2f}, {fused.y_m:.2f}, {fused.z_m:.2f})")
             rec.log("/field/fused",
                     rr.Points3D([(fused.x_m, fused.y_m, z)], colors=[FUSED_COLOUR],
-                                radii=BALL_RADIUS_M, show_labels=True, labels=[label]))
+                                radii=BALL_RADIUS_M, show_labels=True,
+                                labels=[_fused_label(result)]))
             self._height(result, z)
             rec.log("/field/fused/covariance",
                     rr.LineStrips3D([_ellipse(fused.x_m, fused.y_m, fused.covariance)],
@@ -405,8 +432,7 @@ class RerunSink(SinkBase):
         vx, vy = velocity
         self.rec.log("/field/track/velocity",
                      rr.Arrows3D(origins=[(fused.x_m, fused.y_m, _BALL_Z)],
-                                 vectors=[(vx, vy, 0.0)], colors=[TRACK_COLOUR], radii=0.04,
-                                 labels=[f"{math.hypot(vx, vy):.2f} m/s"], show_labels=True))
+                                 vectors=[(vx, vy, 0.0)], colors=[TRACK_COLOUR], radii=0.04))
         self._scalar("/plots/speed/track", math.hypot(vx, vy))
 
     def close(self, ok: bool) -> None:
@@ -416,15 +442,23 @@ class RerunSink(SinkBase):
             if self.lost is None:
                 try:
                     self.rec.flush(timeout_sec=10.0)
-                except RuntimeError as err:  # the gRPC connection broke at the very end
+                except RuntimeError as err:  # a full disk, or the gRPC connection broke
                     if self._save is not None:
-                        raise
+                        self.broken = True
+                        raise write_failure(self._save.path, err) from err
                     print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
                     self.lost = str(err)
-            if self.lost is None:
-                self.rec.disconnect()
             if ok and self._save is not None:
+                release(self.rec)  # the file is complete (its footer written) once closed
                 self._save.commit()
         finally:
-            if self._save is not None:
-                self._save.discard()
+            self._end()
+
+    def _end(self) -> None:
+        """Close the recording (its threads end; a viewer that went away is not waited for)
+        and remove an uncommitted .rrd."""
+        if self.lost is None and not self.broken:  # a broken file writer blocks a disconnect
+            with contextlib.suppress(RuntimeError):
+                release(self.rec)
+        if self._save is not None:
+            self._save.discard()

@@ -191,8 +191,8 @@ def test_a_task_error_comes_back_as_its_message_and_exit_code() -> None:
                          Workers(count=2))
     first = outcomes[0].failure
     assert first is not None
-    assert (first.text, first.exit_code) == ("/nowhere/a.mcap: not a file (check the path)", 1)
-    with pytest.raises(DspError, match=r"^/nowhere/a.mcap: not a file") as raised:
+    assert (first.text, first.exit_code) == ("/nowhere/a.mcap: no such file (check the path)", 1)
+    with pytest.raises(DspError, match=r"^/nowhere/a.mcap: no such file") as raised:
         outcomes[0].unwrap()
     assert raised.value.exit_code == 1
     # a failure on another machine names it

@@ -74,7 +74,8 @@ def test_random_suite_bands_and_dual_sight(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("args", "code", "message"), [
     (["--count", "0", "--suite", "random"], 2, "--count 0: give a whole number in [1, 100000]"),
-    (["--calibration", "nowhere.json"], 1, "nowhere.json: calibration file not found"),
+    (["--calibration", "nowhere.json"], 1,
+     "nowhere.json: unusable calibration: cannot read: No such file or directory"),
     (["--calibration", "bad.json"], 1, "bad.json: unusable calibration: calibration is not "
      "valid JSON (Expecting value: line 1 column 1 (char 0)); pass the text "
      "calibration_to_json wrote"),

@@ -73,9 +73,9 @@ def test_image_encodings_decode(tmp_path: Path, encoding: str) -> None:
 
 
 def test_bad_files(tmp_path: Path) -> None:
-    with pytest.raises(InputNotFoundError, match="not a file"):
+    with pytest.raises(InputNotFoundError, match=r"missing\.mcap: no such file"):
         LogReader(tmp_path / "missing.mcap").__enter__()
-    with pytest.raises(InputNotFoundError, match="not a file"):
+    with pytest.raises(InputNotFoundError, match="is a folder, not a log"):
         LogReader(tmp_path).__enter__()
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"hello, not an mcap at all")

@@ -104,7 +104,7 @@ def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path
         time.sleep(0.5)
         assert proc.poll() is None, "it serves until Ctrl-C"
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=60) == 0
+        assert proc.wait(timeout=60) == 130  # Ctrl-C, as the README lists it
         assert "stopped serving" in proc.stderr.read()
         assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
     finally:
@@ -118,6 +118,38 @@ def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path
         for stream in (proc.stdout, proc.stderr):
             if stream is not None:
                 stream.close()
+
+
+def _children(pid: int) -> list[int]:
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return [int(c) for c in path.read_text().split()] if path.exists() else []
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="lists children in /proc")
+def test_sigterm_while_serving_stops_the_rerun_server_too() -> None:
+    web, grpc = _free_port(), _free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "replay.cli", str(ROLLING), "--serve", "--port", str(web),
+         "--grpc-port", str(grpc), "-q"],
+        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        assert proc.stderr is not None
+        assert "serving the Rerun web viewer" in proc.stderr.readline()
+        children = _children(proc.pid)
+        assert children, "the Rerun server runs as a child"
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=60) == 130
+        assert "Traceback" not in proc.stderr.read()
+        for child in children:
+            assert not Path(f"/proc/{child}").exists() or \
+                Path(f"/proc/{child}/stat").read_text().split()[2] == "Z", "outlived"
+        assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if proc.stderr is not None:
+            proc.stderr.close()
 
 
 class _StopViewer(SinkBase):

@@ -140,3 +140,22 @@ def test_a_3d_fusion_shows_the_ball_s_height(tmp_path: Path) -> None:
     assert len(lines) == len(heights)
     assert all(line[0][0][2] == 0.0 and line[0][1][2] == pytest.approx(z, abs=1e-6)
                for line, z in zip(lines, heights, strict=True))
+
+
+def test_the_fused_label_carries_the_speed_and_the_arrow_has_none(chunks: list) -> None:
+    def labels(path: str) -> list[str]:
+        out: list[str] = []
+        for ch in chunks:
+            if ch.entity_path != path or ch.is_static:
+                continue
+            batch = ch.to_record_batch()
+            for name in batch.schema.names:
+                if name.endswith(":labels"):
+                    for row in batch.column(name).to_pylist():
+                        out.extend(row or [])
+        return out
+
+    assert labels("/field/track/velocity") == []  # it would sit on the fused label
+    fused = labels("/field/fused")
+    assert fused and all(re.fullmatch(r"fused \(-?\d+\.\d\d, -?\d+\.\d\d\), \d+\.\d\d m/s", t)
+                         for t in fused), fused[:3]

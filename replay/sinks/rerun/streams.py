@@ -1,0 +1,83 @@
+"""The Rerun recording streams a replay opens, released when it ends (rerun-sdk 0.41).
+
+rerun-sdk turns a ``default_blueprint`` into a stream of its own (two native threads) whose
+memory sink refers back to it, so it is never freed; neither is a closed recording until
+orphaned recordings are swept. A program that replays logs in a loop would gain four
+threads and gigabytes of reserved address space per replay. :func:`blueprint_storage`
+makes that stream itself and disconnects it once the blueprint is handed over, and
+:func:`release` disconnects a recording and sweeps, so a replay leaves no thread behind
+(``tests/replay/sinks/test_rerun_release.py`` replays 100 times and counts).
+
+:func:`check_room` refuses an .rrd on a disk with almost no room before Rerun's file writer
+starts: on such a disk it can block for minutes instead of failing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import rerun as rr
+import rerun.blueprint as rrb
+import rerun_bindings as bindings
+
+from dsp.errors import OutputError
+
+__all__ = ["MIN_FREE_BYTES", "blueprint_storage", "check_room", "release"]
+
+MIN_FREE_BYTES = 1 << 20
+"""1 MiB: less room than this for an .rrd is a full disk."""
+
+
+@contextlib.contextmanager
+def blueprint_storage(application_id: str, blueprint: rrb.Blueprint) -> Iterator[Any]:
+    """The blueprint encoded in memory, for ``bindings.save`` / ``send_blueprint``; its
+    stream is disconnected after the block (which is what frees it)."""
+    stream = rr.RecordingStream._from_native(bindings.new_blueprint(
+        application_id=application_id, make_default=False, make_thread_default=False,
+        default_enabled=True))
+    try:
+        stream.set_time("blueprint", sequence=0)
+        blueprint._log_to_stream(stream)
+        yield stream.memory_recording().storage
+    finally:
+        stream.disconnect()
+        del stream
+        bindings.flush_and_cleanup_orphaned_recordings()
+
+
+def release(rec: rr.RecordingStream) -> None:
+    """Disconnect ``rec`` (closing its file or connection) and free closed recordings."""
+    rec.disconnect()
+    bindings.flush_and_cleanup_orphaned_recordings()
+
+
+def free_bytes(folder: Path) -> int | None:
+    """The bytes an unprivileged writer may still use in ``folder`` (None: unknown)."""
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def check_room(path: Path) -> None:
+    """Raise :class:`~dsp.errors.OutputError` when ``path``'s disk has less than
+    :data:`MIN_FREE_BYTES` left."""
+    free = free_bytes(path.parent)
+    if free is not None and free < MIN_FREE_BYTES:
+        raise OutputError(path, f"No space left on device ({free // 1024} KiB free)")
+
+
+def write_failure(path: Path, err: RuntimeError) -> OutputError:
+    """What a failing Rerun file writer means, naming the output."""
+    free = free_bytes(path.parent)
+    if free is not None and free < MIN_FREE_BYTES:
+        return OutputError(path, "No space left on device")
+    text = str(err)
+    if "os error" in text or "File too large" in text or "shut down prematurely" in text:
+        return OutputError(path, f"the Rerun file writer stopped ({text}); is the disk full?")
+    return OutputError(path, text)

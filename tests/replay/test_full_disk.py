@@ -1,0 +1,53 @@
+"""A disk that fills up under every output kind, for real: the command runs in a child whose
+file-size limit (RLIMIT_FSIZE, SIGXFSZ ignored) makes the operating system refuse writes
+past a few bytes, as a full disk does. One line naming the output, exit 1, no temporary file,
+no raw escape sequence, no hang."""
+
+from __future__ import annotations
+
+import os
+import resource
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from synthetic import write_log
+
+OUTPUTS = [("--out", "r.json"), ("--out-mcap", "e.mcap"), ("--out-csv", "r.csv"),
+           ("--plot", "p.png"), ("--save", "r.rrd")]
+
+
+def limited(room: int) -> None:
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (room, room))
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_log(tmp_path_factory.mktemp("log") / "in.mcap", duration_s=1.0).path
+
+
+CASES = [(flag, name, when) for flag, name in OUTPUTS for when in ("full", "fills")
+         if (flag, when) != ("--save", "fills")]
+""""fills": room for the first few kilobytes. Not for an .rrd: when the disk fills within
+its first kilobytes Rerun's own writer can block for good, which is why a disk with under
+1 MiB free is refused before it starts (a file-size limit is not seen that way)."""
+
+
+@pytest.mark.parametrize(("flag", "name", "when"), CASES)
+def test_a_full_disk_is_one_line_and_leaves_nothing(log: Path, tmp_path: Path, flag: str,
+                                                    name: str, when: str) -> None:
+    room = 0 if when == "full" else 3000
+    out = tmp_path / name
+    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys; from dsp.launch import replay; sys.exit(replay())",
+         str(log), flag, str(out), "-q", "--no-progress"],
+        preexec_fn=lambda: limited(room), capture_output=True, text=True, timeout=120,
+        env=env, check=False)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.startswith(f"dsp-replay: error: {out}: cannot write: "), proc.stderr
+    assert proc.stderr.count("\n") == 1 and "\x1b" not in proc.stderr, proc.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -23,6 +23,7 @@ sys.exit(getattr(launch, sys.argv[1])())
 
 @pytest.mark.parametrize(("entry", "prog"), [("replay", "dsp-replay"), ("info", "dsp-info"),
                                              ("record", "dsp-record"), ("evaluate", "dsp-eval"),
+                                             ("compare", "dsp-compare"),
                                              ("calibrate", "dsp-calibrate")])
 def test_ctrl_c_during_import_is_one_line_and_130(entry: str, prog: str) -> None:
     proc = subprocess.run([sys.executable, "-c", CHILD, entry], capture_output=True,
@@ -45,4 +46,4 @@ def test_the_scripts_are_the_entry_points() -> None:
     assert entries == {
         "dsp-record": "dsp.launch:record", "dsp-replay": "dsp.launch:replay",
         "dsp-calibrate": "dsp.launch:calibrate", "dsp-eval": "dsp.launch:evaluate",
-        "dsp-info": "dsp.launch:info"}
+        "dsp-info": "dsp.launch:info", "dsp-compare": "dsp.launch:compare"}

@@ -33,7 +33,6 @@ from dsp.atomic import AtomicFile
 from dsp.errors import UsageError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
 from estimator.constants import NS_PER_S
-from estimator.estimates import Covariance
 from estimator.geometry import RobotPose
 from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
@@ -48,6 +47,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
+from replay.sinks.rerun.shapes import ellipse, fused_label, ring
 from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
@@ -109,35 +109,6 @@ def recording_id(digest: str, options: Mapping[str, object]) -> str:
 def field_lines(spec: FieldSpec) -> list[list[tuple[float, float]]]:
     """The field's markings (:mod:`dsp.field`) as polylines for ``/field/lines``."""
     return polylines(spec)
-
-
-def _ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
-    c = np.asarray(cov, dtype=np.float64)
-    vals, vecs = np.linalg.eigh(0.5 * (c + c.T))
-    vals = np.sqrt(np.clip(vals, 0.0, None)) * k
-    a = np.linspace(0.0, 2 * math.pi, n + 1)
-    circle = np.stack([np.cos(a) * vals[0], np.sin(a) * vals[1]])
-    pts = (vecs @ circle).T + np.array([x, y])
-    return np.column_stack([pts, np.full(len(pts), 0.01)])
-
-
-def _ring(x: float, y: float, r: float, n: int = 32, *, z: float | None = None) -> np.ndarray:
-    """A ring of radius r around (x, y) at height z (default 2 r: atop a ball on the ground)."""
-    a = np.linspace(0.0, 2 * math.pi, n + 1)
-    return np.column_stack([x + r * np.cos(a), y + r * np.sin(a),
-                            np.full(n + 1, 2 * r if z is None else z)])
-
-
-def _fused_label(result: StepResult) -> str:
-    """The fused position's one label, with the tracker's speed when it has one (a label of
-    its own at the arrow would sit on this one, and neither could be read)."""
-    fused = result.fused
-    assert fused is not None
-    label = (f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})" if fused.z_m is None
-             else f"fused ({fused.x_m:.2f}, {fused.y_m:.2f}, {fused.z_m:.2f})")
-    if result.velocity_m_s is not None:
-        label += f", {math.hypot(*result.velocity_m_s):.2f} m/s"
-    return label
 
 
 class RerunSink(SinkBase):
@@ -382,17 +353,17 @@ class RerunSink(SinkBase):
             rec.log("/field/fused",
                     rr.Points3D([(fused.x_m, fused.y_m, z)], colors=[FUSED_COLOUR],
                                 radii=BALL_RADIUS_M, show_labels=True,
-                                labels=[_fused_label(result)]))
+                                labels=[fused_label(result)]))
             self._height(result, z)
             rec.log("/field/fused/covariance",
-                    rr.LineStrips3D([_ellipse(fused.x_m, fused.y_m, fused.covariance)],
+                    rr.LineStrips3D([ellipse(fused.x_m, fused.y_m, fused.covariance)],
                                     colors=[FUSED_COLOUR], radii=0.025))
         if result.truth is None:
             rec.log("/field/ground_truth/ball", rr.Clear(recursive=False))
         else:
             z_true = BALL_RADIUS_M if result.truth_z_m is None else result.truth_z_m
             rec.log("/field/ground_truth/ball",
-                    rr.LineStrips3D([_ring(result.truth[0], result.truth[1], BALL_RADIUS_M,
+                    rr.LineStrips3D([ring(result.truth[0], result.truth[1], BALL_RADIUS_M,
                                            z=z_true + BALL_RADIUS_M)],
                                     colors=[TRUTH_COLOUR], radii=0.03))
         self._scalar("/plots/error/fused", result.error_m)

@@ -101,8 +101,10 @@ def test_a_bad_ball_file_is_one_line_naming_it(ball_file: Path, tmp_path: Path) 
     bad.write_text(json.dumps(data))
     with pytest.raises(InputError, match=r"bad.json: threshold 3.0 is not a probability"):
         read_ball_file(bad)
-    with pytest.raises(InputError, match="not a regular file"):
+    with pytest.raises(InputError, match="is a folder; give a ball model file"):
         read_ball_file(tmp_path)
+    with pytest.raises(InputError, match="not a regular file"):
+        read_ball_file(Path("/dev/zero"))
     bad.write_bytes(b" " * (2 << 20))
     with pytest.raises(InputError, match="at most"):
         read_ball_file(bad)

@@ -99,7 +99,7 @@ def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "3 labelled images; fitting on 10 leaves none" in err[0]
     assert main(["--suite", "images", str(few), "--check", str(few)]) != 0
-    assert "not a regular file" in capsys.readouterr().err
+    assert "is a folder; give a ball check" in capsys.readouterr().err
     assert main([str(few)]) != 0
     assert "go with --suite images" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

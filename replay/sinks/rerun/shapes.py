@@ -1,0 +1,42 @@
+"""The shapes and labels the Rerun sink draws: covariance ellipses, rings, the fused label."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from estimator.estimates import Covariance
+from replay.records import StepResult
+
+__all__ = ["ellipse", "fused_label", "ring"]
+
+
+def ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
+    """The k-sigma ellipse of a 2x2 covariance around (x, y), just above the ground."""
+    c = np.asarray(cov, dtype=np.float64)
+    vals, vecs = np.linalg.eigh(0.5 * (c + c.T))
+    vals = np.sqrt(np.clip(vals, 0.0, None)) * k
+    a = np.linspace(0.0, 2 * math.pi, n + 1)
+    circle = np.stack([np.cos(a) * vals[0], np.sin(a) * vals[1]])
+    pts = (vecs @ circle).T + np.array([x, y])
+    return np.column_stack([pts, np.full(len(pts), 0.01)])
+
+
+def ring(x: float, y: float, r: float, n: int = 32, *, z: float | None = None) -> np.ndarray:
+    """A ring of radius r around (x, y) at height z (default 2 r: atop a ball on the ground)."""
+    a = np.linspace(0.0, 2 * math.pi, n + 1)
+    return np.column_stack([x + r * np.cos(a), y + r * np.sin(a),
+                            np.full(n + 1, 2 * r if z is None else z)])
+
+
+def fused_label(result: StepResult) -> str:
+    """The fused position's one label, with the tracker's speed when it has one (a label of
+    its own at the arrow would sit on this one, and neither could be read)."""
+    fused = result.fused
+    assert fused is not None
+    label = (f"fused ({fused.x_m:.2f}, {fused.y_m:.2f})" if fused.z_m is None
+             else f"fused ({fused.x_m:.2f}, {fused.y_m:.2f}, {fused.z_m:.2f})")
+    if result.velocity_m_s is not None:
+        label += f", {math.hypot(*result.velocity_m_s):.2f} m/s"
+    return label

@@ -158,7 +158,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("rrd", type=Path, help="a replay saved with dsp-replay --save")
     p.add_argument("--out-dir", type=Path, default=Path("."))
-    p.add_argument("--themes", default="light,dark", help="light, dark or both")
+    p.add_argument("--themes", default="light,dark",
+                   help="light, dark or light,dark (the default: both)")
     p.add_argument("--size", default="1920x1080", help="browser window, WIDTHxHEIGHT")
     p.add_argument("--wait", type=float, default=180.0,
                    help="at most this many seconds for the page to load and its drawing to settle "

@@ -17,7 +17,8 @@ One command prints everything (a Markdown table, the load average before and aft
 Each command runs in a child process, so the times include imports and start-up, as a user
 sees them. The serial run's CPU time (user + system, from ``getrusage``) over its wall time
 says how many cores it already keeps busy (EGL's software renderer draws in threads), which
-bounds what W workers can gain: W / that. Runs of the modes are interleaved (repeat r:
+bounds what W workers can gain: min(W, cores) / that; the pool's speed-up is printed as a
+share of that ceiling. Runs of the modes are interleaved (repeat r:
 serial, pool, ray) so a change of load on a shared machine falls on all of them; the load
 average is printed beside each.
 """
@@ -179,6 +180,20 @@ def _row(what: str, times: dict[str, list[float]], check: str) -> str:
     return f"| {what} | " + " | ".join(cells + ratios) + f" | {ray_vs_pool} | {check} |"
 
 
+def _ceiling(what: str, times: dict[str, list[float]], busy: float, workers: int,
+             renderer: str) -> str:
+    """The pool's speed-up as a share of the CPU ceiling: the serial run already keeps
+    ``busy`` cores busy, so W workers on min(W, cores) cores gain at most that / busy."""
+    med = [statistics.median(t) for t in times.values()]
+    cores = min(workers, os.cpu_count() or 1)
+    ceiling = cores / max(busy, 1.0)
+    speed_up = med[0] / med[1]
+    return (f"{what} --workers 1 keeps {busy:.2f} cores busy (CPU time / wall time, children "
+            f"included, renderer {renderer}): {workers} workers on {cores} cores can be at "
+            f"most {ceiling:.2f}x faster; they are {speed_up:.2f}x, "
+            f"{100 * speed_up / ceiling:.0f}% of that ceiling")
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--count", type=int, default=6, help="random scenes (default 6)")
@@ -212,11 +227,9 @@ def main() -> int:
     print(_row(f"`dsp-eval --suite random --count {args.count}`", eval_times, eval_check))
     print(_row(f"`dsp-replay` batch of those {args.count} logs", replay_times, replay_check))
     print()
-    for kind, what in (("eval", "dsp-eval"), ("replay", "dsp-replay batch")):
-        busy = statistics.median(CPU[kind])
-        print(f"{what} --workers 1 keeps {busy:.2f} cores busy (CPU time / wall time, renderer "
-              f"{args.renderer}): {args.workers} workers on {args.workers} idle cores can be "
-              f"at most {args.workers / max(busy, 1.0):.2f}x faster")
+    for kind, what, times in (("eval", "dsp-eval", eval_times),
+                              ("replay", "dsp-replay batch", replay_times)):
+        print(_ceiling(what, times, statistics.median(CPU[kind]), args.workers, args.renderer))
     for name, (first, t2, per) in overhead.items():
         print(f"{name}: 2 no-op tasks {first:.2f} s the first time, {t2:.2f} s the next "
               f"(start-up), then {1e3 * per:.2f} ms per further task ({args.tasks} tasks)")

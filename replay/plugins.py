@@ -39,9 +39,8 @@ from estimator.detection import Detection
 from estimator.fusion import FUSION_METHODS, Fusion
 from replay.real_ball import DETECTORS
 
-__all__ = ["BUILTIN_DETECTOR", "GROUPS", "Detector", "Part", "load_part", "parts_view"]
+__all__ = ["GROUPS", "Detector", "Part", "load_part", "parts_view"]
 
-BUILTIN_DETECTOR = "paper"
 GROUPS = {"detector": "dual_sight.detectors", "fusion": "dual_sight.fusions"}
 BUILTIN = {"detector": DETECTORS, "fusion": FUSION_METHODS}
 

@@ -9,6 +9,10 @@ The centroid's blend (``BallModel.centre_blend``, the weight of the check's cent
 the colour blob box's centre) is not fitted here: chosen on a venue's ten frames it picked
 the check alone where the mean of the two erred less on the venue's other frames (the
 check's centre is at its best on frames it was trained on), so it stays at its default.
+
+With a head, the model's threshold becomes :data:`head.HEAD_THRESHOLD` (P 0.731, logit 1):
+the head is fitted with the positives up-weighted (up to 8x, a logit shift of up to ln 8),
+so at 0.5 a venue's look-alikes passed where no ball was in sight.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import numpy.typing as npt
 
 from estimator.detection.real.check import BallCheck
 from estimator.detection.real.detector import Search
-from estimator.detection.real.head import fit_head, head_samples
+from estimator.detection.real.head import HEAD_THRESHOLD, fit_head, head_samples
 from estimator.detection.real.model import BallModel
 
 __all__ = ["adapt"]
@@ -32,11 +36,14 @@ Sample = tuple[npt.NDArray[np.uint8], Sequence[Box]]
 
 def adapt(model: BallModel, samples: Sequence[Sample], check: BallCheck, *,
           search: Search | None = None) -> BallModel:
-    """The model with its venue head fitted on the labelled frames (unchanged when the
-    cross-validation keeps the shared check, or the frames hold too few candidates)."""
+    """The model with its venue head fitted on the labelled frames, and the head's
+    threshold (unchanged when the cross-validation keeps the shared check, or the frames
+    hold too few candidates)."""
     search = search or Search()
     head, lam = fit_head(head_samples(samples, model, check, max_count=search.max_candidates,
                                       step=search.step))
-    fit = {**model.fit, "head_lambda": None if head is None else lam}
-    return dataclasses.replace(model, fit=fit, check_head=None if head is None else tuple(
-        round(float(v), 6) for v in head))
+    if head is None:
+        return dataclasses.replace(model, fit={**model.fit, "head_lambda": None})
+    return dataclasses.replace(model, fit={**model.fit, "head_lambda": lam},
+                               threshold=HEAD_THRESHOLD,
+                               check_head=tuple(round(float(v), 6) for v in head))

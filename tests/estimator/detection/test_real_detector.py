@@ -7,7 +7,9 @@ The images are the committed subset in tests/data/msl-images (Apache-2.0, see it
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 from importlib.resources import files
 from pathlib import Path
 
@@ -25,6 +27,7 @@ from estimator.detection.real import (
     model_from_dict,
     model_to_dict,
 )
+from estimator.detection.real.head import HEAD_THRESHOLD
 from estimator.errors import BallModelError, DetectionError
 
 SUBSET = Path(__file__).resolve().parents[2] / "data" / "msl-images" / "20220715" / "r7"
@@ -60,6 +63,28 @@ def test_a_venue_fitted_on_ten_frames_finds_the_ball_in_the_next_four(
                   for x0, y0, x1, y1 in balls
                   if x0 - 2 <= found.cx_px <= x1 + 2 and y0 - 2 <= found.cy_px <= y1 + 2]
         assert errors and min(errors) < 3.0
+
+
+def test_a_venue_head_reports_from_the_logit_one(samples: list, model: BallModel,
+                                                 check: BallCheck) -> None:
+    """With a head the best candidate is the ball from P 0.731 (logit 1), not 0.5: a
+    candidate at P 0.62 is not reported; the colour model alone keeps 0.5."""
+    assert model.threshold == HEAD_THRESHOLD
+    assert math.log(HEAD_THRESHOLD / (1 - HEAD_THRESHOLD)) == pytest.approx(1.0, abs=1e-5)
+    assert fit_ball_model(samples[:10]).threshold == 0.5
+    image = samples[0][0]
+    best = RealBallDetector(model, check).candidates(image)[0].check_score
+    assert 0.8 < best < 0.99  # the frame's ball, scored below saturation
+    assert model.check_head is not None
+    # move the venue's bias so the ball's logit is 0.5 (P 0.62)
+    shift = 0.5 - math.log(best / (1 - best))
+    head = (*model.check_head[:-1], model.check_head[-1] + shift)
+    lowered = dataclasses.replace(model, check_head=head)
+    ranked = RealBallDetector(lowered, check).candidates(image)
+    assert ranked[0].check_score == pytest.approx(0.6225, abs=1e-3)
+    assert RealBallDetector(lowered, check).detect(image) is None
+    at_half = dataclasses.replace(lowered, threshold=0.5)
+    assert RealBallDetector(at_half, check).detect(image) is not None
 
 
 def test_the_colour_model_alone_is_worse_than_with_the_check(

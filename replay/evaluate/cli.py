@@ -128,6 +128,9 @@ def _add_images_arguments(p: argparse.ArgumentParser) -> None:
                    help="the learned check to use (default: the shipped one; train/train.py "
                    "makes others, e.g. one that never saw the venue)")
     g.add_argument("--no-head", action="store_true", help="fit no venue head")
+    g.add_argument("--threshold", type=float, metavar="P",
+                   help="report the best candidate from P(ball) = P (default: the fitted "
+                   "model's, 0.731 with a venue head, 0.5 without)")
 
 
 @dataclass(frozen=True)
@@ -256,16 +259,19 @@ def _run_images(args: argparse.Namespace) -> int:
     if not args.dirs:
         raise UsageError("--suite images needs one or more folders of labelled images (DIR)")
     check_int("--train-count", args.train_count, low=1, high=MAX_COUNT)
+    check_number("--threshold", args.threshold, low=0.0, high=1.0)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: is not a folder")
     check = shipped_check() if args.check is None else read_check_file(args.check)
     t0 = time.perf_counter()
     doc, rows = run_images_suite(args.dirs, train_count=args.train_count,
                                  detector=args.detector, ball_class=args.ball_class,
-                                 check=check, head=not args.no_head)
+                                 check=check, head=not args.no_head,
+                                 threshold=args.threshold)
     out_dir.mkdir(parents=True, exist_ok=True)
     text = images_markdown(doc)
     doc["check"] = "shipped" if args.check is None else args.check.name
+    doc["threshold"] = args.threshold  # None: each folder's model's own
     for name, content in (("images-summary.json", strict_json(doc, sort_keys=True, indent=2)
                            + "\n"), ("images-summary.md", text),
                           ("images.csv", images_csv(rows))):

@@ -13,6 +13,9 @@ fitted on its first ``train_count`` labelled images by file name (as a team woul
 - ``ms_per_image``: the median wall time of the detector on one image (decoded already),
   the only figure that differs from run to run.
 
+``threshold`` (None: the fitted model's) is the P(ball) from which the best candidate is
+reported, to score a venue at another one.
+
 ``detector`` "paper" scores the paper's chain (default parameters, no fit) on the same
 images, for comparison.
 """
@@ -97,16 +100,18 @@ def _paper(image: np.ndarray) -> Report:
 
 
 def _scorer(folder: Path, *, detector: str, train_count: int, ball_class: int,
-            check: bytes, head: bool) -> Callable[[np.ndarray], Report]:
+            check: bytes, head: bool, threshold: float | None = None
+            ) -> Callable[[np.ndarray], Report]:
     if detector == "paper":
         return _paper
     model = fit_from_folder(folder, ball_class=ball_class, train_count=train_count,
                             head=head, check=check)
     real = RealBallDetector(model, BallCheck(check))
+    cut = model.threshold if threshold is None else threshold
 
     def score(image: np.ndarray) -> Report:
         ranked = real.candidates(image)
-        if ranked and ranked[0].check_score >= model.threshold:
+        if ranked and ranked[0].check_score >= cut:
             d = ranked[0].detection
             return d.cx_px, d.cy_px, ranked[0].check_score
         return None
@@ -143,6 +148,7 @@ def _folders(roots: Sequence[Path]) -> list[tuple[str, Path]]:
 
 def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str = "real",
                      ball_class: int = 0, check: bytes, head: bool = True,
+                     threshold: float | None = None,
                      on_folder: Callable[[str], None] | None = None
                      ) -> tuple[dict[str, Json], list[ImageRow]]:
     """The summary document (per folder and "total") and the per-image rows."""
@@ -154,7 +160,8 @@ def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str =
             raise InputError(f"{folder}: {len(labelled)} labelled images; fitting on "
                              f"{train_count} leaves none to score")
         score = _scorer(folder, detector=detector, train_count=train_count,
-                        ball_class=ball_class, check=check, head=head)
+                        ball_class=ball_class, check=check, head=head,
+                        threshold=threshold)
         rows = _score_folder(key, labelled[train_count:], score, ball_class)
         folders[key] = summarise(rows)
         every += rows

@@ -53,6 +53,7 @@ def test_the_summary_counts_and_ratios() -> None:
 def _without_times(doc: dict[str, Any]) -> dict[str, Any]:
     doc = json.loads(json.dumps(doc))
     doc.pop("check", None)
+    assert doc.pop("threshold", None) is None  # each model's own
     for row in [*doc["folders"].values(), doc["total"]]:
         assert row.pop("ms_per_image") > 0
     return doc
@@ -87,6 +88,23 @@ def test_the_paper_chain_on_the_subset(tmp_path: Path,
     assert total["tp"] < 4  # a fixed orange box misses a yellow ball
 
 
+def test_a_threshold_given_scores_the_venue_at_it(tmp_path: Path) -> None:
+    """Fitted on 4 of the subset, scored on 10: a higher threshold turns look-alikes of
+    0.73-0.99 into no report; every report reaches the threshold; the summary says which."""
+    outcomes = {}
+    for threshold in (None, 0.95, 0.99):
+        out = tmp_path / str(threshold)
+        given = [] if threshold is None else ["--threshold", str(threshold)]
+        assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--train-count", "4",
+                     "--out-dir", str(out), "-q", *given]) == 0
+        assert json.loads((out / "images-summary.json").read_text())["threshold"] == threshold
+        rows = list(csv.DictReader((out / "images.csv").read_text().splitlines()))
+        assert all(float(r["p_ball"]) >= (threshold or 0.731) for r in rows if r["p_ball"])
+        outcomes[threshold] = [r["outcome"] for r in rows]
+    assert outcomes[None].count("tp") == outcomes[0.99].count("tp") == 7
+    assert [outcomes[t].count("fp") for t in (None, 0.95, 0.99)] == [2, 1, 0]
+
+
 def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["--suite", "images", "--out-dir", str(tmp_path / "o")]) != 0
     assert "needs one or more folders" in capsys.readouterr().err
@@ -100,6 +118,8 @@ def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert len(err) == 1 and "3 labelled images; fitting on 10 leaves none" in err[0]
     assert main(["--suite", "images", str(few), "--check", str(few)]) != 0
     assert "is a folder; give a ball check" in capsys.readouterr().err
+    assert main(["--suite", "images", str(few), "--threshold", "1.5"]) != 0
+    assert "--threshold 1.5: give a finite number" in capsys.readouterr().err
     assert main([str(few)]) != 0
     assert "go with --suite images" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

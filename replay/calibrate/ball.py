@@ -75,8 +75,8 @@ def format_fit(model: BallModel) -> str:
     fit = model.fit
     head = ("no venue head" if model.check_head is None
             else f"venue head (penalty {fit.get('head_lambda')})")
-    left = (f", {fit['left_out']} images left out (the ball hidden or cut by the image's "
-            "edge)" if fit.get("left_out") else "")
+    left = (f", {fit['left_out']} left out (the ball hidden or cut by the image's edge)"
+            if fit.get("left_out") else "")
     return (f"ball model from {fit.get('images')} images ({fit.get('first')} .. "
             f"{fit.get('last')}), {fit.get('balls')} balls, diameters "
             f"{model.min_diameter_px:.0f}-{model.max_diameter_px:.0f} px, {head}{left}")

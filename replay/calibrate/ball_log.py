@@ -223,18 +223,19 @@ def visible(histograms: Sequence[npt.NDArray[np.float64]]) -> list[bool]:
 
 def _open_truth(log: Path, count: int | None) -> tuple[_Truth, dict[str, CameraSpec]]:
     """The log's first ``count`` images and truth, and each of their robots' camera."""
-    no_truth = (f"{log}: no ground truth (the ball on {contract.GT_BALL_TOPIC} and each "
-                f"robot's true pose on {contract.GT_POSE_TOPIC}): a ball model from a log "
-                "needs a simulated one (dsp-record); give a folder of labelled images instead")
+    def no_truth(what: str) -> InputError:
+        return InputError(f"{log}: no ground truth ({what}): a ball model from a log needs a "
+                          "simulated one (dsp-record); give a folder of labelled images instead")
+
     try:
         with LogReader(log, pose_topic=contract.GT_POSE_TOPIC) as reader:
             if not reader.info.has_truth:
-                raise InputError(no_truth)
+                raise no_truth(f"no {contract.GT_BALL_TOPIC}")
             cameras = reader.info.cameras.camera_set(
                 f"{log}: metadata {contract.CAMERAS_METADATA}")
             truth = _read(reader, count)
     except MissingPosesError as err:
-        raise InputError(no_truth) from err
+        raise no_truth(f"no robot's true pose on {contract.GT_POSE_TOPIC}") from err
     specs: dict[str, CameraSpec] = {}
     for robot in sorted({m.robot for m in truth.images}):
         spec = None if cameras is None else cameras.for_robot(robot)

@@ -74,9 +74,10 @@ def test_a_box_the_ball_does_not_show_is_left_out() -> None:
 
 def test_a_log_without_ground_truth_is_one_line(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    log = write_log(tmp_path / "robot.mcap", duration_s=0.2, with_truth=False,
-                    with_cameras=True).path
     out = tmp_path / "ball.json"
-    assert main(["--ball-from", str(log), "-o", str(out)]) != 0
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"{log}: no ground truth" in err[0] and not out.exists()
+    for truth in (False, True):  # the ball's truth, but never a robot's true pose
+        log = write_log(tmp_path / f"robot-{truth}.mcap", duration_s=0.2, with_truth=truth,
+                        with_cameras=True).path
+        assert main(["--ball-from", str(log), "-o", str(out)]) != 0
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{log}: no ground truth" in err[0] and not out.exists()

@@ -10,13 +10,14 @@ the ball in the camera's frame; the cone of rays tangent to it, through the mode
 frame's box. The frames then go to the same fit as a folder's
 (:func:`replay.calibrate.ball.fit_samples`).
 
-The truth does not say whether the ball is hidden (behind a robot, under the ideal camera's
-painted footprint of its own robot), so the pixels decide: each box's ball pixels (the
-ellipse the fit uses) are compared, as a colour histogram, with the mean of every box's
-(:func:`visible`); a box unlike the rest (a Bhattacharyya coefficient under
-:data:`VISIBLE_SHARE` of the median) shows something else and its frame is left out, as is a
-frame whose ball the image's edge or circle cuts. A frame whose ball lies wholly outside the
-image is kept as a frame without a ball. Left out are counted in the model's ``fit``.
+The truth does not say whether the ball is hidden (behind a robot, under a goal's crossbar,
+under the ideal camera's painted footprint of its own robot), so the pixels decide: each
+box's ball pixels (the ellipse the fit uses) are compared, as a colour histogram, with the
+mean of every box's (:func:`visible`); a box unlike the rest (a Bhattacharyya coefficient
+under :data:`VISIBLE_SHARE` of the median) shows something else and its frame is left out,
+as is a frame whose ball the image's edge or circle cuts. A frame whose ball lies wholly
+outside the image is kept as a frame without a ball. Those left out are counted in the
+model's ``fit``.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from estimator.camera import ball_outline_px
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.detection.real import Box
 from estimator.detection.real.colour import to_ycrcb
+from estimator.geometry import yaw_from_quaternion
 from replay.errors import MissingPosesError
 from replay.log import ImageMessage, LogReader, PoseMessage, TruthMessage, decode_image
 
@@ -78,11 +80,6 @@ def _series(rows: Sequence[tuple[float, ...]]) -> _Series:
     return _Series(data[order, 0].astype(np.int64), data[order, 1:])
 
 
-def _yaw(msg: PoseMessage) -> float:
-    return math.atan2(2.0 * (msg.qw * msg.qz + msg.qx * msg.qy),
-                      1.0 - 2.0 * (msg.qy * msg.qy + msg.qz * msg.qz))
-
-
 @dataclass
 class _Truth:
     """What the log says: the chosen images, the true poses and the ball's truth."""
@@ -110,7 +107,7 @@ def _read(reader: LogReader, count: int | None) -> _Truth:
             if count is None or len(truth.images) < count:
                 truth.images.append(msg)
         elif isinstance(msg, PoseMessage):
-            yaw = _yaw(msg)
+            yaw = yaw_from_quaternion(msg.qx, msg.qy, msg.qz, msg.qw)
             prev = unwrapped.get(msg.robot, yaw)  # unwrapped, so interpolation turns the
             yaw = prev + math.remainder(yaw - prev, math.tau)  # short way
             unwrapped[msg.robot] = yaw

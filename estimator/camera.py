@@ -45,6 +45,7 @@ __all__ = [
     "IdealCamera",
     "MirrorCamera",
     "ball_image_area_px",
+    "ball_outline_px",
     "camera_from_dict",
     "ground_range_m",
     "make_camera",
@@ -276,3 +277,28 @@ def ball_image_area_px(
         return math.nan
     u, v = uv[:, 0], uv[:, 1]
     return float(0.5 * abs(np.dot(u, np.roll(v, 1)) - np.dot(v, np.roll(u, 1))))  # shoelace
+
+
+def ball_outline_px(camera: CameraModel, centre_m: ArrayLike,
+                    ball_radius_m: float = BALL_RADIUS_M, *, points: int = 64) -> FloatArray:
+    """The outline of a ball's image: ``points`` (u, v) pixels of its silhouette, the cone
+    of rays from the optical centre tangent to the sphere, mapped through the model.
+
+    ``centre_m`` is the ball's centre (x, y, z) in the camera's frame on the ground: x
+    along image up, y along image left, z up from the ground under the lens (the optical
+    centre is ``height_m`` above it). Rows are NaN where the model places no pixel (above
+    a lens's horizon); all NaN when the lens is inside the ball.
+    """
+    centre = np.asarray(centre_m, dtype=np.float64) - np.array([0.0, 0.0, camera.height_m])
+    dist = float(np.linalg.norm(centre))
+    if dist <= ball_radius_m:
+        return np.full((points, 2), np.nan)
+    axis = centre / dist
+    helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    alpha = math.asin(ball_radius_m / dist)
+    phi = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
+    rays = math.cos(alpha) * axis + math.sin(alpha) * (np.cos(phi) * e1 + np.sin(phi) * e2)
+    return np.asarray(camera.ray_to_pixel(rays), dtype=np.float64)

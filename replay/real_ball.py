@@ -4,10 +4,16 @@
 holds an OpenCV dnn network, which is not safe to share between threads, so each thread
 gets its own (made from the same bytes: the same results, bit for bit, whatever the
 thread count).
+
+The real detector is fitted and trained on labelled boxes, whose convention (YOLO's) has
+pixel i span [i, i + 1): its centroids are half a pixel right of and below the replay's,
+where pixel i is at i (docs/api.md, as the paper's chain and the camera models have it). The
+finder moves them back (:data:`LABEL_OFFSET_PX`), so a ball is located from where it is.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from dataclasses import dataclass, field
 
@@ -16,9 +22,17 @@ import numpy as np
 from estimator.detection import Detection
 from estimator.detection.real import BallCheck, BallModel, Candidate, RealBallDetector
 
-__all__ = ["DETECTORS", "BallFinder", "Found"]
+__all__ = ["DETECTORS", "LABEL_OFFSET_PX", "BallFinder", "Found"]
 
 DETECTORS = ("paper", "real")
+LABEL_OFFSET_PX = 0.5
+"""The real detector's centroids less this (in u and v) are in the replay's convention."""
+
+
+def _to_replay(candidate: Candidate) -> Candidate:
+    det = candidate.detection
+    return dataclasses.replace(candidate, detection=dataclasses.replace(
+        det, cx_px=det.cx_px - LABEL_OFFSET_PX, cy_px=det.cy_px - LABEL_OFFSET_PX))
 
 
 @dataclass(frozen=True)
@@ -45,6 +59,6 @@ class BallFinder:
         return det
 
     def __call__(self, image: np.ndarray) -> Found:
-        ranked = self._detector().candidates(image)
+        ranked = [_to_replay(c) for c in self._detector().candidates(image)]
         best = ranked[0] if ranked and ranked[0].check_score >= self.model.threshold else None
         return Found(None if best is None else best.detection, tuple(ranked))

@@ -21,7 +21,8 @@ SKIP = {
     "dsp-replay run.mcap --rerun": "opens the Rerun viewer (a display)",
     "dsp-replay run.mcap --serve": "serves a browser viewer until Ctrl-C",
     "dsp-record match.mcap": "a match recording: simulation time, not the README's words",
-    "dsp-record yellow.mcap": "a match recording: simulation time",
+    "dsp-record yellow.mcap": "a match recording: simulation time (the golden match log stands "
+                              "in as yellow.mcap)",
     "dsp-record lobs.mcap": "a lob recording: simulation time",
     "dsp-record m.mcap": "a match recording: simulation time",
     "dsp-replay m.mcap": "needs m.mcap, the match recording left out above",
@@ -30,7 +31,7 @@ SKIP = {
     "dsp-info team.mcap": "team.mcap is the reader's own robot log",
     "dsp-calibrate --from-measurements": "points.csv is the reader's own measurements",
     "dsp-replay team.mcap": "team.mcap is the reader's own robot log",
-    "dsp-calibrate --ball-from": "frames/ are the reader's own labelled images",
+    "dsp-calibrate --ball-from frames/": "frames/ are the reader's own labelled images",
     "dsp-eval --suite images": "frames/ are the reader's own labelled images",
     "dsp-record run.mcap": "a 6 s mirror-camera recording: over a minute of simulation (the "
                            "golden rolling log stands in as run.mcap)",
@@ -39,7 +40,8 @@ SKIP = {
                                                      "out above",
 }
 
-STAND_INS = {"dsp-record run.mcap": ("logs/golden/rolling.mcap", "run.mcap")}
+STAND_INS = {"dsp-record run.mcap": ("logs/golden/rolling.mcap", "run.mcap"),
+             "dsp-record yellow.mcap": ("logs/golden/match.mcap", "yellow.mcap")}
 """A left-out recording's file, made from a golden log so the lines after it run."""
 
 

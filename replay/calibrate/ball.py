@@ -1,23 +1,58 @@
-"""``dsp-calibrate --ball-from DIR``: a venue's ball model from a folder of labelled images.
+"""``dsp-calibrate --ball-from DIR``: a venue's ball model from a folder of labelled images
+(or ``--ball-from LOG.mcap``: from a simulated log, its truth drawing the boxes,
+:mod:`replay.calibrate.ball_log`).
 
 What a team does at a new venue: label the ball in a few frames (YOLO labels, any
 labelling tool writes them), then fit. The colour table, field mask and size line come
 from the first N labelled images by file name (:func:`estimator.detection.real.fit_ball_model`)
 and, unless ``no_head``, the venue's head on the shared check is fitted on the same images
-(:func:`estimator.detection.real.adapt`). Reads those files only; returns the model.
+(:func:`estimator.detection.real.adapt`); :func:`fit_samples` does both, whatever labelled
+the frames. Reads those files only; returns the model.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
 
 from dsp.ball_file import shipped_check
 from dsp.errors import InputError, UsageError
 from dsp.labelled import find_labelled
-from estimator.detection.real import BallCheck, BallModel, adapt, fit_ball_model
+from estimator.detection.real import BallCheck, BallModel, Box, adapt, fit_ball_model
 from estimator.errors import EstimatorError
+from replay.calibrate.ball_log import frames_from_log
 
-__all__ = ["fit_from_folder", "format_fit"]
+__all__ = ["fit_ball", "fit_from_folder", "fit_samples", "format_fit"]
+
+Sample = tuple[npt.NDArray[np.uint8], Sequence[Box]]
+
+
+def fit_samples(source: Path, samples: Sequence[Sample], info: Mapping[str, Any], *,
+                head: bool = True, check: bytes | None = None) -> BallModel:
+    """The ball model of labelled frames (BGR image, ball boxes), however they were
+    labelled; errors name ``source``."""
+    try:
+        model = fit_ball_model(samples, info=info)
+        return adapt(model, samples, BallCheck(check or shipped_check())) if head else model
+    except EstimatorError as err:
+        raise InputError(f"{source}: {err}") from err
+
+
+def fit_ball(source: Path, *, ball_class: int = 0, train_count: int | None = None,
+             head: bool = True, check: bytes | None = None) -> BallModel:
+    """The ball model of a folder of labelled images or, for a path ending in ``.mcap``, of
+    a simulated log's first ``train_count`` images, labelled from its truth."""
+    if source.suffix.lower() != ".mcap":
+        return fit_from_folder(source, ball_class=ball_class, train_count=train_count,
+                               head=head, check=check)
+    if train_count is not None and train_count < 1:
+        raise UsageError(f"--train-count {train_count}: use 1 or more")
+    frames, info = frames_from_log(source, train_count)
+    return fit_samples(source, frames, info, head=head, check=check)
 
 
 def fit_from_folder(folder: Path, *, ball_class: int = 0, train_count: int | None = None,
@@ -32,11 +67,7 @@ def fit_from_folder(folder: Path, *, ball_class: int = 0, train_count: int | Non
     samples = [item.read(ball_class) for item in chosen]
     info = {"images": len(chosen), "first": chosen[0].image.name,
             "last": chosen[-1].image.name, "ball_class": ball_class}
-    try:
-        model = fit_ball_model(samples, info=info)
-        return adapt(model, samples, BallCheck(check or shipped_check())) if head else model
-    except EstimatorError as err:
-        raise InputError(f"{folder}: {err}") from err
+    return fit_samples(folder, samples, info, head=head, check=check)
 
 
 def format_fit(model: BallModel) -> str:
@@ -44,6 +75,8 @@ def format_fit(model: BallModel) -> str:
     fit = model.fit
     head = ("no venue head" if model.check_head is None
             else f"venue head (penalty {fit.get('head_lambda')})")
+    left = (f", {fit['left_out']} left out (the ball hidden or cut by the image's edge)"
+            if fit.get("left_out") else "")
     return (f"ball model from {fit.get('images')} images ({fit.get('first')} .. "
             f"{fit.get('last')}), {fit.get('balls')} balls, diameters "
-            f"{model.min_diameter_px:.0f}-{model.max_diameter_px:.0f} px, {head}")
+            f"{model.min_diameter_px:.0f}-{model.max_diameter_px:.0f} px, {head}{left}")

@@ -3,6 +3,8 @@
     dsp-calibrate --camera mirror -o cal.json                  (simulated: the paper's procedure)
     dsp-calibrate --from-measurements points.csv --image-size 1280x1024 -o cameras.yaml
     dsp-calibrate --from-log calib.mcap --ball-at 0,0 -o cameras.yaml [--image-topic ...]
+    dsp-calibrate --ball-from frames/ -o ball.json          (the ball model, labelled frames)
+    dsp-calibrate --ball-from sim.mcap -o ball.json         (... or a simulated log's truth)
 
 Without ``--from-*`` the simulated procedure runs (:mod:`recorder.calibrate_cli`). With
 them a real camera is calibrated (:mod:`replay.calibrate.run`): the image centre and the
@@ -27,7 +29,7 @@ from dsp.cli import echo, run_main
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES, save
 from recorder import calibrate_cli as simulated
-from replay.calibrate.ball import fit_from_folder, format_fit
+from replay.calibrate.ball import fit_ball, format_fit
 from replay.calibrate.figure import measured_figure
 from replay.calibrate.from_log import samples_from_log
 from replay.calibrate.measurements import read_measurements
@@ -85,13 +87,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the poses' frame in the field (m, m, deg), written to the file "
                       "(and, with --from-log, applied to the poses)")
     ball = p.add_argument_group("a ball model (the real-ball detector)")
-    ball.add_argument("--ball-from", type=Path, metavar="DIR",
+    ball.add_argument("--ball-from", type=Path, metavar="DIR|LOG.mcap",
                       help="fit the ball model (-o ball.json, dsp-replay --ball reads it) from "
-                      "a folder of images with YOLO labels beside them (NAME.txt)")
+                      "a folder of images with YOLO labels beside them (NAME.txt), or from a "
+                      "simulated log (.mcap), the ball's boxes drawn from its ground truth")
     ball.add_argument("--ball-class", type=int, default=0, metavar="N",
-                      help="with --ball-from: the labels' class of the ball (default 0)")
+                      help="with --ball-from DIR: the labels' class of the ball (default 0)")
     ball.add_argument("--train-count", type=int, metavar="N",
-                      help="with --ball-from: the first N labelled images by name (default all)")
+                      help="with --ball-from: the first N labelled images by name, or a log's "
+                      "first N images by stamp (default all)")
     ball.add_argument("--no-head", action="store_true",
                       help="with --ball-from: no venue head on the shared check")
     return p
@@ -102,8 +106,8 @@ def _run_ball(args: argparse.Namespace) -> int:
     check_suffix("-o/--out", out, (".json",))
     check_distinct([("--out", out)], [("the input", args.ball_from)])
     with atomic_output(out, force=args.force, label="--out") as tmp:
-        model = fit_from_folder(args.ball_from, ball_class=args.ball_class,
-                                train_count=args.train_count, head=not args.no_head)
+        model = fit_ball(args.ball_from, ball_class=args.ball_class,
+                         train_count=args.train_count, head=not args.no_head)
         tmp.write_text(ball_file_text(model), encoding="utf-8")
     echo(args, format_fit(model))
     echo(args, f"wrote {out}")

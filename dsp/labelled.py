@@ -94,10 +94,17 @@ def read_image(path: Path) -> npt.NDArray[np.uint8]:
     return np.asarray(image, np.uint8)
 
 
+def _check_folder(folder: Path) -> None:
+    """A missing folder and a file given as one are two different mistakes: say which."""
+    if not folder.exists():
+        raise InputError(f"{folder}: no such folder")
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a folder")
+
+
 def find_labelled(folder: Path) -> list[Labelled]:
     """The images of ``folder`` with a label file beside them, by file name."""
-    if not folder.is_dir():
-        raise InputError(f"{folder}: not a directory")
+    _check_folder(folder)
     found = []
     for name in sorted(os.listdir(folder)):
         path = folder / name
@@ -110,8 +117,7 @@ def find_labelled(folder: Path) -> list[Labelled]:
 def labelled_folders(root: Path) -> list[Path]:
     """``root`` and every folder under it that holds labelled images, by path (symbolic
     links are not followed)."""
-    if not root.is_dir():
-        raise InputError(f"{root}: not a directory")
+    _check_folder(root)
     found = []
     for here, dirs, _ in os.walk(root):
         dirs.sort()

@@ -122,6 +122,12 @@ def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert "--threshold 1.5: give a finite number" in capsys.readouterr().err
     assert main([str(few)]) != 0
     assert "go with --suite images" in capsys.readouterr().err
+    missing, a_file = tmp_path / "missing", few / "notes.txt"
+    a_file.write_text("not a folder\n")
+    for folder, said in ((missing, "no such folder"), (a_file, "not a folder")):
+        assert main(["--suite", "images", str(folder), "--out-dir", str(tmp_path / "o")]) != 0
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"dsp-eval: error: {folder}: {said}"]
     assert not (tmp_path / "o").exists()
 
 

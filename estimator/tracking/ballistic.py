@@ -67,6 +67,11 @@ class BallisticParams:
     """A measurement's covariance direction wider than this is not measured (one robot's
     ray: the spread along it says the height is unknown; the track keeps its own there)."""
     max_misses: int = 3
+    restart_on_fixed: bool = True
+    """A refused measurement that fixes all three directions (crossed rays) restarts the
+    track at once, from the way since the last accepted one: rays that meet are seldom a
+    false blob, so the track met what its model does not know (a robot, a post, a bounce
+    sooner or later than predicted)."""
     initial_speed_sigma_mps: float = 10.0
     launch_sigma_mps: float = 2.0
 
@@ -197,6 +202,8 @@ class BallisticTracker:
             if rolling and z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M and (
                     self._launched(stamp_ns, z, Rm)):
                 return True  # the rolling ball does not explain it, a flying one may
+            if self.params.restart_on_fixed and keep.all():
+                return self._restart_fixed(stamp_ns, z, Rm)
             if self._refused is not None and self._restarted(stamp_ns, z, Rm):
                 return True
             self._refused = (stamp_ns, z.copy())
@@ -241,6 +248,16 @@ class BallisticTracker:
         if not 0.0 < dt < 0.5:
             return False
         return self._fly_from(z0, dt, stamp_ns, z, Rm)
+
+    def _restart_fixed(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """A refused measurement that fixes a point: restart there, the velocity from the
+        way since the last accepted measurement (when within 0.5 s, else unknown)."""
+        last = self._last
+        if last is not None and 0.0 < (dt := (stamp_ns - last[0]) / NS_PER_S) < 0.5:
+            return self._fly_from(last[1], dt, stamp_ns, z, Rm)
+        self._start(stamp_ns, z, Rm)
+        self._remember(stamp_ns)
+        return True
 
     def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a

@@ -7,7 +7,8 @@ single robot's view moves the track along that ray and not up or down at will).
 
 Between measurements the ball moves:
 
-- **in the air** (centre above R + ``airborne_m`` or rising): under gravity, x' = x + v dt,
+- **in the air** (centre above R + ``airborne_m`` or rising, and its height known:
+  variance below ``unknown_variance_m2``): under gravity, x' = x + v dt,
   z' = z + vz dt - g dt^2 / 2, vz' = vz - g dt (air drag neglected: a few centimetres over
   the 0.3 s a landing is predicted ahead);
 - **at a bounce** (the flight reaches z = R going down): the step is split at the contact;
@@ -101,9 +102,19 @@ class BallisticTracker:
         """The last refused measurement, while refusals run in a row."""
 
     @property
+    def last_accepted_ns(self) -> int | None:
+        """The stamp of the last measurement the track took (or restarted at)."""
+        return None if self._last is None else self._last[0]
+
+    @property
     def airborne(self) -> bool:
+        """Flying: above the ground or rising, and the height known (a track whose height
+        variance is past ``unknown_variance_m2``, one robot's, rolls: one ray invents no
+        flight, bounce nor landing)."""
         return self.x is not None and bool(
-            self.x[2] > BALL_RADIUS_M + self.params.airborne_m or self.x[5] > self.params.rest_mps)
+            self.x[2] > BALL_RADIUS_M + self.params.airborne_m
+            or self.x[5] > self.params.rest_mps) and bool(
+            self.P[2, 2] < self.params.unknown_variance_m2)
 
     def _flight(self, dt: float) -> None:
         """Move state and covariance dt seconds under gravity, or rolling."""

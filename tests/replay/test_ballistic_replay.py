@@ -1,0 +1,124 @@
+"""The ``ballistic`` fusion in the replay: a lob's arc, given as the robots' ground-plane
+estimates step by step, is followed in 3-D with its vertical speed and landing; one robot
+alone invents no height; a replay of a golden log writes the tracker's keys and columns."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dsp.cameras import camera_spec_from_json
+from estimator.constants import BALL_RADIUS_M, NS_PER_S
+from estimator.fusion import BallisticFusion
+from estimator.tracking.ballistic import G_MPS2
+from replay.cameras import Cameras
+from replay.estimation import FrameEstimator
+from replay.options import ReplayOptions
+from replay.records import FrameResult, FrameStatus, RobotEstimate, StepResult
+from replay.runner import replay
+
+GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
+R = BALL_RADIUS_M
+HEIGHT_M = 12.0
+"""The ideal camera's height: it sees a lob from above."""
+ROBOTS = {"robot1": (-4.0, 2.0), "robot2": (4.0, 3.0), "robot3": (0.0, -4.0)}
+V = (4.0, 1.0, 5.0)
+"""The lob's launch velocity from (0, 0) [m/s]: 2 v_z / g = 1.02 s in the air."""
+RATE_HZ = 20.0
+
+
+def _estimator() -> FrameEstimator:
+    spec = camera_spec_from_json({"model": "ideal", "width_px": 1024, "height_px": 1024,
+                                  "cu_px": 512, "cv_px": 512, "max_radius_px": 512,
+                                  "height_m": HEIGHT_M, "k_m_per_px": 0.02}, "test")
+    cameras = Cameras(dict.fromkeys(ROBOTS, spec),
+                      {r: spec.range_calibration for r in ROBOTS})
+    return FrameEstimator(method="corrected", fusion_method="ballistic", cameras=cameras)
+
+
+def _ball(t: float) -> tuple[float, float, float]:
+    return V[0] * t, V[1] * t, R + V[2] * t - 0.5 * G_MPS2 * t * t
+
+
+def _frame(robot: str, stamp_ns: int, ball: tuple[float, float, float]) -> FrameResult:
+    """What the robot's calibrated camera says of a ball at ``ball``: the point where its
+    ray meets z = R, with the exact range and bearing (yaw 0)."""
+    rx, ry = ROBOTS[robot]
+    scale = (HEIGHT_M - R) / (HEIGHT_M - ball[2])
+    gx, gy = rx + (ball[0] - rx) * scale, ry + (ball[1] - ry) * scale
+    est = RobotEstimate(robot, gx, gy, math.hypot(gx - rx, gy - ry),
+                        math.atan2(gy - ry, gx - rx), rx, ry, 0.0)
+    return FrameResult(0, robot, stamp_ns, FrameStatus.OK, estimate=est)
+
+
+def _fly(robots: tuple[str, ...], until_s: float) -> list[StepResult]:
+    est = _estimator()
+    steps = []
+    for k in range(int(until_s * RATE_HZ) + 1):
+        t = k / RATE_HZ
+        stamp = round(t * NS_PER_S)
+        ball = _ball(t)
+        steps.append(est.step(k, stamp, tuple(_frame(r, stamp, ball) for r in robots),
+                              (ball[0], ball[1]), truth_z=ball[2]))
+    return steps
+
+
+def test_a_lob_seen_by_three_robots_is_followed_in_3d_with_its_landing() -> None:
+    land_t = 2 * V[2] / G_MPS2
+    steps = _fly(tuple(ROBOTS), land_t - 0.3)
+    assert all(s.fused is not None and s.fused.triangulated for s in steps)
+    errors = [s.error_3d_m for s in steps]
+    assert all(e is not None for e in errors) and max(e for e in errors if e) < 0.03
+    last = steps[-1]
+    t = last.stamp_ns / NS_PER_S
+    assert last.vz_m_s == pytest.approx(V[2] - G_MPS2 * t, abs=0.3)
+    assert last.velocity_m_s == pytest.approx(V[:2], abs=0.3)
+    assert last.landing is not None
+    assert last.landing.stamp_ns / NS_PER_S == pytest.approx(land_t, abs=0.03)
+    assert math.hypot(last.landing.x_m - V[0] * land_t,
+                      last.landing.y_m - V[1] * land_t) < 0.1
+    assert steps[0].landing is None  # on the ground at the kick: not flying yet
+
+
+def test_one_robot_seeing_a_lob_gives_no_height() -> None:
+    """One robot's rays: the track keeps the ground point's height assumption with a
+    height variance of metres (the covariance says it is unknown), is never crossed, and
+    neither flies nor predicts a landing from one ray."""
+    steps = _fly(("robot1",), 0.8)
+    for s in steps:
+        assert s.fused is not None and not s.fused.triangulated
+        assert s.fused.covariance_3d is not None
+        assert s.fused.covariance_3d[2][2] > 1.0
+        assert s.landing is None and s.vz_m_s == 0.0
+    flying = [s for s in steps if s.truth_z_m is not None and s.truth_z_m > 1.0]
+    assert flying and all(s.z_error_m is not None and s.z_error_m < -0.5 for s in flying)
+
+
+def test_the_one_shot_fusion_is_the_triangulation() -> None:
+    f = BallisticFusion()
+    assert f.name == "ballistic" and f.fuse([]) is None
+    assert f.step(0, []) is None  # nothing seen yet: no track
+
+
+def test_a_replay_writes_the_tracker_s_keys(tmp_path: Path) -> None:
+    """Golden scenario 2 (a still ball, three robots): every step at the ball's height,
+    no vertical speed, no landing; the header names the fusion; the CSV's columns."""
+    replay(GOLDEN / "scenario2.mcap", ReplayOptions(
+        fusion="ballistic", out=tmp_path / "r.json", out_csv=tmp_path / "r.csv",
+        progress=False))
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert doc["options"]["fusion"] == "ballistic"
+    assert doc["fused"]
+    for s in doc["fused"]:
+        assert abs(s["z_m"] - R) < 0.02 and s["error_m"] < 0.015
+        assert s["vz_m_s"] == 0.0 and s["landing"] is None
+        assert len(s["velocity_m_s"]) == 2 and np.hypot(*s["velocity_m_s"]) < 0.1
+    with (tmp_path / "r.csv").open(newline="") as f:
+        fused = [r for r in csv.DictReader(f) if r["kind"] == "fused"]
+    assert len(fused) == len(doc["fused"])
+    assert all(r["vz_m_s"] == "0.0" and r["landing_t_s"] == "" for r in fused)

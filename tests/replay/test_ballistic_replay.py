@@ -8,6 +8,7 @@ import csv
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -122,3 +123,43 @@ def test_a_replay_writes_the_tracker_s_keys(tmp_path: Path) -> None:
         fused = [r for r in csv.DictReader(f) if r["kind"] == "fused"]
     assert len(fused) == len(doc["fused"])
     assert all(r["vz_m_s"] == "0.0" and r["landing_t_s"] == "" for r in fused)
+
+
+def test_the_landing_topic_and_the_height_round_trip_through_the_mcap(tmp_path: Path) -> None:
+    """The estimates MCAP of a lob's steps: /estimate/ball/landing (PointStamped, stamped
+    at the predicted landing, logged at the step), the Odometry's z and vz, the fused
+    pose's z and z variance; read back with the ROS 2 bag reader."""
+    from rosbags.highlevel import AnyReader
+
+    from replay.sinks.estimates_mcap import McapSink
+
+    steps = _fly(tuple(ROBOTS), 0.8)
+    out = tmp_path / "e.mcap"
+    sink = McapSink(out)
+    for s in steps:
+        sink.step(s)
+    sink.close(True)
+    by_log: dict[str, dict[int, tuple[str, Any]]] = {}
+    with AnyReader([out]) as bag:
+        for conn, t, raw in bag.messages():
+            msgtype = str(conn.msgtype)
+            by_log.setdefault(conn.topic, {})[t] = (msgtype, bag.deserialize(raw, msgtype))
+    landings = by_log["/estimate/ball/landing"]
+    assert len(landings) == sum(s.landing is not None for s in steps) > 10
+    for s in steps:
+        fused = s.fused
+        assert fused is not None and fused.z_m is not None and fused.covariance_3d is not None
+        _, odo = by_log["/estimate/ball/odometry"][s.stamp_ns]
+        assert odo.pose.pose.position.z == pytest.approx(fused.z_m)
+        assert odo.twist.twist.linear.z == pytest.approx(s.vz_m_s)
+        assert odo.pose.covariance[14] == pytest.approx(fused.covariance_3d[2][2])
+        _, pose = by_log["/estimate/ball"][s.stamp_ns]
+        assert pose.pose.pose.position.z == pytest.approx(fused.z_m)
+        if s.landing is None:
+            assert s.stamp_ns not in landings
+            continue
+        kind, msg = landings[s.stamp_ns]
+        assert kind == "geometry_msgs/msg/PointStamped" and msg.header.frame_id == "field"
+        assert msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec == s.landing.stamp_ns
+        assert (msg.point.x, msg.point.y, msg.point.z) == pytest.approx(
+            (s.landing.x_m, s.landing.y_m, R))

@@ -163,3 +163,46 @@ def test_the_landing_topic_and_the_height_round_trip_through_the_mcap(tmp_path: 
         assert msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec == s.landing.stamp_ns
         assert (msg.point.x, msg.point.y, msg.point.z) == pytest.approx(
             (s.landing.x_m, s.landing.y_m, R))
+
+
+def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
+    """A lob's steps through the Rerun sink: /field/track/landing is a ring with a cross on
+    the ground at each predicted landing, labelled with the time to it; cleared while the
+    ball does not fly."""
+    rr_chunk = pytest.importorskip("rerun.chunk")
+    from replay.log import LogReader
+    from replay.options import RerunTarget
+    from replay.sinks.rerun.sink import RerunSink
+
+    steps = _fly(tuple(ROBOTS), 0.8)
+    rrd = tmp_path / "lob.rrd"
+    options = ReplayOptions(fusion="ballistic", rerun=RerunTarget("save", str(rrd)),
+                            progress=False)
+    with LogReader(GOLDEN / "scenario2.mcap") as reader:
+        info = reader.info
+    assert options.rerun is not None
+    sink = RerunSink(options.rerun, info=info, digest="0" * 64, options=options, centres={})
+    for s in steps:
+        sink.step(s)
+    sink.close(True)
+    drawn, labels, cleared = [], [], 0
+    for ch in rr_chunk.RrdReader(rrd).stream():
+        if ch.entity_path != "/field/track/landing" or ch.is_static:
+            continue
+        batch = ch.to_record_batch()
+        names = batch.schema.names
+        if "LineStrips3D:strips" in names:
+            drawn += [s for s in batch.column("LineStrips3D:strips").to_pylist() if s]
+            labels += [t for row in batch.column("LineStrips3D:labels").to_pylist()
+                       for t in row or []]
+        cleared += any("Clear" in n for n in names)
+    flying = [s for s in steps if s.landing is not None]
+    assert len(drawn) == len(flying) > 10
+    for strips, s in zip(drawn, flying, strict=True):
+        assert s.landing is not None and len(strips) == 3  # the ring and the cross
+        centre = np.mean(np.array(strips[0])[:-1], axis=0)
+        assert centre == pytest.approx((s.landing.x_m, s.landing.y_m, 0.01), abs=1e-3)
+    last = flying[-1]
+    assert last.landing is not None
+    assert labels[-1] == f"lands in {(last.landing.stamp_ns - last.stamp_ns) / NS_PER_S:.2f} s"
+    assert cleared  # the kick's first step, before the ball flies

@@ -226,10 +226,20 @@ class BallisticTracker:
         self.P = 0.5 * (self.P + self.P.T)
         if self.x[2] < BALL_RADIUS_M:
             self.x[2] = BALL_RADIUS_M
+        if rolling and self.airborne and keep.all():
+            self._lifted()
         self.misses = 0
         self._refused = None
         self._remember(stamp_ns)
         return True
+
+    def _lifted(self) -> None:
+        """A rolling track that a 3-D point lifted off the ground: its vertical speed, held
+        at 0 while it rolled, is unknown (``launch_sigma_mps``), or it would fly on at 0
+        and fall short of the ball for every step it stays within the gate."""
+        self.P[5, :] = 0.0
+        self.P[:, 5] = 0.0
+        self.P[5, 5] = self.params.launch_sigma_mps ** 2
 
     def _remember(self, stamp_ns: int) -> None:
         assert self.x is not None

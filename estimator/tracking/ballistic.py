@@ -22,9 +22,13 @@ one robot's ground estimate, whose covariance spreads along its ray, moves the t
 across the ray only (a bearing), so its height stays as unknown as it is. Measurements
 farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
 two refusals in a row the track restarts at the second, its velocity from the two (the
-ball hit a robot or a post); after ``max_misses`` the next measurement restarts it. A rolling
-track that is shown a ball clearly in the air restarts flying at once (a kick up), its
-velocity from the way from the last measurement.
+ball hit a robot or a post), and a refused point that fixes all three directions (crossed
+rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next measurement
+restarts it. A rolling track that is shown a ball clearly in the air restarts flying at
+once (a kick up), its velocity from the way from the last measurement; so does one that a
+3-D point lifts off the ground when the filter takes it (a point whose height is wide, rays
+crossing at a shallow angle: the rolling track, its vertical speed held at 0 with no
+variance, would otherwise fly on at 0 and fall short of the rising ball).
 
 :meth:`BallisticTracker.landing` predicts where and when a flying ball next meets the
 ground: t = (vz + sqrt(vz^2 + 2 g (z - R))) / g from now, (x + vx t, y + vy t).
@@ -226,20 +230,12 @@ class BallisticTracker:
         self.P = 0.5 * (self.P + self.P.T)
         if self.x[2] < BALL_RADIUS_M:
             self.x[2] = BALL_RADIUS_M
-        if rolling and self.airborne and keep.all():
-            self._lifted()
+        if rolling and self.airborne and keep.all() and self._launched(stamp_ns, z, Rm):
+            return True
         self.misses = 0
         self._refused = None
         self._remember(stamp_ns)
         return True
-
-    def _lifted(self) -> None:
-        """A rolling track that a 3-D point lifted off the ground: its vertical speed, held
-        at 0 while it rolled, is unknown (``launch_sigma_mps``), or it would fly on at 0
-        and fall short of the ball for every step it stays within the gate."""
-        self.P[5, :] = 0.0
-        self.P[:, 5] = 0.0
-        self.P[5, 5] = self.params.launch_sigma_mps ** 2
 
     def _remember(self, stamp_ns: int) -> None:
         assert self.x is not None

@@ -21,6 +21,7 @@ from typing import Any
 __all__ = [
     "CAMERAS_METADATA",
     "COMPRESSED_IMAGE",
+    "ESTIMATE_LANDING_TOPIC",
     "ESTIMATE_ODOMETRY_TOPIC",
     "ESTIMATE_TOPIC",
     "FIELD_FRAME",
@@ -82,6 +83,10 @@ ESTIMATE_TOPIC = "/estimate/ball"
 """geometry_msgs/msg/PoseWithCovarianceStamped: the fused estimate, written by replay."""
 ESTIMATE_ODOMETRY_TOPIC = "/estimate/ball/odometry"
 """nav_msgs/msg/Odometry: the tracked ball's position and velocity, written by replay."""
+ESTIMATE_LANDING_TOPIC = "/estimate/ball/landing"
+"""geometry_msgs/msg/PointStamped in "field": where the flying ball's centre is predicted to
+meet the ground (z = the ball's radius); header.stamp = the predicted landing time,
+log_time = the step that predicted it. Written by replay (``ballistic``), while it flies."""
 """geometry_msgs/msg/PoseStamped in "field": the robot's true pose. Evaluation only."""
 
 # --- metadata records (MCAP metadata: name -> {str: str}); typed below -----------------------
@@ -268,17 +273,20 @@ def pose_with_covariance_stamped(
     *, z_m: float = 0.0, q: Quaternion = _IDENTITY, frame_id: str = FIELD_FRAME,
 ) -> dict[str, Any]:
     """geometry_msgs/PoseWithCovarianceStamped whose 6x6 row-major covariance holds the 2x2
-    ``xy_covariance`` [m^2] in its x/y block (every other entry 0)."""
+    ``xy_covariance`` [m^2] in its x/y block, or a 3x3 one in its x/y/z block (every other
+    entry 0)."""
     return {"header": header(stamp_ns, frame_id),
             "pose": {"pose": pose(x_m, y_m, z_m, q), "covariance": _covariance6(xy_covariance)}}
 
 
-def _covariance6(xy: Sequence[Sequence[float]] | None) -> list[float]:
-    """A 6x6 row-major covariance holding the 2x2 ``xy`` block (every other entry 0)."""
+def _covariance6(block: Sequence[Sequence[float]] | None) -> list[float]:
+    """A 6x6 row-major covariance holding the 2x2 x/y or 3x3 x/y/z ``block`` (every other
+    entry 0)."""
     cov = [0.0] * 36
-    if xy is not None:
-        (cxx, cxy), (cyx, cyy) = xy
-        cov[0], cov[1], cov[6], cov[7] = float(cxx), float(cxy), float(cyx), float(cyy)
+    if block is not None:
+        for i, row in enumerate(block):
+            for j, value in enumerate(row):
+                cov[6 * i + j] = float(value)
     return cov
 
 
@@ -290,8 +298,8 @@ def odometry(
     frame_id: str = FIELD_FRAME,
 ) -> dict[str, Any]:
     """nav_msgs/Odometry: position in ``frame_id`` and velocity [m/s], here also expressed
-    in ``frame_id`` (the ball has no orientation); each 2x2 x/y covariance [m^2, m^2/s^2]
-    goes into its 6x6 block, every other entry 0."""
+    in ``frame_id`` (the ball has no orientation); each covariance [m^2, m^2/s^2], 2x2 x/y
+    or 3x3 x/y/z, goes into its 6x6 block, every other entry 0."""
     return {
         "header": header(stamp_ns, frame_id),
         "child_frame_id": child_frame_id,

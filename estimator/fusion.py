@@ -10,6 +10,9 @@
   ``robust`` fusion, at z = R and a covariance saying the height is unknown, otherwise.
 - ``track``: the ball tracker (:mod:`estimator.tracking`), a Kalman filter over position and
   velocity; as a one-shot :class:`Fusion` it gates the estimates against each other.
+- ``ballistic``: the ``triangulate`` point of each step fed to the ballistic tracker
+  (:mod:`estimator.tracking.ballistic`): the ball in 3-D with its velocity through flight,
+  bounces and rolling, and where it will land.
 
 Each method takes its per-estimate covariances from a noise model (:mod:`estimator.noise`).
 All methods are deterministic: no randomness, ties broken by input order (``nearest``'s
@@ -26,7 +29,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from estimator.constants import BALL_RADIUS_M
+from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.errors import EstimatorError, FusionError, UnknownFusionError
 from estimator.estimates import (
     BallEstimate,
@@ -37,11 +40,14 @@ from estimator.estimates import (
 )
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
 from estimator.rays import BallRay, ball_ray, height_unknown_covariance, triangulate
+from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
 from estimator.tracking.tracker import TrackFusion
 
 __all__ = [
     "FUSION_METHODS",
     "RANGE_TIE_M",
+    "BallisticFusion",
+    "BallisticStep",
     "Fusion",
     "MeanFusion",
     "NearestFusion",
@@ -295,6 +301,66 @@ class TriangulateFusion:
         return replace(ground, z_m=BALL_RADIUS_M, covariance_3d=covariance3_rows(cov3))
 
 
+@dataclass(frozen=True)
+class BallisticStep:
+    """The ballistic track at one step: the fused estimate (x, y, z and the 3 x 3
+    covariance of the track's position), the velocity (vx, vy, vz) with the level part's
+    2 x 2 covariance, and the predicted landing when the ball flies."""
+
+    fused: FusedEstimate
+    velocity: tuple[float, float, float]
+    velocity_covariance: Matrix
+    landing: Landing | None
+
+
+class BallisticFusion:
+    """``ballistic``: each step's estimates triangulated (:class:`TriangulateFusion`, the
+    calibrated noise) and the 3-D point with its covariance fed to a
+    :class:`~estimator.tracking.ballistic.BallisticTracker`, read at the step's stamp
+    (:meth:`step`). One robot's point says no height (its covariance spreads along the ray)
+    and the track's height stays as unknown. A step without a point (no robot saw the
+    ball, or a clock tick) gives the track's prediction until ``coast_s`` after its last
+    accepted point. ``fuse`` alone is one instant, which has no flight: the triangulation.
+    The fused estimate's ``robots`` are the point's when the track took it (none when it
+    coasts or refused it); ``triangulated``: this step's point came from crossed rays."""
+
+    def __init__(self, noise: Noise | None = None, params: BallisticParams | None = None,
+                 coast_s: float = 1.0) -> None:
+        self.triangulate = TriangulateFusion(noise or CalibratedNoise())
+        self.tracker = BallisticTracker(params)
+        self.coast_ns = round(coast_s * NS_PER_S)
+
+    @property
+    def name(self) -> str:
+        return "ballistic"
+
+    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        return self.triangulate.fuse(estimates)
+
+    def step(self, stamp_ns: int, estimates: Sequence[BallEstimate]) -> BallisticStep | None:
+        """The track at ``stamp_ns`` after this step's estimates (None: no track yet, or
+        none seen for ``coast_s``)."""
+        point = self.triangulate.fuse(estimates) if estimates else None
+        taken = False
+        tracker = self.tracker
+        if point is not None and point.z_m is not None and point.covariance_3d is not None:
+            taken = tracker.update(stamp_ns, (point.x_m, point.y_m, point.z_m),
+                                   np.array(point.covariance_3d, dtype=np.float64))
+        else:
+            tracker.predict(stamp_ns)
+        last = tracker.last_accepted_ns
+        if tracker.x is None or last is None or stamp_ns - last > self.coast_ns:
+            return None
+        x, P = tracker.x, tracker.P
+        fused = FusedEstimate(
+            float(x[0]), float(x[1]), covariance_rows(P[:2, :2]),
+            point.robots if taken and point is not None else (), z_m=float(x[2]),
+            covariance_3d=covariance3_rows(P[:3, :3]),
+            triangulated=point is not None and point.triangulated)
+        return BallisticStep(fused, (float(x[3]), float(x[4]), float(x[5])),
+                             0.5 * (P[3:5, 3:5] + P[3:5, 3:5].T), tracker.landing())
+
+
 _METHODS: dict[str, Callable[[Noise | None], Fusion]] = {
     "mean": lambda noise: MeanFusion(noise or NoiseModel()),
     "nearest": lambda noise: NearestFusion(noise or NoiseModel()),
@@ -302,6 +368,7 @@ _METHODS: dict[str, Callable[[Noise | None], Fusion]] = {
     "robust": lambda noise: RobustFusion(noise or NoiseModel()),
     "triangulate": lambda noise: TriangulateFusion(noise or NoiseModel()),
     "track": lambda noise: TrackFusion(noise=noise or CalibratedNoise()),
+    "ballistic": lambda noise: BallisticFusion(noise or CalibratedNoise()),
 }
 
 FUSION_METHODS = tuple(_METHODS)

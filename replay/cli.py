@@ -76,7 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fusion", metavar="|".join(FUSION_METHODS),
                    help="how the robots' estimates are fused (default: mean in paper mode, "
                    "as the paper does; for the corrected estimator track: a Kalman filter "
-                   "giving position and velocity at every image stamp); or a fusion from "
+                   "giving position and velocity at every image stamp; triangulate and "
+                   "ballistic place the ball in 3-D, ballistic tracking its flight and "
+                   "predicting its landing); or a fusion from "
                    "outside: an installed dual_sight.fusions entry point's name, or "
                    "package.module:Class (docs/compare.md)")
     p.add_argument("--noise", choices=NOISE_MODELS, default="cambada",

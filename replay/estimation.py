@@ -18,7 +18,9 @@ frame by the camera description's ``map_to_field`` first; a camera mounted turne
 :meth:`FrameEstimator.step` fuses one step's frames: a window fusion of their estimates, or
 (``track``) the ball tracker fed with each estimate at its own stamp, with its calibrated
 covariance (:class:`~estimator.noise.CalibratedNoise`), and read at the step's stamp, with
-the ball's velocity. The tracker makes a step at every image stamp
+the ball's velocity; or (``ballistic``) the step's triangulated point fed to the 3-D
+tracker, read with its velocity and predicted landing
+(:class:`~estimator.fusion.BallisticFusion`). The tracker makes a step at every image stamp
 (:meth:`FrameEstimator.step_window_ns`). Offline (``smooth``), the steps are held back and
 leave with the RTS smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
 :meth:`FrameEstimator.flush`, :mod:`replay.smoothing`).
@@ -163,9 +165,10 @@ class FrameEstimator:
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
-            # (triangulate always: its 3-D covariance feeds a tracker, and CAMBADA's range
-            # law, made for a ground-plane average, puts a lob's height metres wide)
-            calibrated = noise == "calibrated" or fusion_method == "triangulate"
+            # (triangulate and ballistic always: the 3-D covariance feeds a tracker, and
+            # CAMBADA's range law, made for a ground-plane average, puts a lob's height
+            # metres wide)
+            calibrated = noise == "calibrated" or fusion_method in ("triangulate", "ballistic")
             self.fusion = fusion.get_fusion(
                 fusion_method, noise=self.noise if calibrated else None)
         self._deferred: SmoothedSteps | None = None
@@ -251,9 +254,16 @@ class FrameEstimator:
         """One fusion step at ``stamp_ns`` from its frames (in robot order), scored against
         the truth when given."""
         velocity = velocity_cov = None
-        if self.tracker is None:
-            balls = [_ball(f.estimate, f.r_px, self._heights.get(f.robot))
-                     for f in frames if f.estimate is not None]
+        flight: fusion.BallisticStep | None = None
+        balls = [_ball(f.estimate, f.r_px, self._heights.get(f.robot))
+                 for f in frames if f.estimate is not None]
+        if isinstance(self.fusion, fusion.BallisticFusion):
+            flight = self.fusion.step(stamp_ns, balls)
+            fused = None if flight is None else flight.fused
+            if flight is not None:
+                velocity = flight.velocity[:2]
+                velocity_cov = covariance_rows(flight.velocity_covariance)
+        elif self.tracker is None:
             fused = self.fusion.fuse(balls) if balls else None
         else:
             fused, velocity, velocity_cov = self._track(self.tracker, stamp_ns, frames)
@@ -262,7 +272,9 @@ class FrameEstimator:
             err = math.hypot(fused.x_m - truth[0], fused.y_m - truth[1])
         return StepResult(index, stamp_ns, frames, fused, truth, err, velocity_m_s=velocity,
                           velocity_covariance=velocity_cov, truth_velocity_m_s=truth_velocity,
-                          truth_z_m=truth_z)
+                          truth_z_m=truth_z,
+                          vz_m_s=None if flight is None else flight.velocity[2],
+                          landing=None if flight is None else flight.landing)
 
     def _track(self, tracker: BallTracker, stamp_ns: int, frames: tuple[FrameResult, ...]) -> (
         tuple[FusedEstimate | None, tuple[float, float] | None, Covariance | None]

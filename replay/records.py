@@ -19,6 +19,7 @@ from estimator.detection import Detection
 from estimator.detection.real import Candidate
 from estimator.estimates import Covariance, FusedEstimate
 from estimator.geometry import RobotPose
+from estimator.tracking.ballistic import Landing
 
 __all__ = ["FRAME_STATUSES", "FrameResult", "FrameStatus", "Localisation", "RobotEstimate",
            "StepResult"]
@@ -132,6 +133,10 @@ class StepResult:
     """The ball's true velocity at the step's stamp, when the log holds it."""
     truth_z_m: float | None = None
     """The true height of the ball's centre at the step's stamp, when the log holds it."""
+    vz_m_s: float | None = None
+    """The fused vertical velocity [m/s], when the fusion estimates one (``ballistic``)."""
+    landing: Landing | None = None
+    """Where and when the ball is predicted to land (``ballistic``, while it flies)."""
 
     @property
     def z_error_m(self) -> float | None:

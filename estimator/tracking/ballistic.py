@@ -7,7 +7,8 @@ single robot's view moves the track along that ray and not up or down at will).
 
 Between measurements the ball moves:
 
-- **in the air** (centre above R + ``airborne_m`` or rising): under gravity, x' = x + v dt,
+- **in the air** (centre above R + ``airborne_m`` or rising, and its height known:
+  variance below ``unknown_variance_m2``): under gravity, x' = x + v dt,
   z' = z + vz dt - g dt^2 / 2, vz' = vz - g dt (air drag neglected: a few centimetres over
   the 0.3 s a landing is predicted ahead);
 - **at a bounce** (the flight reaches z = R going down): the step is split at the contact;
@@ -21,9 +22,13 @@ one robot's ground estimate, whose covariance spreads along its ray, moves the t
 across the ray only (a bearing), so its height stays as unknown as it is. Measurements
 farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
 two refusals in a row the track restarts at the second, its velocity from the two (the
-ball hit a robot or a post); after ``max_misses`` the next measurement restarts it. A rolling
-track that is shown a ball clearly in the air restarts flying at once (a kick up), its
-velocity from the way from the last measurement.
+ball hit a robot or a post), and a refused point that fixes all three directions (crossed
+rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next measurement
+restarts it. A rolling track that is shown a ball clearly in the air restarts flying at
+once (a kick up), its velocity from the way from the last measurement; so does one that a
+3-D point lifts off the ground when the filter takes it (a point whose height is wide, rays
+crossing at a shallow angle: the rolling track, its vertical speed held at 0 with no
+variance, would otherwise fly on at 0 and fall short of the rising ball).
 
 :meth:`BallisticTracker.landing` predicts where and when a flying ball next meets the
 ground: t = (vz + sqrt(vz^2 + 2 g (z - R))) / g from now, (x + vx t, y + vy t).
@@ -67,6 +72,11 @@ class BallisticParams:
     """A measurement's covariance direction wider than this is not measured (one robot's
     ray: the spread along it says the height is unknown; the track keeps its own there)."""
     max_misses: int = 3
+    restart_on_fixed: bool = True
+    """A refused measurement that fixes all three directions (crossed rays) restarts the
+    track at once, from the way since the last accepted one: rays that meet are seldom a
+    false blob, so the track met what its model does not know (a robot, a post, a bounce
+    sooner or later than predicted)."""
     initial_speed_sigma_mps: float = 10.0
     launch_sigma_mps: float = 2.0
 
@@ -96,9 +106,19 @@ class BallisticTracker:
         """The last refused measurement, while refusals run in a row."""
 
     @property
+    def last_accepted_ns(self) -> int | None:
+        """The stamp of the last measurement the track took (or restarted at)."""
+        return None if self._last is None else self._last[0]
+
+    @property
     def airborne(self) -> bool:
+        """Flying: above the ground or rising, and the height known (a track whose height
+        variance is past ``unknown_variance_m2``, one robot's, rolls: one ray invents no
+        flight, bounce nor landing)."""
         return self.x is not None and bool(
-            self.x[2] > BALL_RADIUS_M + self.params.airborne_m or self.x[5] > self.params.rest_mps)
+            self.x[2] > BALL_RADIUS_M + self.params.airborne_m
+            or self.x[5] > self.params.rest_mps) and bool(
+            self.P[2, 2] < self.params.unknown_variance_m2)
 
     def _flight(self, dt: float) -> None:
         """Move state and covariance dt seconds under gravity, or rolling."""
@@ -197,6 +217,8 @@ class BallisticTracker:
             if rolling and z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M and (
                     self._launched(stamp_ns, z, Rm)):
                 return True  # the rolling ball does not explain it, a flying one may
+            if self.params.restart_on_fixed and keep.all():
+                return self._restart_fixed(stamp_ns, z, Rm)
             if self._refused is not None and self._restarted(stamp_ns, z, Rm):
                 return True
             self._refused = (stamp_ns, z.copy())
@@ -208,6 +230,8 @@ class BallisticTracker:
         self.P = 0.5 * (self.P + self.P.T)
         if self.x[2] < BALL_RADIUS_M:
             self.x[2] = BALL_RADIUS_M
+        if rolling and self.airborne and keep.all() and self._launched(stamp_ns, z, Rm):
+            return True
         self.misses = 0
         self._refused = None
         self._remember(stamp_ns)
@@ -241,6 +265,16 @@ class BallisticTracker:
         if not 0.0 < dt < 0.5:
             return False
         return self._fly_from(z0, dt, stamp_ns, z, Rm)
+
+    def _restart_fixed(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+        """A refused measurement that fixes a point: restart there, the velocity from the
+        way since the last accepted measurement (when within 0.5 s, else unknown)."""
+        last = self._last
+        if last is not None and 0.0 < (dt := (stamp_ns - last[0]) / NS_PER_S) < 0.5:
+            return self._fly_from(last[1], dt, stamp_ns, z, Rm)
+        self._start(stamp_ns, z, Rm)
+        self._remember(stamp_ns)
+        return True
 
     def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a

@@ -89,7 +89,7 @@ class LobsScore:
     plane_ground_3d: list[float] = field(default_factory=list)
     robots_flight: dict[str, list[float]] = field(default_factory=dict)
     track: TrackScore = field(default_factory=TrackScore)
-    """The ballistic tracker fed with the 3-D fusion's steps (:mod:`replay.evaluate.lobs_track`)."""
+    """The ``ballistic`` fusion's steps (:mod:`replay.evaluate.lobs_track`)."""
 
     def add(self, other: LobsScore) -> None:
         self.track.add(other.track)
@@ -175,11 +175,13 @@ def _replay(log: Path, fusion: str, calibration: Path | None) -> ResultsCollecto
 
 
 def score_lobs_log(log: Path, calibration: Path | None = None) -> LobsScore:
-    """Replay one lobs log with ``triangulate`` and ``robust``, and score it."""
+    """Replay one lobs log with ``triangulate``, ``robust`` and ``ballistic``; score it."""
     tri = _replay(log, "triangulate", calibration)
     plane = _replay(log, "robust", calibration)
     score = score_lobs(tri.fused, plane.fused, tri.frames)
-    score.track = score_track(tri.fused, true_landings(log, FLIGHT_ABOVE_M), FLIGHT_ABOVE_M)
+    tracked = _replay(log, "ballistic", calibration)
+    score.track = score_track(tracked.fused, true_landings(log, FLIGHT_ABOVE_M),
+                              FLIGHT_ABOVE_M)
     return score
 
 
@@ -239,7 +241,7 @@ def lobs_markdown(suite: LobsSuite) -> str:
     ]
     t = p.track
     lines.append(
-        f"| the ballistic tracker on those steps in flight | {len(t.flight_3d)} | "
+        f"| `ballistic` (the tracker on those points) in flight | {len(t.flight_3d)} | "
         f"{_fmt(_rmse(t.flight_3d))} | | |")
     lines += ["", f"Landing point predicted {LEAD_S:g} s ahead (median lead "
               f"{_fmt(_median_abs(t.landing_leads_s))} s): median error "

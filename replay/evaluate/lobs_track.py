@@ -1,5 +1,6 @@
-"""The lobs suite's tracker scores: the ballistic tracker fed with the 3-D fusion's steps,
-scored in flight and on where it predicts the ball lands, 0.3 s ahead.
+"""The lobs suite's tracker scores: the ``ballistic`` fusion's steps (the tracker fed with
+each step's triangulated point, in the replay), scored in flight and on where it predicts
+the ball lands, 0.3 s ahead.
 
 The true landings come from the log's truth at its own rate (240 Hz on
 ``/ground_truth/ball/odometry``): a landing is the first sample back within
@@ -17,10 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
-from estimator.tracking.ballistic import BallisticTracker, Landing
 from replay.log import LogReader
 from replay.log.messages import TruthMessage
 
@@ -64,28 +62,25 @@ def true_landings(log: Path, flight_above_m: float) -> list[tuple[int, float, fl
 
 def score_track(steps: Sequence[dict[str, Any]], landings: Sequence[tuple[int, float, float]],
                 flight_above_m: float) -> TrackScore:
-    """Feed the 3-D fusion's steps (in order) to a :class:`BallisticTracker`; score it."""
-    tracker = BallisticTracker()
-    predictions: list[tuple[int, Landing | None]] = []
+    """Score the ``ballistic`` fusion's steps (results-file form, in order): the 3-D error
+    at the steps in flight whose point came from crossed rays, and each true landing's
+    prediction made :data:`LEAD_S` or more before it."""
+    predictions: list[tuple[int, dict[str, Any] | None]] = []
     score = TrackScore(landings=len(landings))
     for s in steps:
-        if s.get("z_m") is None or s.get("covariance_3d") is None:
+        if s.get("z_m") is None:
             continue
-        tracker.update(int(s["stamp_ns"]), (float(s["x_m"]), float(s["y_m"]), float(s["z_m"])),
-                       np.array(s["covariance_3d"], dtype=np.float64))
-        predictions.append((int(s["stamp_ns"]), tracker.landing()))
-        truth, z_true = s.get("truth"), s.get("truth_z_m")
-        if (truth is not None and z_true is not None and z_true > flight_above_m
-                and s.get("triangulated") and tracker.x is not None):
-            x = tracker.x
-            score.flight_3d.append(math.dist((float(x[0]), float(x[1]), float(x[2])),
-                                             (truth["x_m"], truth["y_m"], z_true)))
+        predictions.append((int(s["stamp_ns"]), s.get("landing")))
+        z_true = s.get("truth_z_m")
+        if (z_true is not None and z_true > flight_above_m and s.get("triangulated")
+                and s.get("error_3d_m") is not None):
+            score.flight_3d.append(float(s["error_3d_m"]))
     for t_land, lx, ly in landings:
         before = [(t, p) for t, p in predictions if t <= t_land - LEAD_S * NS_PER_S]
         if not before or before[-1][1] is None:
             continue
         t, p = before[-1]
         assert p is not None
-        score.landing_errors.append(math.hypot(p.x_m - lx, p.y_m - ly))
+        score.landing_errors.append(math.hypot(float(p["x_m"]) - lx, float(p["y_m"]) - ly))
         score.landing_leads_s.append((t_land - t) / NS_PER_S)
     return score

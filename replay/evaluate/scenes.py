@@ -56,7 +56,9 @@ class Config:
 
 
 CONFIGS = (Config("paper", "mean"),
-           *(Config("corrected", f) for f in FUSION_METHODS))
+           *(Config("corrected", f) for f in FUSION_METHODS if f != "ballistic"))
+"""The paper and random suites' replays. Not ``ballistic``: on their still and rolling
+balls it is ``triangulate`` behind a filter; ``dsp-eval --suite lobs`` scores it."""
 
 Recorder = Callable[[Path, str, int], None]
 """record(path, scenario, seed): writes one log. To run scenes in other processes it must

@@ -41,6 +41,7 @@ CSV_COLUMNS = (
     "cx_px", "cy_px", "r_px", "area_px",
     "robot_x_m", "robot_y_m", "robot_yaw_rad", "robots",
     "z_m", "cov_zz_m2", "truth_z_m", "error_3d_m",
+    "vz_m_s", "landing_t_s", "landing_x_m", "landing_y_m",
 )
 """The CSV's columns, a stable contract: new columns are only ever appended."""
 LOCALISATION_COLUMNS = (
@@ -126,6 +127,11 @@ def _step_row(s: StepResult) -> dict[str, object]:
             row.update(z_m=fused.z_m, truth_z_m=s.truth_z_m, error_3d_m=s.error_3d_m,
                        cov_zz_m2=None if fused.covariance_3d is None
                        else fused.covariance_3d[2][2])
+    if s.vz_m_s is not None:  # the ballistic tracker
+        row["vz_m_s"] = s.vz_m_s
+    if s.landing is not None:
+        row.update(landing_t_s=s.landing.stamp_ns / NS_PER_S, landing_x_m=s.landing.x_m,
+                   landing_y_m=s.landing.y_m)
     return row
 
 

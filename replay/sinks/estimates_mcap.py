@@ -3,10 +3,17 @@
 - ``/estimate/{robot}/ball``: geometry_msgs/msg/PointStamped, one per robot estimate;
 - ``/estimate/ball``: geometry_msgs/msg/PoseWithCovarianceStamped, the fused estimate, with
   the 2x2 position covariance in the x/y block of the 6x6 row-major matrix (other entries 0);
+  a 3-D fusion's (``triangulate``, ``ballistic``) at its height z with the 3x3 covariance in
+  the x/y/z block;
 - ``/estimate/ball/odometry``: nav_msgs/msg/Odometry (frame ``field``, child ``ball``), the
   tracked ball's position and velocity with both 2x2 covariances, when the fusion estimates
-  a velocity (``track``). Its schema is registered with its first message, so a window
-  fusion's file is as it was.
+  a velocity (``track``); ``ballistic``'s with z, vz and the 3x3 position covariance (the
+  velocity's is its level 2x2 block). Its schema is registered with its first message, so a
+  window fusion's file is as it was;
+- ``/estimate/ball/landing``: geometry_msgs/msg/PointStamped, ``ballistic``'s predicted
+  landing while the ball flies: the ball's centre where it meets the ground (z = the ball's
+  radius), ``header.stamp`` the predicted landing time and ``log_time`` the step that
+  predicted it (so a viewer shows the prediction when it was made).
 
 Schemas and messages come from ``dsp.contract``; ``log_time`` = ``publish_time``
 = the estimate's stamp (sim time), never the wall clock. Written to a temporary name and
@@ -25,14 +32,17 @@ from mcap_ros2.writer import Writer
 
 from dsp import contract
 from dsp.atomic import AtomicFile
+from estimator.constants import BALL_RADIUS_M
 from replay.records import FrameResult, StepResult
 from replay.sink import SinkBase
 
-__all__ = ["BALL_FRAME", "FUSED_TOPIC", "ODOMETRY_TOPIC", "ROBOT_TOPIC", "McapSink"]
+__all__ = ["BALL_FRAME", "FUSED_TOPIC", "LANDING_TOPIC", "ODOMETRY_TOPIC", "ROBOT_TOPIC",
+           "McapSink"]
 
 ROBOT_TOPIC = "/estimate/{robot}/ball"
 FUSED_TOPIC = contract.ESTIMATE_TOPIC
 ODOMETRY_TOPIC = contract.ESTIMATE_ODOMETRY_TOPIC
+LANDING_TOPIC = contract.ESTIMATE_LANDING_TOPIC
 BALL_FRAME = "ball"
 """The Odometry's child_frame_id."""
 
@@ -73,28 +83,30 @@ class McapSink(SinkBase):
         fused = result.fused
         assert fused is not None
         t = result.stamp_ns
-        self._writer.write_message(
-            FUSED_TOPIC,
-            self._schemas[contract.POSE_WITH_COVARIANCE_STAMPED],
-            contract.pose_with_covariance_stamped(t, fused.x_m, fused.y_m, fused.covariance),
-            log_time=t,
-            publish_time=t,
-        )
+        z = 0.0 if fused.z_m is None else fused.z_m
+        cov = fused.covariance if fused.covariance_3d is None else fused.covariance_3d
+        self._write(FUSED_TOPIC, contract.POSE_WITH_COVARIANCE_STAMPED, t,
+                    contract.pose_with_covariance_stamped(t, fused.x_m, fused.y_m, cov, z_m=z))
         if result.velocity_m_s is None:
             return
-        if contract.ODOMETRY not in self._schemas:
-            self._schemas[contract.ODOMETRY] = self._writer.register_msgdef(
-                contract.ODOMETRY, contract.MESSAGE_DEFINITIONS[contract.ODOMETRY])
         vx, vy = result.velocity_m_s
-        self._writer.write_message(
-            ODOMETRY_TOPIC,
-            self._schemas[contract.ODOMETRY],
-            contract.odometry(t, BALL_FRAME, fused.x_m, fused.y_m, vx, vy,
-                              position_covariance=fused.covariance,
-                              velocity_covariance=result.velocity_covariance),
-            log_time=t,
-            publish_time=t,
-        )
+        self._write(ODOMETRY_TOPIC, contract.ODOMETRY, t, contract.odometry(
+            t, BALL_FRAME, fused.x_m, fused.y_m, vx, vy, z_m=z,
+            vz_m_s=0.0 if result.vz_m_s is None else result.vz_m_s,
+            position_covariance=cov, velocity_covariance=result.velocity_covariance))
+        landing = result.landing
+        if landing is not None:
+            self._write(LANDING_TOPIC, contract.POINT_STAMPED, t, contract.point_stamped(
+                landing.stamp_ns, landing.x_m, landing.y_m, BALL_RADIUS_M))
+
+    def _write(self, topic: str, schema: str, log_time: int, message: dict[str, object]
+               ) -> None:
+        """One message; a schema not yet in the file is registered with its first one."""
+        if schema not in self._schemas:
+            self._schemas[schema] = self._writer.register_msgdef(
+                schema, contract.MESSAGE_DEFINITIONS[schema])
+        self._writer.write_message(topic, self._schemas[schema], message, log_time=log_time,
+                                   publish_time=log_time)
 
     def close(self, ok: bool) -> None:
         try:

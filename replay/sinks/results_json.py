@@ -23,7 +23,8 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                 "velocity_m_s": [vx, vy], "velocity_covariance": [[..], [..]],
                 "truth_velocity_m_s": [vx, vy], "velocity_error_m_s": float,
                 "z_m", "covariance_3d": 3 x 3, "triangulated", "truth_z_m", "z_error_m",
-                "error_3d_m"}, ...],
+                "error_3d_m", "vz_m_s",
+                "landing": {"stamp_ns", "t_s", "x_m", "y_m"} | null}, ...],
      "summary": {"frames", "steps", "fused_steps", "skipped": {reason: n},
                  "robots": {name: {"frames", "detections", "estimates", "rmse_m", "mean_error_m",
                                    "max_error_m", "errors"}},
@@ -48,7 +49,9 @@ error's norm [m/s] only when the log holds the ball's true velocity
 there only when the fusion gives a height (``triangulate``): the height of the ball's
 centre [m], the 3 x 3 covariance of (x, y, z) [m^2], whether rays crossed (else the height
 is assumed, z = R, and the covariance spreads along a ray), and against the truth's height
-when the log has one: z - z_true and the 3-D error [m].
+when the log has one: z - z_true and the 3-D error [m]. ``vz_m_s`` and ``landing`` only
+from the ballistic tracker (``ballistic``): its vertical velocity [m/s] and where and when
+it predicts the ball next meets the ground (null while the ball is not flying).
 """
 
 from __future__ import annotations
@@ -167,4 +170,10 @@ def step_to_dict(s: StepResult) -> dict[str, Json]:
         out["truth_z_m"] = s.truth_z_m
         out["z_error_m"] = s.z_error_m
         out["error_3d_m"] = s.error_3d_m
+    if s.vz_m_s is not None:  # the ballistic tracker
+        out["vz_m_s"] = s.vz_m_s
+        landing = s.landing
+        out["landing"] = None if landing is None else {
+            "stamp_ns": landing.stamp_ns, "t_s": landing.stamp_ns / NS_PER_S,
+            "x_m": landing.x_m, "y_m": landing.y_m}
     return out

@@ -1,4 +1,5 @@
-"""The shapes and labels the Rerun sink draws: covariance ellipses, rings, the fused label."""
+"""The shapes and labels the Rerun sink draws: covariance ellipses, rings, the fused label,
+the predicted landing's mark."""
 
 from __future__ import annotations
 
@@ -6,10 +7,11 @@ import math
 
 import numpy as np
 
+from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Covariance
 from replay.records import StepResult
 
-__all__ = ["ellipse", "fused_label", "ring"]
+__all__ = ["ellipse", "fused_label", "landing_mark", "ring"]
 
 
 def ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
@@ -40,3 +42,15 @@ def fused_label(result: StepResult) -> str:
     if result.velocity_m_s is not None:
         label += f", {math.hypot(*result.velocity_m_s):.2f} m/s"
     return label
+
+
+def landing_mark(result: StepResult) -> tuple[list[np.ndarray], str]:
+    """The predicted landing (``result.landing``, not None): a ring of the ball's radius on
+    the ground with a cross in it, and its label, the time to it."""
+    landing = result.landing
+    assert landing is not None
+    x, y, r = landing.x_m, landing.y_m, BALL_RADIUS_M
+    cross = [np.array([(x - r, y - r, 0.01), (x + r, y + r, 0.01)]),
+             np.array([(x - r, y + r, 0.01), (x + r, y - r, 0.01)])]
+    ahead_s = (landing.stamp_ns - result.stamp_ns) / NS_PER_S
+    return [ring(x, y, r, z=0.01), *cross], f"lands in {ahead_s:.2f} s"

@@ -47,7 +47,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
-from replay.sinks.rerun.shapes import ellipse, fused_label, ring
+from replay.sinks.rerun.shapes import ellipse, fused_label, landing_mark, ring
 from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
@@ -79,7 +79,7 @@ ENTITY_PATHS = (
     "/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
     "/field/fused", "/field/fused/covariance", "/field/fused/height",
     "/field/ground_truth/ball",
-    "/field/track", "/field/track/trail", "/field/track/velocity",
+    "/field/track", "/field/track/trail", "/field/track/velocity", "/field/track/landing",
     "/robots/{robot}/camera/image", "/robots/{robot}/camera/centre",
     "/robots/{robot}/camera/detection",
     "/robots/{robot}/camera/detection/centroid", "/robots/{robot}/camera/detection/outline",
@@ -89,9 +89,9 @@ ENTITY_PATHS = (
     "/plots/height/fused", "/plots/height/truth",
     "/plots/blob_area/{robot}", "/plots/estimator_ms/{robot}",
 )
-"""Every entity the sink logs (``{robot}`` per robot; the track's only with the tracker, the
-corrected pose and the line points only with ``--localise lines``, the heights only with a
-3-D fusion)."""
+"""Every entity the sink logs (``{robot}`` per robot; the track's only with a tracker, its
+landing only with ``ballistic``, the corrected pose and the line points only with
+``--localise lines``, the heights only with a 3-D fusion)."""
 LOCALISED_PATHS = ("/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
                    "/robots/{robot}/camera/lines")
 """The entities only ``--localise lines`` logs."""
@@ -134,7 +134,7 @@ class RerunSink(SinkBase):
         self.rec.set_log_time_enabled(False)  # sim time only: no wall clock in the recording
         self.colours = {r: robot_colour(i) for i, r in enumerate(info.robots)}
         name = info.scenario.name if info.scenario is not None else None
-        self.kind = scenario_kind(name, tracked=options.fusion_method == "track")
+        self.kind = scenario_kind(name, tracked=options.fusion_method in ("track", "ballistic"))
         self.candidates = options.detector_name == "real"
         self._trail: deque[tuple[int, float, float]] = deque()
         try:
@@ -401,10 +401,19 @@ class RerunSink(SinkBase):
                      rr.LineStrips3D([[(x, y, 0.03) for _, x, y in self._trail]],
                                      colors=[TRACK_COLOUR], radii=0.03))
         vx, vy = velocity
+        z, vz = _BALL_Z if fused.z_m is None else fused.z_m, result.vz_m_s or 0.0
         self.rec.log("/field/track/velocity",
-                     rr.Arrows3D(origins=[(fused.x_m, fused.y_m, _BALL_Z)],
-                                 vectors=[(vx, vy, 0.0)], colors=[TRACK_COLOUR], radii=0.04))
+                     rr.Arrows3D(origins=[(fused.x_m, fused.y_m, z)],
+                                 vectors=[(vx, vy, vz)], colors=[TRACK_COLOUR], radii=0.04))
         self._scalar("/plots/speed/track", math.hypot(vx, vy))
+        if result.vz_m_s is None:  # a level tracker predicts no landing
+            return
+        if result.landing is None:
+            self.rec.log("/field/track/landing", rr.Clear(recursive=False))
+            return
+        strips, label = landing_mark(result)
+        self.rec.log("/field/track/landing", rr.LineStrips3D(
+            strips, colors=[TRACK_COLOUR], radii=0.02, labels=[label], show_labels=True))
 
     def close(self, ok: bool) -> None:
         """Flush and disconnect; a saved .rrd is renamed into place only when ``ok``. A

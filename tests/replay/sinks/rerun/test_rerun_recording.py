@@ -71,9 +71,10 @@ def test_every_entity_in_the_rrd_is_documented_on_its_timelines(chunks: list) ->
     assert "log_time" not in {t for ch in chunks for t in ch.timeline_names}
     # the default fusion tracks the ball: every documented entity is there but the Clear of
     # a track that never was lost, the real detector's candidates (the paper's chain here),
-    # what only --localise lines logs and the heights only a 3-D fusion logs
+    # what only --localise lines logs, the heights only a 3-D fusion logs and the landing
+    # only ballistic predicts
     assert set(documented) - seen <= {"/field/track", "/robots/{robot}/camera/candidates",
-                                      *LOCALISED_PATHS} | HEIGHTS
+                                      "/field/track/landing", *LOCALISED_PATHS} | HEIGHTS
     assert {"/field/track/trail", "/field/track/velocity"} <= seen
 
 

@@ -30,9 +30,9 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   ball at constant velocity restart the track (confirmed) when the track heard nothing since
   they began, or more robots support them (:mod:`estimator.tracking.reacquire`); never from
   where rejected estimates keep falling (clutter: a still false blob that two robots report
-  at once) while the track moves, nor, once it has travelled ``TRAVELLED_M`` from where it
-  began, while it still accepts estimates (a ball come to rest after rolling, that one
-  robot sees, against a box two others keep reporting: a false blob never travels).
+  at once) while the track moves, nor once it has travelled ``TRAVELLED_M`` from where it
+  began (a ball come to rest after rolling, that one robot sees, against a box two others
+  keep reporting: a false blob never travels; a track that hears nothing is lost instead).
 - **Loss**: after ``lost_after_ns`` without an accepted estimate the track is lost
   (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
 - **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
@@ -294,8 +294,8 @@ class BallTracker:
         before = track.entries[i - 1].state if i > 0 else track.anchor
         assert before is not None
         speed = math.hypot(before[0][2], before[0][3])
-        if self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m) and (
-                speed >= STILL_M_S or (track.travelled and self._heard(track, i))):
+        if (speed >= STILL_M_S or track.travelled) and self._clutter.covers(
+                e.m.stamp_ns, e.m.x_m, e.m.y_m):
             return  # a still false blob that robots keep reporting never displaces the ball
         first = reacquire_from(
             [_candidate(x) for x in track.entries[:i + 1]],
@@ -304,12 +304,6 @@ class BallTracker:
             max_speed_m_s=prm.max_speed_m_s, gate=prm.gate)
         if first is not None:
             self._restart_at(track, track.entries[first]).confirmed = True
-
-    def _heard(self, track: _Track, i: int) -> bool:
-        """Did the track accept an estimate within ``reacquire_ns`` before entries[i]?"""
-        since = track.entries[i].m.stamp_ns - self.params.reacquire_ns
-        return track.anchor_accepted_ns >= since or any(
-            x.accepted and x.m.stamp_ns >= since for x in track.entries[:i])
 
     def _confirm(self, track: _Track, e: _Entry) -> None:
         """A tentative track is confirmed once it has accepted estimates of two robots (or

@@ -236,19 +236,25 @@ def test_a_box_two_robots_keep_reporting_never_takes_the_ball_come_to_rest() -> 
     # as in a recorded match: robots 1 and 2 lose the ball at 0.3 s and both report the
     # same box from then on; robot3 alone follows the ball, which rolls 2 m and comes to
     # rest at 1 s. Once the track is still, the box has more robots than the ball, but the
-    # track has travelled with the ball and the box is where rejected estimates pile up
+    # track has travelled with the ball and the box is where rejected estimates pile up.
+    # When robot3 too loses the ball (from 1.55 s), the track stays where the ball lies
+    # until it is lost, 1 s after robot3's last estimate
     def rest(t: float) -> tuple[float, float]:
         s = min(t, 1.0)
         return (1.0 + 4.0 * s - 2.0 * s * s, 2.0 - 0.5 * s)
 
     def seen(robot: str, t: float) -> tuple[float, float] | None:
-        return BOX if robot != "robot3" and t >= 0.3 else rest(t)
+        if robot == "robot3":
+            return rest(t) if t < 1.55 else None
+        return BOX if t >= 0.3 else rest(t)
 
     steps = feed(BallTracker(), seen, frames=30)
     rested = next(state for t, _, _, state in steps if t > 1.2)
     assert rested is not None and rested.speed_m_s < 0.2  # the track is still by then
-    assert not any(a for t, robot, a, _ in steps if robot != "robot3" and t >= 0.3)
-    assert max(off(state, rest(t)) for t, _, _, state in steps[2:]) < 0.1
+    before_loss = [s for s in steps if s[0] <= 2.5]
+    assert not any(a for t, robot, a, _ in before_loss if robot != "robot3" and t >= 0.3)
+    assert max(off(state, rest(t)) for t, _, _, state in before_loss[2:]) < 0.1
+    assert off(steps[-1][3], BOX) < 0.05  # lost, the track starts afresh where robots see
 
 
 def test_one_robot_following_the_moving_ball_confirms_it_against_a_still_box() -> None:

@@ -29,9 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimator.constants import NS_PER_S
-from estimator.tracking.model import Matrix
+from estimator.tracking.model import Gaussian, Matrix
 
-__all__ = ["Candidate", "Point", "chi_square_tail", "cv_fit", "reachable", "reacquire_from"]
+__all__ = ["Candidate", "Point", "chi_square_tail", "cv_fit", "reachable", "reacquire_from",
+           "travelled"]
 
 Point = tuple[float, Matrix, Matrix]
 """(time [s], z [m] (2,), R [m^2] (2, 2))."""
@@ -44,6 +45,9 @@ STILL_M_S = 0.2
 """A track slower than this is still [m/s]."""
 MOVING_M_S = 0.5
 """Estimates whose fitted speed exceeds this are moving [m/s]."""
+TRAVELLED_M = 0.5
+"""A track that has been this far from its first estimate has followed something that
+moves [m]: the ball, not a still false blob (the tracker then lets no clutter displace it)."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,16 @@ def reachable(a: Candidate, b: Candidate, *, max_speed_m_s: float, gate: float) 
     c = a.r + b.r + (max_speed_m_s * dt) ** 2 * np.eye(2)
     dz = b.z - a.z
     return float(dz @ np.linalg.solve(c, dz)) <= gate
+
+
+def travelled(state: Gaussian, origin: Gaussian, *, gate: float) -> bool:
+    """Is a track's position (``state``: x, P) ``TRAVELLED_M`` or more from its first
+    estimate (``origin``: z, R), and beyond the ``gate`` of their noise? A still false blob's
+    track stays within its noise; the ball's travels."""
+    (x, p), (z0, r0) = state, origin
+    dz = x[:2] - z0
+    return bool(math.hypot(dz[0], dz[1]) >= TRAVELLED_M
+                and float(dz @ np.linalg.solve(r0 + p[:2, :2], dz)) > gate)
 
 
 def _moving(first: Candidate, last: Candidate, v: tuple[float, float]) -> bool:

@@ -22,13 +22,17 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
   velocity 0 with sigma ``kick_sigma``), confirmed once it has accepted estimates from two
   robots (or from the same robot when no other reports), and when a robot disagreed with it,
-  once these span ``confirm_ns``. While tentative, two rejected estimates consistent with
-  each other start the track afresh from them.
+  once these span ``confirm_ns``; by one robot, over ``confirm_ns``, once it has travelled
+  (the ball moves) and each other robot's last estimate falls where rejected estimates pile
+  up (a still false blob). While tentative, two rejected estimates consistent with each
+  other start the track afresh from them.
 - **Re-acquisition**: rejected estimates of the last ``reacquire_ns`` that agree on one
   ball at constant velocity restart the track (confirmed) when the track heard nothing since
-  they began, or more robots support them (:mod:`estimator.tracking.reacquire`); never, while
-  the track moves, from where rejected estimates keep falling (clutter: a still false blob
-  that two robots report at once).
+  they began, or more robots support them (:mod:`estimator.tracking.reacquire`); never from
+  where rejected estimates keep falling (clutter: a still false blob that two robots report
+  at once) while the track moves, nor once it has travelled ``TRAVELLED_M`` from where it
+  began (a ball come to rest after rolling, that one robot sees, against a box two others
+  keep reporting: a false blob never travels; a track that hears nothing is lost instead).
 - **Loss**: after ``lost_after_ns`` without an accepted estimate the track is lost
   (:meth:`BallTracker.state_at` gives None); the next estimate starts anew.
 - **Late estimates**: the last ``memory_ns`` of estimates are kept with the filter's state
@@ -56,7 +60,13 @@ from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking.clutter import ClutterMap
 from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
 from estimator.tracking.params import TrackerParams
-from estimator.tracking.reacquire import STILL_M_S, Candidate, reachable, reacquire_from
+from estimator.tracking.reacquire import (
+    STILL_M_S,
+    Candidate,
+    reachable,
+    reacquire_from,
+    travelled,
+)
 from estimator.tracking.smoother import FilterNode, SmoothedTrack
 from estimator.tracking.state import Measurement, TrackState, track_state
 
@@ -104,6 +114,10 @@ class _Track:
     """The stamp of the track's first estimate."""
     contested: bool = False
     """A robot's estimate disagreed with the track while it was tentative."""
+    origin: Gaussian | None = None
+    """The track's first estimate (z, R)."""
+    travelled: bool = False
+    """The track has been ``TRAVELLED_M`` and more than its noise from its first estimate."""
 
 
 class BallTracker:
@@ -155,6 +169,7 @@ class BallTracker:
                 self._reacquire(track, e)
         track = self._track
         assert track is not None
+        self._note_travel(track, e)
         self._confirm(track, e)
         self._prune(track, m.stamp_ns)
         if not e.accepted:
@@ -279,7 +294,8 @@ class BallTracker:
         before = track.entries[i - 1].state if i > 0 else track.anchor
         assert before is not None
         speed = math.hypot(before[0][2], before[0][3])
-        if speed >= STILL_M_S and self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m):
+        if (speed >= STILL_M_S or track.travelled) and self._clutter.covers(
+                e.m.stamp_ns, e.m.x_m, e.m.y_m):
             return  # a still false blob that robots keep reporting never displaces the ball
         first = reacquire_from(
             [_candidate(x) for x in track.entries[:i + 1]],
@@ -293,14 +309,30 @@ class BallTracker:
         """A tentative track is confirmed once it has accepted estimates of two robots (or
         of its only robot, when no other robot reports); when a robot disagreed with it, only
         once they span ``confirm_ns`` too (two robots that take the same box for the ball at
-        once, against the one that sees the ball, do not confirm it at once)."""
+        once, against the one that sees the ball, do not confirm it at once). A track that
+        has travelled is confirmed by one robot once they span ``confirm_ns``, when each
+        other robot's last estimate is rejected where rejected estimates pile up (the ball
+        one robot follows across the field, against a still box the others report)."""
         if not e.accepted:
             return
         track.robots.add(e.m.robot)
-        if not track.confirmed and (len(track.robots) > 1 or all(
-                x.m.robot == e.m.robot for x in track.entries)) and (
-                not track.contested or e.m.stamp_ns - track.start_ns >= self.params.confirm_ns):
+        if track.confirmed:
+            return
+        spans = e.m.stamp_ns - track.start_ns >= self.params.confirm_ns
+        if (len(track.robots) > 1 or all(x.m.robot == e.m.robot for x in track.entries)) and (
+                not track.contested or spans):
             track.confirmed = True
+        elif track.travelled and spans:
+            last = {x.m.robot: x for x in track.entries if x.m.robot not in track.robots}
+            track.confirmed = all(not x.accepted and self._clutter.covers(
+                x.m.stamp_ns, x.m.x_m, x.m.y_m) for x in last.values())
+
+    def _note_travel(self, track: _Track, e: _Entry) -> None:
+        """Mark a track that an accepted estimate puts far from its first estimate
+        (:func:`~estimator.tracking.reacquire.travelled`): it follows the ball."""
+        if not track.travelled and e.accepted and track.origin is not None:
+            assert e.state is not None
+            track.travelled = travelled(e.state, track.origin, gate=self.params.gate)
 
     def _new_track(self, e: _Entry, entries: list[_Entry]) -> _Track:
         """A tentative track anchored at ``e`` (a new segment of the record)."""
@@ -310,7 +342,7 @@ class BallTracker:
             self._nodes.append(FilterNode(e.m.stamp_ns, initial, initial, self._segment))
         return _Track(e.m.stamp_ns, initial, entries, robots={e.m.robot},
                       anchor_accepted_ns=e.m.stamp_ns, anchor_robot=e.m.robot,
-                      start_ns=e.m.stamp_ns)
+                      start_ns=e.m.stamp_ns, origin=(e.z, e.r))
 
     def _prune(self, track: _Track, now_ns: int) -> None:
         """Fold entries older than memory_ns into the anchor."""

@@ -5,9 +5,10 @@ a few frames later. glibc serves an allocation that large with ``mmap`` and give
 ``munmap``, or (once its adaptive threshold has risen) from the heap, whose free top it
 returns to the kernel when it passes a trim threshold (adaptive too: twice the largest buffer
 seen). With images, the decoder's working memory and the log's chunks coming and going, the
-heap's top often passes it, so the next image's memory is fresh and each of its 4 kB pages faults on first touch: in a
-180-frame recorded JPEG log ~1700 minor page faults a frame with ``--threads 1``, more CPU than
-the decoding itself (``python benchmarks/bench_replay.py --recorded --malloc`` prints both).
+heap's top often passes it, so the next image's memory is fresh and each of its 4 kB pages
+faults on first touch: in a 180-frame recorded JPEG log ~1700 minor page faults a frame with
+``--threads 1``, more CPU than the decoding itself
+(``python benchmarks/bench_replay.py --recorded --malloc`` prints both).
 
 :func:`keep_image_buffers` fixes both thresholds (``mallopt``): buffers up to 32 MiB come from
 the heap, and up to 16 MiB of free heap stays mapped for the next images, which then reuse

@@ -45,3 +45,17 @@ def test_freed_image_buffers_are_reused_not_faulted_in_again() -> None:
     pages = 4 * 1080 * 1080 * 3 / 4096  # one round's buffers, in 4 kB pages
     assert default > 0.5 * pages  # by default every round faults its buffers in again
     assert kept < 0.05 * pages
+
+
+def test_dsp_replay_keeps_image_buffers(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import replay.cli
+
+    calls: list[bool] = []
+    keep = replay.cli.keep_image_buffers
+    monkeypatch.setattr(replay.cli, "keep_image_buffers", lambda: calls.append(keep()) or True)
+    log = ROOT / "logs" / "golden" / "scenario2.mcap"
+    assert replay.cli.main([str(log), "--out", str(tmp_path / "r.json"), "-q"]) == 0
+    assert calls == [platform.libc_ver()[0] == "glibc"]
+    # the same bytes as the golden results (made without the tuning)
+    assert (tmp_path / "r.json").read_bytes() == \
+        (ROOT / "logs" / "golden" / "scenario2.corrected-track.json").read_bytes()

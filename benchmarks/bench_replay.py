@@ -1,6 +1,6 @@
 """Benchmark replay: frames per second beside the floor, and peak RSS as the log grows.
 
-    python benchmarks/bench_replay.py --recorded [--seconds 6] [--threads 1,0]
+    python benchmarks/bench_replay.py --recorded [--seconds 6] [--threads 1,0] [--malloc]
     python benchmarks/bench_replay.py [--seconds 2] [--factor 10]
 
 ``--recorded``: records the ``rolling`` scenario (full 1080 x 1080 omni images at 10 Hz,
@@ -17,6 +17,12 @@ Without ``--recorded``: synthetic logs (tests/synthetic.py: tiny PNGs, fast to m
 short one and one ``--factor`` times longer; peak RSS should stay flat (the streaming
 replay's memory does not grow with the log).
 
+Each child also gives its CPU time (user + sys) and minor page faults a frame (the floor's
+over its timed run, the replay's over the whole call): less sensitive to other work on the
+machine than wall time. The replay's child first calls
+:func:`replay.memory.keep_image_buffers`, as ``dsp-replay`` does, so freed image buffers are
+reused instead of faulted in again; ``--malloc`` runs each replay without it as well.
+
 Peak RSS is the child's own (VmHWM from /proc, else resource.getrusage); results JSON and
 estimates MCAP are written as well.
 """
@@ -25,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -39,7 +46,10 @@ T_PROCESS = time.perf_counter()  # (the interpreter's own start-up is before thi
 import json, resource, sys
 from pathlib import Path
 from replay import ReplayOptions, replay
+from replay.memory import keep_image_buffers
 log, out, threads = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
+if sys.argv[4] == "keep":
+    keep_image_buffers()  # as dsp-replay does first
 from replay import SinkBase
 class Clock(SinkBase):
     first = last = None
@@ -47,10 +57,12 @@ class Clock(SinkBase):
         self.last = time.perf_counter()
         self.first = self.first or self.last
 clock = Clock()
+r0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter()
 s = replay(log, ReplayOptions(out=out / "r.json", out_mcap=out / "e.mcap", force=True,
                               progress=False, threads=threads or None), sinks=[clock])
 wall = time.perf_counter() - t0
+r1 = resource.getrusage(resource.RUSAGE_SELF)
 loop_fps = (s.frames - 1) / (clock.last - clock.first)  # between the first and last frame
 # Peak RSS of this program alone: VmHWM belongs to the address space exec made, while
 # ru_maxrss also counts the parent's pages the child had before exec (the parent may hold
@@ -63,12 +75,14 @@ except (OSError, IndexError, ValueError):
 print(json.dumps({"frames": s.frames, "wall_s": wall, "peak_rss_mib": rss_kib / 1024,
                   "frames_per_s": s.frames / wall, "fused_rmse_m": s.fused.rmse_m,
                   "loop_frames_per_s": loop_fps, "start_s": clock.first - t0,
-                  "process_s": time.perf_counter() - T_PROCESS}))
+                  "process_s": time.perf_counter() - T_PROCESS,
+                  "cpu_ms": (r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime) / s.frames
+                  * 1e3, "faults": (r1.ru_minflt - r0.ru_minflt) / s.frames}))
 """
 
 
 FLOOR = r"""
-import json, sys, time
+import json, resource, sys, time
 import cv2, numpy as np
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -88,9 +102,12 @@ def once(path):
                 n += 1
     return n
 t0 = time.perf_counter(); once(sys.argv[1]); cold = time.perf_counter() - t0
+r0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter(); n = once(sys.argv[1]); wall = time.perf_counter() - t0
+r1 = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"frames": n, "wall_s": wall, "frames_per_s": n / wall,
-                  "cold_frames_per_s": n / cold}))
+                  "cold_frames_per_s": n / cold, "faults": (r1.ru_minflt - r0.ru_minflt) / n,
+                  "cpu_ms": (r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime) / n * 1e3}))
 """
 
 
@@ -100,8 +117,24 @@ def _child(code: str, *args: str) -> dict[str, float]:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def measure(log: Path, out: Path, threads: int = 0) -> dict[str, float]:
-    return _child(CHILD, str(log), str(out), str(threads))
+def measure(log: Path, out: Path, threads: int = 0, *, keep: bool = True) -> dict[str, float]:
+    return _child(CHILD, str(log), str(out), str(threads), "keep" if keep else "default")
+
+
+KEYS = ("frames_per_s", "loop_frames_per_s", "start_s", "process_s", "peak_rss_mib", "cpu_ms",
+        "faults")
+
+
+def _row(fmt: str, name: str, runs: list[dict[str, float]], fps0: float) -> str:
+    med = {k: statistics.median(r[k] for r in runs) for k in KEYS}
+    return (f"{fmt:4s} replay(), {name:16s} with start-up {med['frames_per_s']:6.1f} "
+            f"frames/s = {med['frames_per_s'] / fps0:4.2f}x the floor; in the loop "
+            f"{med['loop_frames_per_s']:6.1f} = "
+            f"{med['loop_frames_per_s'] / fps0:4.2f}x; start-up to the first frame "
+            f"{med['start_s']:5.2f} s (whole process {med['process_s']:5.2f} s); "
+            f"peak RSS {med['peak_rss_mib']:6.1f} MiB; CPU (user + sys, all "
+            f"threads, with start-up) {med['cpu_ms']:5.2f} ms a frame, "
+            f"{med['faults']:4.0f} page faults a frame")
 
 
 def speed(args: argparse.Namespace) -> int:
@@ -110,7 +143,8 @@ def speed(args: argparse.Namespace) -> int:
 
     threads = [int(t) for t in args.threads.split(",")]
     print(f"rolling, {args.seconds:g} s, 3 robots, 10 Hz; median of {args.runs} runs, one "
-          "run of the script (figures side by side; the machine is shared and noisy)")
+          "run of the script (figures side by side; the machine is shared and noisy); load "
+          f"average {os.getloadavg()[0]:.1f} at the start")
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         for fmt in ("png", "jpeg"):
@@ -118,28 +152,26 @@ def speed(args: argparse.Namespace) -> int:
             record(log, RecordOptions(scenario="rolling", duration_s=args.seconds,
                                       image_format=fmt))
             floor: list[dict[str, float]] = []
-            runs: dict[int, list[dict[str, float]]] = {n: [] for n in threads}
+            variants = [(n, keep) for n in threads for keep in (True, False)[:1 + args.malloc]]
+            runs: dict[tuple[int, bool], list[dict[str, float]]] = {v: [] for v in variants}
             for _ in range(args.runs):  # interleaved, so the load falls on all alike
                 floor.append(_child(FLOOR, str(log)))
-                for n in threads:
-                    runs[n].append(measure(log, d, n))
+                for n, keep in variants:
+                    runs[n, keep].append(measure(log, d, n, keep=keep))
             fps0 = statistics.median(r["frames_per_s"] for r in floor)
             mib = log.stat().st_size / 2**20
             cold0 = statistics.median(r["cold_frames_per_s"] for r in floor)
+            cpu0, flt0 = (statistics.median(r[k] for r in floor) for k in ("cpu_ms", "faults"))
             print(f"{fmt:4s} {int(floor[0]['frames']):4d} frames {mib:6.1f} MiB  floor "
                   f"(mcap + cv2.imdecode, 1 thread, warm: 2nd run in-process) {fps0:6.1f} "
-                  f"frames/s (1st run {cold0:6.1f})")
-            for n in threads:
-                med = {k: statistics.median(r[k] for r in runs[n])
-                       for k in ("frames_per_s", "loop_frames_per_s", "start_s",
-                                 "process_s", "peak_rss_mib")}
-                name = f"--threads {n}" if n else "default threads"
-                print(f"{fmt:4s} replay(), {name:16s} with start-up {med['frames_per_s']:6.1f} "
-                      f"frames/s = {med['frames_per_s'] / fps0:4.2f}x the floor; in the loop "
-                      f"{med['loop_frames_per_s']:6.1f} = "
-                      f"{med['loop_frames_per_s'] / fps0:4.2f}x; start-up to the first frame "
-                      f"{med['start_s']:5.2f} s (whole process {med['process_s']:5.2f} s); "
-                      f"peak RSS {med['peak_rss_mib']:6.1f} MiB")
+                  f"frames/s (1st run {cold0:6.1f}); CPU {cpu0:5.2f} ms a frame, "
+                  f"{flt0:4.0f} page faults a frame")
+            for n, keep in variants:
+                name = (f"--threads {n}" if n else "default threads") + ("" if keep else
+                                                                        ", malloc as is")
+                print(_row(fmt, name, runs[n, keep], fps0))
+        print(f"load average {os.getloadavg()[0]:.1f} at the end, on {os.cpu_count()} cores (wall "
+              "figures suffer from other work; CPU time and page faults much less)")
     return 0
 
 
@@ -153,6 +185,9 @@ def main() -> int:
     p.add_argument("--threads", default="0,1",
                    help="--recorded: comma-separated --threads values (0: the default)")
     p.add_argument("--runs", type=int, default=3, help="--recorded: runs per figure")
+    p.add_argument("--malloc", action="store_true",
+                   help="--recorded: each replay also without keep_image_buffers (glibc's "
+                   "malloc left as it is), interleaved")
     args = p.parse_args()
     if args.recorded:
         args.seconds = args.seconds or 6.0

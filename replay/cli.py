@@ -27,6 +27,7 @@ from dsp.plotting import FIGURE_SUFFIXES
 from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
 from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
+from replay.memory import keep_image_buffers
 from replay.options import (
     DEFAULT_POSE_SIGMA,
     LOCALISE_MODES,
@@ -303,6 +304,7 @@ def _main(argv: Sequence[str] | None) -> int:
                            ("--grpc-port", args.grpc_port)) if v is not None]
     if live and not args.serve:
         raise UsageError(f"{', '.join(live)} only go with --serve")
+    keep_image_buffers()  # freed decoded images stay mapped: no page faults refilling them
     if is_batch(args):
         return run_batch(args, options_from_args)
     check_single(args)

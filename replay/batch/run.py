@@ -42,6 +42,7 @@ from dsp.progress import progress_bar
 from dsp.text import printable
 from replay.batch.summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError
+from replay.memory import keep_image_buffers
 from replay.options import ReplayOptions
 from replay.parallel import Outcome, Workers, map_tasks
 from replay.records import FrameResult, StepResult
@@ -128,6 +129,7 @@ def replay_log(task: LogTask) -> LogRow:
     if not (task.log.is_file() and os.access(task.log, os.R_OK)):
         return LogRow(name, f"{task.log}: cannot read the log on host "
                       f"{socket.gethostname()} ({SHARED_PATH_HINT})")
+    keep_image_buffers()  # a pool or Ray worker is a process of its own
     sums = _Sums()
     try:
         s = replay(task.log, task.options, sinks=[sums])

@@ -10,7 +10,8 @@ found first:
 
 A robot described by none of them is an error that says what to give
 (:class:`~replay.errors.NoCameraError`): a replay never guesses a camera. ``--calibration
-FILE`` (or ``paper``) then replaces every robot's calibration, keeping the rest of its
+FILE`` (or ``paper``), or a model from outside (``--calibration-model``,
+:mod:`replay.plugins`), then replaces every robot's calibration, keeping the rest of its
 description. The files a replay reads besides the log are read here.
 """
 
@@ -102,7 +103,8 @@ def _missing(log: str, robots: Sequence[str], metadata: CameraSet | None,
 
 def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
                 cameras: Path | str | None = None,
-                calibration: Path | str | None = None) -> Cameras:
+                calibration: Path | str | None = None,
+                calibration_model: Calibration | None = None) -> Cameras:
     """Each robot's camera (see the module docstring for the order); raises
     :class:`~replay.errors.NoCameraError` for a robot nothing describes."""
     given: CameraSet | None = None
@@ -130,6 +132,8 @@ def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
     elif calibration is not None:
         model, rms = read_calibration(Path(calibration))
         calibrations = dict.fromkeys(robots, model)
+    elif calibration_model is not None:  # a model from outside: no fit residual to add
+        calibrations, rms = dict.fromkeys(robots, calibration_model), 0.0
     return Cameras(specs, calibrations, rms, sources)
 
 

@@ -57,6 +57,9 @@ class Cameras:
     """The calibrations' fit residual RMS [m] when their files record one (0: a model)."""
     sources: Mapping[str, str] | None = None
     """Robot -> where its description came from ("metadata", the camera file, "paper")."""
+    calibration_source: str | None = None
+    """What replaced every robot's calibration (``--calibration FILE``,
+    ``--calibration-model SPEC``); None: each robot's description gives its own."""
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
@@ -127,14 +130,17 @@ def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
         raise _missing(log, missing, metadata, cameras)
     calibrations = {r: s.range_calibration for r, s in specs.items()}
     rms = max((s.calibration_rms_m or 0.0 for s in specs.values()), default=0.0)
+    replaced = None
     if calibration == PAPER:
         calibrations, rms = dict.fromkeys(robots, PAPER_CALIBRATION), 0.0
+        replaced = "--calibration paper"
     elif calibration is not None:
         model, rms = read_calibration(Path(calibration))
-        calibrations = dict.fromkeys(robots, model)
+        calibrations, replaced = dict.fromkeys(robots, model), f"--calibration {calibration}"
     elif calibration_model is not None:  # a model from outside: no fit residual to add
         calibrations, rms = dict.fromkeys(robots, calibration_model), 0.0
-    return Cameras(specs, calibrations, rms, sources)
+        replaced = "--calibration-model"
+    return Cameras(specs, calibrations, rms, sources, replaced)
 
 
 def read_calibration(path: Path) -> tuple[Calibration, float]:

@@ -158,6 +158,8 @@ def test_a_calibration_model_and_a_tracker_from_outside(site: Path, tmp_path: Pa
     done = _replay(site, still, "--calibration-model",
                    "dsp_example_parts.calibration:QuadraticCalibration")
     assert done.returncode == 0, done.stderr
+    assert ("or the example-quadratic calibration from --calibration-model right for this "
+            "camera?") in done.stderr  # the warning says where robot1's ranges came from
     a, b = _load(moving), _load(still)
     assert a["parts"]["calibration"] == {"name": "example-quadratic", "version": "0.1.0",
                                          "spec": "example-quadratic",

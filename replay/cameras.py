@@ -10,7 +10,8 @@ found first:
 
 A robot described by none of them is an error that says what to give
 (:class:`~replay.errors.NoCameraError`): a replay never guesses a camera. ``--calibration
-FILE`` (or ``paper``) then replaces every robot's calibration, keeping the rest of its
+FILE`` (or ``paper``), or a model from outside (``--calibration-model``,
+:mod:`replay.plugins`), then replaces every robot's calibration, keeping the rest of its
 description. The files a replay reads besides the log are read here.
 """
 
@@ -56,6 +57,9 @@ class Cameras:
     """The calibrations' fit residual RMS [m] when their files record one (0: a model)."""
     sources: Mapping[str, str] | None = None
     """Robot -> where its description came from ("metadata", the camera file, "paper")."""
+    calibration_source: str | None = None
+    """What replaced every robot's calibration (``--calibration FILE``,
+    ``--calibration-model SPEC``); None: each robot's description gives its own."""
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
@@ -102,7 +106,8 @@ def _missing(log: str, robots: Sequence[str], metadata: CameraSet | None,
 
 def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
                 cameras: Path | str | None = None,
-                calibration: Path | str | None = None) -> Cameras:
+                calibration: Path | str | None = None,
+                calibration_model: Calibration | None = None) -> Cameras:
     """Each robot's camera (see the module docstring for the order); raises
     :class:`~replay.errors.NoCameraError` for a robot nothing describes."""
     given: CameraSet | None = None
@@ -125,12 +130,17 @@ def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
         raise _missing(log, missing, metadata, cameras)
     calibrations = {r: s.range_calibration for r, s in specs.items()}
     rms = max((s.calibration_rms_m or 0.0 for s in specs.values()), default=0.0)
+    replaced = None
     if calibration == PAPER:
         calibrations, rms = dict.fromkeys(robots, PAPER_CALIBRATION), 0.0
+        replaced = "--calibration paper"
     elif calibration is not None:
         model, rms = read_calibration(Path(calibration))
-        calibrations = dict.fromkeys(robots, model)
-    return Cameras(specs, calibrations, rms, sources)
+        calibrations, replaced = dict.fromkeys(robots, model), f"--calibration {calibration}"
+    elif calibration_model is not None:  # a model from outside: no fit residual to add
+        calibrations, rms = dict.fromkeys(robots, calibration_model), 0.0
+        replaced = "--calibration-model"
+    return Cameras(specs, calibrations, rms, sources, replaced)
 
 
 def read_calibration(path: Path) -> tuple[Calibration, float]:

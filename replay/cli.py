@@ -181,6 +181,10 @@ def _add_input_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calibration", metavar="FILE",
                    help="calibration JSON for every robot, replacing its camera's; 'paper' "
                    "for the paper's eq. 4 (and its image centre where the log names no camera)")
+    p.add_argument("--calibration-model", metavar="NAME|package.module:Class",
+                   help="a calibration model from outside for every robot, replacing its "
+                   "camera's: an installed dual_sight.calibrations entry point's name, or "
+                   "package.module:Class (docs/compare.md)")
     p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
                    help="image topic pattern, {robot} = robot name (default %(default)s)")
     p.add_argument("--pose-topic", default=contract.POSE_TOPIC,
@@ -221,6 +225,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     return ReplayOptions(
         method=args.method, detector=args.detector, ball=args.ball,
         fusion=args.fusion, calibration=_input(args.calibration),
+        calibration_model=args.calibration_model,
         cameras=_input(args.cameras), smooth=args.smooth, noise=args.noise,
         clock_hz=args.clock_hz, localise=args.localise,
         pose_sigma_m=args.pose_sigma[0], pose_sigma_deg=args.pose_sigma[1],

@@ -118,8 +118,9 @@ class Diagnosis(SinkBase):
                 spec = self.cameras.specs[robot]
                 cu, cv = spec.centre_px
                 calibration = self.cameras.calibrations[robot].name
+                where = self.cameras.calibration_source or self._where(robot)
                 out.append(f"{log}: {c.out_of_range} of the {c.detections} balls {robot} saw "
                            f"are out of range (beyond its calibration or usable radius): is "
                            f"the image centre ({cu:g}, {cv:g}) or the {calibration} "
-                           f"calibration from {self._where(robot)} right for this camera?")
+                           f"calibration from {where} right for this camera?")
         return out

@@ -160,7 +160,7 @@ class FrameEstimator:
         self.tracker: BallTracker | None = None
         self.detector = detector
         if not plugins.is_builtin("fusion", fusion_method):  # a window fusion from outside
-            self.fusion = plugins.load_part("fusion", fusion_method).obj
+            self.fusion = plugins.new_part("fusion", fusion_method)  # its own: a clean state
         elif fusion_method == "track":
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)

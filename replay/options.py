@@ -19,6 +19,7 @@ from dsp.atomic import check_distinct, check_output_path
 from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
 from dsp.errors import UsageError
 from dsp.jsonio import Json
+from estimator.calibration import Calibration
 from estimator.constants import NS_PER_S
 from estimator.fusion import FUSION_METHODS
 from replay import plugins
@@ -109,6 +110,10 @@ class ReplayOptions:
     calibration: Path | str | None = None
     """A calibration file for every robot, or "paper" (the paper's eq. 4 and, for a robot
     the log describes no camera of, its image centre too)."""
+    calibration_model: str | None = None
+    """A calibration model from outside for every robot, in place of its camera's: an entry
+    point's name (``dual_sight.calibrations``) or ``package.module:Class``
+    (:mod:`replay.plugins`); not with ``calibration``."""
     cameras: Path | str | None = None
     """A camera file (:mod:`dsp.camera_file`), or "paper" (the paper's camera for every
     robot); None: the log's ``dsp.cameras`` metadata (:mod:`replay.cameras`)."""
@@ -185,6 +190,11 @@ class ReplayOptions:
             plugins.load_part("fusion", self.fusion_method)  # a fusion from outside, or one line
         if not plugins.is_builtin("detector", self.detector):
             plugins.load_part("detector", str(self.detector))
+        if self.calibration_model is not None:
+            if self.calibration is not None:
+                raise UsageError("--calibration-model and --calibration both replace every "
+                                 "robot's calibration; give one of the two")
+            plugins.load_part("calibration", self.calibration_model)
         if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
             raise UsageError(f"--threads {self.threads}; must be >= 1")
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
@@ -296,6 +306,8 @@ class ReplayOptions:
             "method": self.method,
             "fusion": self.fusion_method,
             "calibration": None if self.calibration is None else Path(self.calibration).name,
+            **({"calibration_model": self.calibration_model}
+               if self.calibration_model is not None else {}),
             **({"cameras": Path(self.cameras).name} if self.cameras is not None else {}),
             "image_topic": self.image_topic,
             "pose_topic": self.pose_topic,
@@ -337,9 +349,17 @@ class ReplayOptions:
         part: plugins.Detector = plugins.load_part("detector", str(self.detector)).obj
         return part
 
+    def calibration_part(self) -> Calibration | None:
+        """The calibration model from outside, None when the cameras' or a file's is used."""
+        if self.calibration_model is None:
+            return None
+        part: Calibration = plugins.load_part("calibration", self.calibration_model).obj
+        return part
+
     def parts_view(self) -> dict[str, Json]:
         """The parts from outside the package (:func:`replay.plugins.parts_view`)."""
-        return plugins.parts_view({"detector": self.detector, "fusion": self.fusion_method})
+        return plugins.parts_view({"detector": self.detector, "fusion": self.fusion_method,
+                                   "calibration": self.calibration_model})
 
     def as_dict(self) -> dict[str, object]:
         """All options as plain values (for hashing into a Rerun recording id); not the
@@ -349,5 +369,7 @@ class ReplayOptions:
         if not self.localising:  # as before the option existed: the same recording ids
             for key in ("localise", "pose_sigma_m", "pose_sigma_deg"):
                 d.pop(key)
+        if self.calibration_model is None:
+            d.pop("calibration_model")
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

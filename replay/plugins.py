@@ -1,13 +1,16 @@
-"""Estimator parts from outside the package: detectors and fusions, by name or by path.
+"""Estimator parts from outside the package: detectors, fusions, calibration models.
 
-A part is named on the command line (``dsp-replay --detector SPEC``, ``--fusion SPEC``) and
-in :class:`~replay.options.ReplayOptions` by one of:
+A part is named on the command line (``dsp-replay --detector SPEC``, ``--fusion SPEC``,
+``--calibration-model SPEC``) and in :class:`~replay.options.ReplayOptions` by one of:
 
-- a built-in name: the fusions of :data:`estimator.fusion.FUSION_METHODS`, the detector
-  detectors :data:`replay.real_ball.DETECTORS` (the paper's chain,
-  :func:`estimator.detection.detect_ball`, and the real-ball detector of a ball model);
+- a built-in name: the fusions of :data:`estimator.fusion.FUSION_METHODS`, the detectors
+  :data:`replay.real_ball.DETECTORS` (the paper's chain,
+  :func:`estimator.detection.detect_ball`, and the real-ball detector of a ball model); the
+  built-in calibration models have no such name: a calibration file (``--calibration``)
+  names them with its parameters;
 - an entry point's name in the group :data:`GROUPS` gives (``dual_sight.detectors``,
-  ``dual_sight.fusions``), which an installed distribution declares in its pyproject::
+  ``dual_sight.fusions``, ``dual_sight.calibrations``), which an installed distribution
+  declares in its pyproject::
 
       [project.entry-points."dual_sight.fusions"]
       median = "my_parts.fusion:MedianFusion"
@@ -15,11 +18,16 @@ in :class:`~replay.options.ReplayOptions` by one of:
 - ``package.module:Class``, imported from ``sys.path``.
 
 The class is called with no arguments. A fusion is an :class:`estimator.fusion.Fusion`
-(``name``, ``fuse(estimates) -> FusedEstimate | None``); a detector a :class:`Detector`
-(``name``, ``detect(image_bgr) -> Detection | None``, called from the decoding threads, so
-it must be thread-safe). Results name a part from outside, its distribution's version and
-how it was found in their header (``parts``: :func:`parts_view`), so ``dsp-compare`` can say
-what differed; built-in parts are named by the options alone (files stay as they were).
+(``name``, ``fuse(estimates) -> FusedEstimate | None``), made afresh for each replay
+(:func:`new_part`) so one that keeps state from step to step, a tracker, starts clean; a
+detector a :class:`Detector` (``name``, ``detect(image_bgr) -> Detection | None``, called
+from the decoding threads, so it must be thread-safe); a calibration model an
+:class:`estimator.calibration.Calibration` (``name``, ``range_m(r_px) -> float``, raising
+:class:`estimator.errors.OutOfRangeError` where it has no range, ``to_dict()``), used for
+every robot in place of its camera's. Results name a part from outside, its distribution's
+version and how it was found in their header (``parts``: :func:`parts_view`), so
+``dsp-compare`` can say what differed; built-in parts are named by the options alone (files
+stay as they were).
 A spec that does not load is one line (:class:`~dsp.errors.UsageError`).
 """
 
@@ -35,14 +43,18 @@ import numpy as np
 
 from dsp.errors import UsageError
 from dsp.jsonio import Json
+from estimator.calibration import Calibration
 from estimator.detection import Detection
 from estimator.fusion import FUSION_METHODS, Fusion
 from replay.real_ball import DETECTORS
 
-__all__ = ["GROUPS", "Detector", "Part", "load_part", "parts_view"]
+__all__ = ["GROUPS", "Detector", "Part", "load_part", "new_part", "parts_view"]
 
-GROUPS = {"detector": "dual_sight.detectors", "fusion": "dual_sight.fusions"}
-BUILTIN = {"detector": DETECTORS, "fusion": FUSION_METHODS}
+GROUPS = {"detector": "dual_sight.detectors", "fusion": "dual_sight.fusions",
+          "calibration": "dual_sight.calibrations"}
+BUILTIN: dict[str, tuple[str, ...]] = {"detector": DETECTORS, "fusion": FUSION_METHODS,
+                                       "calibration": ()}
+FLAGS = {"detector": "--detector", "fusion": "--fusion", "calibration": "--calibration-model"}
 
 
 @runtime_checkable
@@ -53,6 +65,13 @@ class Detector(Protocol):
     def name(self) -> str: ...
 
     def detect(self, image_bgr: np.ndarray) -> Detection | None: ...
+
+
+PROTOCOLS: dict[str, tuple[type, str]] = {
+    "detector": (Detector, "name and detect(image)"),
+    "fusion": (Fusion, "name and fuse(estimates)"),
+    "calibration": (Calibration, "name, range_m(r_px) and to_dict()"),
+}
 
 
 @dataclass(frozen=True)
@@ -66,6 +85,9 @@ class Part:
     source: str
     """"entry point" (its group) or "module" (``package.module:Class``)."""
     obj: Any
+    make: Any
+    """What ``obj`` was made by (:func:`new_part` calls it again), or ``obj`` itself when
+    the spec names an object rather than a class."""
 
     def view(self) -> dict[str, Json]:
         return {"spec": self.spec, "name": self.name, "version": self.version,
@@ -87,7 +109,7 @@ def _version_of(module: str, ep: metadata.EntryPoint | None) -> str:
 
 
 def _import(kind: str, spec: str) -> tuple[Any, str, metadata.EntryPoint | None]:
-    flag = f"--{kind}"
+    flag = FLAGS[kind]
     if ":" in spec:
         module, _, attr = spec.partition(":")
         try:
@@ -102,9 +124,10 @@ def _import(kind: str, spec: str) -> tuple[Any, str, metadata.EntryPoint | None]
     if not found:
         names = sorted({*BUILTIN[kind], *(ep.name for ep in
                                          metadata.entry_points(group=GROUPS[kind]))})
-        raise UsageError(f"{flag} {spec!r}: not a built-in {kind} nor an installed "
-                         f"{GROUPS[kind]} entry point; choose one of {', '.join(names)} or "
-                         "give package.module:Class")
+        what = f"a built-in {kind} nor " if BUILTIN[kind] else ""
+        choose = f"choose one of {', '.join(names)} or " if names else ""
+        raise UsageError(f"{flag} {spec!r}: not {what}an installed {GROUPS[kind]} entry "
+                         f"point; {choose}give package.module:Class")
     ep = found[0]
     try:
         obj = ep.load()
@@ -118,19 +141,29 @@ def _import(kind: str, spec: str) -> tuple[Any, str, metadata.EntryPoint | None]
 def load_part(kind: str, spec: str) -> Part:
     """The part ``spec`` names (not a built-in one), made and checked; cached per process."""
     obj, module, ep = _import(kind, spec)
-    try:
-        part = obj() if isinstance(obj, type) or callable(obj) else obj
-    except Exception as err:
-        raise UsageError(f"--{kind} {spec}: making it failed ({type(err).__name__}: "
-                         f"{err})") from None
-    protocol: type = Fusion if kind == "fusion" else Detector
+    make = obj if isinstance(obj, type) or callable(obj) else (lambda: obj)
+    part = _make(kind, spec, make)
+    protocol, wants = PROTOCOLS[kind]
     if not isinstance(part, protocol):
-        wants = "name and fuse(estimates)" if kind == "fusion" else "name and detect(image)"
-        raise UsageError(f"--{kind} {spec}: {type(part).__name__} is not a {kind} (it needs "
-                         f"{wants})")
+        raise UsageError(f"{FLAGS[kind]} {spec}: {type(part).__name__} is not a {kind} (it "
+                         f"needs {wants})")
     named: Any = part
     return Part(kind, spec, str(named.name), _version_of(module, ep),
-                f"entry point {GROUPS[kind]}" if ep is not None else "module", part)
+                f"entry point {GROUPS[kind]}" if ep is not None else "module", part, make)
+
+
+def _make(kind: str, spec: str, make: Any) -> Any:
+    try:
+        return make()
+    except Exception as err:
+        raise UsageError(f"{FLAGS[kind]} {spec}: making it failed ({type(err).__name__}: "
+                         f"{err})") from None
+
+
+def new_part(kind: str, spec: str) -> Any:
+    """A new instance of the part ``spec`` names (checked once, by :func:`load_part`): each
+    replay's own, so a part that keeps state does not carry it from one replay to the next."""
+    return _make(kind, spec, load_part(kind, spec).make)
 
 
 def is_builtin(kind: str, spec: str | None) -> bool:

@@ -103,6 +103,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         _check_options(path, info, options)
         cameras = cameras_for(
             info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
+            calibration_model=options.calibration_part(),
             metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))

@@ -1,6 +1,7 @@
 """Parts from outside: the example package under examples/ installed with pip (offline, into
 a folder of its own), picked by entry point and by path, its results checked against the
-same algorithms computed here, the header naming the parts; bad specs are one line."""
+same algorithms computed here (a detector, a fusion, a tracker keeping state from step to
+step, a calibration model), the header naming the parts; bad specs are one line."""
 
 from __future__ import annotations
 
@@ -16,14 +17,16 @@ import cv2
 import numpy as np
 import pytest
 
+from dsp.errors import UsageError
 from replay.compare import compare
 from replay.log import ImageMessage, LogReader, decode_image
 from replay.options import ReplayOptions
-from replay.plugins import load_part
+from replay.plugins import load_part, new_part
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "dual-sight-example-parts"
 LOG = ROOT / "logs" / "golden" / "scenario2.mcap"
+ROLLING = ROOT / "logs" / "golden" / "rolling.mcap"  # a moving ball: a tracker's state shows
 
 
 @pytest.fixture(scope="module")
@@ -40,10 +43,16 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return target
 
 
-def _replay(site: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+def _replay(site: Path, out: Path, *extra: str,
+            log: Path = LOG) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(site)}
-    return subprocess.run([sys.executable, "-m", "replay.cli", str(LOG), "--out", str(out),
+    return subprocess.run([sys.executable, "-m", "replay.cli", str(log), "--out", str(out),
                            "-q", *extra], env=env, capture_output=True, text=True)
+
+
+def _quadratic_range(r_px: float) -> float | None:
+    """The example calibration model, written out here: None beyond its 500 px horizon."""
+    return 0.05 + 0.0165 * r_px + 1.0e-6 * r_px**2 if r_px <= 500.0 else None
 
 
 def _reference_centroids() -> dict[tuple[int, str], tuple[float, float]]:
@@ -109,7 +118,9 @@ def test_a_spec_that_does_not_load_is_one_line(site: Path, tmp_path: Path) -> No
     cases = [(["--fusion", "no-such"], "not a built-in fusion"),
              (["--detector", "no_such_module:X"], "No module named"),
              (["--detector", "os:getcwd"], "is not a detector"),
-             (["--fusion", "dsp_example_parts.detector:CentroidDetector"], "is not a fusion")]
+             (["--fusion", "dsp_example_parts.detector:CentroidDetector"], "is not a fusion"),
+             (["--calibration-model", "dsp_example_parts.fusion:MedianFusion"],
+              "is not a calibration")]
     for extra, what in cases:
         done = _replay(site, tmp_path / "x.json", *extra)
         assert done.returncode == 2, extra
@@ -124,3 +135,71 @@ def test_a_part_from_sys_path_in_process() -> None:
     opts = ReplayOptions(fusion="estimator.fusion:MeanFusion")
     assert opts.results_view()["fusion"] == "estimator.fusion:MeanFusion"
     assert opts.parts_view()["fusion"] == part.view()
+
+
+def _check_ranges(frames: list[dict[str, Any]]) -> None:
+    """Each located frame's range is the example model's; beyond its horizon, out of range."""
+    for f in frames:
+        if f["detection"] is None:
+            continue
+        expected = _quadratic_range(f["detection"]["r_px"])
+        if expected is None:
+            assert f["status"] == "out_of_range" and f["estimate"] is None
+        else:
+            assert f["status"] == "ok"
+            assert f["estimate"]["range_m"] == pytest.approx(expected, abs=2e-6)
+
+
+def test_a_calibration_model_and_a_tracker_from_outside(site: Path, tmp_path: Path) -> None:
+    moving, still = tmp_path / "moving.json", tmp_path / "still.json"
+    done = _replay(site, moving, "--calibration-model", "example-quadratic", "--fusion",
+                   "example-smoothing", log=ROLLING)
+    assert done.returncode == 0, done.stderr
+    done = _replay(site, still, "--calibration-model",
+                   "dsp_example_parts.calibration:QuadraticCalibration")
+    assert done.returncode == 0, done.stderr
+    assert ("or the example-quadratic calibration from --calibration-model right for this "
+            "camera?") in done.stderr  # the warning says where robot1's ranges came from
+    a, b = _load(moving), _load(still)
+    assert a["parts"]["calibration"] == {"name": "example-quadratic", "version": "0.1.0",
+                                         "spec": "example-quadratic",
+                                         "source": "entry point dual_sight.calibrations"}
+    assert a["options"]["calibration_model"] == "example-quadratic"
+    assert b["parts"] == {"calibration": {**a["parts"]["calibration"], "source": "module",
+                                          "spec": "dsp_example_parts.calibration:"
+                                                  "QuadraticCalibration"}}
+    _check_ranges(a["frames"])
+    _check_ranges(b["frames"])  # scenario 2: one robot sees the ball beyond 500 px
+    assert {f["status"] for f in b["frames"]} == {"ok", "out_of_range"}
+    # the tracker: each step moves half way from its last output to the step's median
+    track = None
+    moved = 0
+    for step in a["fused"]:
+        est = [f["estimate"] for f in a["frames"]
+               if f["stamp_ns"] == step["stamp_ns"] and f["estimate"] is not None]
+        median = np.array([np.median([e["x_m"] for e in est]),
+                           np.median([e["y_m"] for e in est])])
+        track = median if track is None else track + 0.5 * (median - track)
+        assert [step["x_m"], step["y_m"]] == pytest.approx(list(track), abs=2e-6)
+        moved += bool(np.hypot(*(track - median)) > 0.05)
+    assert len(a["fused"]) >= 3 and moved >= 2  # the state shows: the track lags the median
+
+
+def test_a_bad_calibration_model_and_a_fresh_part_per_replay() -> None:
+    cases = [({"calibration_model": "no-such"}, "not an installed dual_sight.calibrations"),
+             ({"calibration_model": "no_such_module:X"}, "No module named"),
+             ({"calibration_model": "estimator.fusion:MeanFusion"}, "is not a calibration"),
+             ({"calibration_model": "estimator.calibration:LinearCalibration"},
+              "making it failed"),
+             ({"calibration_model": "estimator.fusion:MeanFusion", "calibration": "paper"},
+              "give one of the two")]
+    for kwargs, what in cases:
+        with pytest.raises(UsageError) as err:
+            ReplayOptions(**kwargs)  # type: ignore[arg-type]
+        assert what in str(err.value) and "\n" not in str(err.value), str(err.value)
+        assert str(err.value).startswith("--calibration-model"), str(err.value)
+    # a fusion from outside is made anew for each replay: no state carried over
+    spec = "estimator.fusion:MeanFusion"
+    first, second = new_part("fusion", spec), new_part("fusion", spec)
+    assert first is not second and type(first) is type(second)
+    assert first is not load_part("fusion", spec).obj

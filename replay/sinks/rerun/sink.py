@@ -135,6 +135,7 @@ class RerunSink(SinkBase):
         self.colours = {r: robot_colour(i) for i, r in enumerate(info.robots)}
         name = info.scenario.name if info.scenario is not None else None
         self.kind = scenario_kind(name, tracked=options.fusion_method in ("track", "ballistic"))
+        self.heights = options.fusion_method in ("triangulate", "ballistic")
         self.candidates = options.detector_name == "real"
         self._trail: deque[tuple[int, float, float]] = deque()
         try:
@@ -144,7 +145,7 @@ class RerunSink(SinkBase):
             raise
 
     def blueprint(self) -> rrb.Blueprint:
-        return blueprint(self.info.robots, self.field, self.kind)
+        return blueprint(self.info.robots, self.field, self.kind, heights=self.heights)
 
     def _open(self, *, force: bool) -> None:
         mode, target = self.target.mode, self.target.target
@@ -206,9 +207,12 @@ class RerunSink(SinkBase):
             width = 3.0 if name == "fused" else 1.5
             rec.log(f"/plots/error/{name}",
                     rr.SeriesLines(colors=[colour], names=[name], widths=[width]), static=True)
-        for name, colour in (("track", TRACK_COLOUR), ("truth", TRUTH_COLOUR)):
-            rec.log(f"/plots/speed/{name}", rr.SeriesLines(colors=[colour], names=[name]),
-                    static=True)
+        series = [("speed/track", TRACK_COLOUR), ("speed/truth", TRUTH_COLOUR)]
+        if self.heights:  # the plot's own colours, not the viewer's defaults
+            series += [("height/fused", FUSED_COLOUR), ("height/truth", TRUTH_COLOUR)]
+        for path, colour in series:
+            rec.log(f"/plots/{path}", rr.SeriesLines(colors=[colour],
+                                                     names=[path.split("/")[1]]), static=True)
         for robot in self.info.robots:
             for plot in ("blob_area", "estimator_ms"):
                 rec.log(f"/plots/{plot}/{robot}",

@@ -168,7 +168,7 @@ def test_the_landing_topic_and_the_height_round_trip_through_the_mcap(tmp_path: 
 def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
     """A lob's steps through the Rerun sink: /field/track/landing is a ring with a cross on
     the ground at each predicted landing, labelled with the time to it; cleared while the
-    ball does not fly."""
+    ball does not fly; the trail follows the ball up and down."""
     rr_chunk = pytest.importorskip("rerun.chunk")
     from replay.log import LogReader
     from replay.options import RerunTarget
@@ -185,8 +185,10 @@ def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
     for s in steps:
         sink.step(s)
     sink.close(True)
-    drawn, labels, cleared = [], [], 0
+    drawn, labels, cleared, trails = [], [], 0, []
     for ch in rr_chunk.RrdReader(rrd).stream():
+        if ch.entity_path == "/field/track/trail":
+            trails += ch.to_record_batch().column("LineStrips3D:strips").to_pylist()
         if ch.entity_path != "/field/track/landing" or ch.is_static:
             continue
         batch = ch.to_record_batch()
@@ -206,3 +208,7 @@ def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
     assert last.landing is not None
     assert labels[-1] == f"lands in {(last.landing.stamp_ns - last.stamp_ns) / NS_PER_S:.2f} s"
     assert cleared  # the kick's first step, before the ball flies
+    # the trail is the flight's arc, at the ball's heights (not flat on the ground)
+    tracked = [s.fused.z_m for s in steps if s.fused is not None and s.velocity_m_s is not None]
+    arc = [p[2] for p in trails[-1][0]]
+    assert arc == pytest.approx(tracked, abs=1e-6) and max(arc) > 1.0

@@ -137,7 +137,7 @@ class RerunSink(SinkBase):
         self.kind = scenario_kind(name, tracked=options.fusion_method in ("track", "ballistic"))
         self.heights = options.fusion_method in ("triangulate", "ballistic")
         self.candidates = options.detector_name == "real"
-        self._trail: deque[tuple[int, float, float]] = deque()
+        self._trail: deque[tuple[int, float, float, float]] = deque()
         try:
             self._open(force=options.force)
         except BaseException:
@@ -398,14 +398,15 @@ class RerunSink(SinkBase):
             self.rec.log("/field/track", rr.Clear(recursive=True))
             self._scalar("/plots/speed/track", None)
             return
-        self._trail.append((result.stamp_ns, fused.x_m, fused.y_m))
+        z, vz = _BALL_Z if fused.z_m is None else fused.z_m, result.vz_m_s or 0.0
+        ground = 0.03 if fused.z_m is None else z  # a 3-D fusion's trail is the flight's arc
+        self._trail.append((result.stamp_ns, fused.x_m, fused.y_m, ground))
         while self._trail and result.stamp_ns - self._trail[0][0] > TRAIL_S * NS_PER_S:
             self._trail.popleft()
         self.rec.log("/field/track/trail",
-                     rr.LineStrips3D([[(x, y, 0.03) for _, x, y in self._trail]],
+                     rr.LineStrips3D([[(x, y, h) for _, x, y, h in self._trail]],
                                      colors=[TRACK_COLOUR], radii=0.03))
         vx, vy = velocity
-        z, vz = _BALL_Z if fused.z_m is None else fused.z_m, result.vz_m_s or 0.0
         self.rec.log("/field/track/velocity",
                      rr.Arrows3D(origins=[(fused.x_m, fused.y_m, z)],
                                  vectors=[(vx, vy, vz)], colors=[TRACK_COLOUR], radii=0.04))

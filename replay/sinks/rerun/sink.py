@@ -55,6 +55,7 @@ from replay.sinks.style import (
     CANDIDATE_COLOUR,
     FIELD_LINE_COLOUR,
     FUSED_COLOUR,
+    LANDING_COLOUR,
     LINE_POINT_COLOUR,
     OUTLINE_COLOUR,
     RADIUS_COLOUR,
@@ -418,7 +419,7 @@ class RerunSink(SinkBase):
             return
         strips, label = landing_mark(result)
         self.rec.log("/field/track/landing", rr.LineStrips3D(
-            strips, colors=[TRACK_COLOUR], radii=0.02, labels=[label], show_labels=True))
+            strips, colors=[LANDING_COLOUR], radii=0.02, labels=[label], show_labels=True))
 
     def close(self, ok: bool) -> None:
         """Flush and disconnect; a saved .rrd is renamed into place only when ``ok``. A

@@ -47,7 +47,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
-from replay.sinks.rerun.shapes import ellipse, fused_label, landing_mark, ring
+from replay.sinks.rerun.shapes import ellipse, fused_label, landing_mark, truth_mark
 from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
@@ -367,10 +367,9 @@ class RerunSink(SinkBase):
             rec.log("/field/ground_truth/ball", rr.Clear(recursive=False))
         else:
             z_true = BALL_RADIUS_M if result.truth_z_m is None else result.truth_z_m
-            rec.log("/field/ground_truth/ball",
-                    rr.LineStrips3D([ring(result.truth[0], result.truth[1], BALL_RADIUS_M,
-                                           z=z_true + BALL_RADIUS_M)],
-                                    colors=[TRUTH_COLOUR], radii=0.03))
+            strips = truth_mark(result.truth[0], result.truth[1], z_true)
+            rec.log("/field/ground_truth/ball", rr.LineStrips3D(
+                strips, colors=[TRUTH_COLOUR], radii=[0.03, 0.01][:len(strips)]))
         self._scalar("/plots/error/fused", result.error_m)
         self._track(result)
         rec.reset_time()

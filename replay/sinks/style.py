@@ -20,6 +20,7 @@ __all__ = [
     "FIELD_BACKGROUND",
     "FIELD_LINE_COLOUR",
     "FUSED_COLOUR",
+    "LANDING_COLOUR",
     "LINE_POINT_COLOUR",
     "OUTLINE_COLOUR",
     "RADIUS_COLOUR",
@@ -47,6 +48,11 @@ FUSED_COLOUR: Rgb = (230, 40, 40)
 """The fused estimate: red, in the field view and the plots."""
 TRACK_COLOUR: Rgb = (255, 120, 0)
 """The tracked ball's trail and velocity arrow."""
+LANDING_COLOUR: Rgb = (255, 236, 214)
+"""The predicted landing's mark and label: a pale orange. A label's text is its entity's
+colour on a half-transparent box, grey-green on the grass in the light theme, where the
+track's orange all but vanishes (contrast 1.0:1); this reads there (2.4:1) and in the dark
+theme (8:1), and stands apart from the orange arrow it lies under seen from above."""
 TRUTH_COLOUR: Rgb = (250, 230, 60)
 """The true ball: yellow, so it stands out on the grass and beside the red estimate."""
 BALL_COLOUR: Rgb = (255, 140, 0)

@@ -168,7 +168,8 @@ def test_the_landing_topic_and_the_height_round_trip_through_the_mcap(tmp_path: 
 def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
     """A lob's steps through the Rerun sink: /field/track/landing is a ring with a cross on
     the ground at each predicted landing, labelled with the time to it; cleared while the
-    ball does not fly."""
+    ball does not fly; the trail follows the ball up and down, and the true ball stands on
+    a line from the ground."""
     rr_chunk = pytest.importorskip("rerun.chunk")
     from replay.log import LogReader
     from replay.options import RerunTarget
@@ -185,8 +186,12 @@ def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
     for s in steps:
         sink.step(s)
     sink.close(True)
-    drawn, labels, cleared = [], [], 0
+    drawn, labels, cleared, trails, truths = [], [], 0, [], []
     for ch in rr_chunk.RrdReader(rrd).stream():
+        if ch.entity_path == "/field/track/trail":
+            trails += ch.to_record_batch().column("LineStrips3D:strips").to_pylist()
+        if ch.entity_path == "/field/ground_truth/ball":
+            truths += ch.to_record_batch().column("LineStrips3D:strips").to_pylist()
         if ch.entity_path != "/field/track/landing" or ch.is_static:
             continue
         batch = ch.to_record_batch()
@@ -206,3 +211,17 @@ def test_the_viewer_draws_the_predicted_landing(tmp_path: Path) -> None:
     assert last.landing is not None
     assert labels[-1] == f"lands in {(last.landing.stamp_ns - last.stamp_ns) / NS_PER_S:.2f} s"
     assert cleared  # the kick's first step, before the ball flies
+    # the trail is the flight's arc, at the ball's heights (not flat on the ground)
+    tracked = [s.fused.z_m for s in steps if s.fused is not None and s.velocity_m_s is not None]
+    arc = [p[2] for p in trails[-1][0]]
+    assert arc == pytest.approx(tracked, abs=1e-6) and max(arc) > 1.0
+    # the true ball: a ring atop it and, in the air, a line from the ground to its underside
+    assert len(truths) == len(steps)
+    for strips, s in zip(truths, steps, strict=True):
+        assert s.truth_z_m is not None and strips[0][0][2] == pytest.approx(s.truth_z_m + R)
+        if s.truth_z_m > 2 * R:
+            assert s.truth is not None
+            line = [(*s.truth, 0.0), (*s.truth, s.truth_z_m - R)]
+            assert np.array(strips[1]) == pytest.approx(np.array(line))
+        else:
+            assert len(strips) == 1

@@ -3,7 +3,9 @@
 Every layout shows the robots' camera views as tabs (one camera at a time, large enough to
 see the ball's outline; a last tab shows them all side by side), the field from above on a
 grass background (so its colours read the same in the viewer's light and dark themes), and
-the plots. What changes with the kind of scenario is where the space goes:
+the plots. A 3-D fusion's (``triangulate``, ``ballistic``) sees the field obliquely, from
+above its near touchline, so that a ball in the air and its arc show, and plots its
+height. What changes with the kind of scenario is where the space goes:
 
 - ``paper`` (the paper's four still scenes, a handful of frames): the cameras take the
   full height beside the field; the plots are a strip under the field;
@@ -15,6 +17,7 @@ the plots. What changes with the kind of scenario is where the space goes:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import rerun.blueprint as rrb
@@ -56,18 +59,27 @@ def cameras_view(robots: Sequence[str], prefix: str = "",
     return rrb.Tabs(*tabs, active_tab=0, name=f"{label}cameras")
 
 
-def field_view(field: FieldSpec, prefix: str = "") -> rrb.View:
-    """The field from above; ``prefix``: a run's entities'."""
+def field_view(field: FieldSpec, prefix: str = "", *, oblique: bool = False) -> rrb.View:
+    """The field from above; ``prefix``: a run's entities'. ``oblique``: from above its
+    near touchline instead of straight down, so that a ball in the air stands off its line
+    to the ground and the flight's arc shows (a 3-D fusion's view)."""
     # straight down from high enough that the field and its border fit a wide panel (the
     # viewer's vertical field of view is about 55 deg)
-    eye_height_m = field.width_m + 2 * field.border_m
+    eye_m = field.width_m + 2 * field.border_m
+    title = f"{prefix.strip('/') + ' ' if prefix else ''}field, %s ({field.name})"
+    if oblique:  # as far, 35 deg off the vertical: 1 m up shows as 0.57 m on the ground;
+        # aimed a metre short of the centre, as the perspective draws the near half larger
+        tilt, aim = math.radians(35.0), (0.0, -1.0, 0.0)
+        eye = rrb.EyeControls3D(
+            position=(0.0, aim[1] - eye_m * math.sin(tilt), eye_m * math.cos(tilt)),
+            look_target=aim, eye_up=(0.0, 0.0, 1.0))
+    else:
+        eye = rrb.EyeControls3D(position=(0.0, -0.01, eye_m), look_target=(0.0, 0.0, 0.0),
+                                eye_up=(0.0, 1.0, 0.0))
     return rrb.Spatial3DView(
-        origin=f"{prefix}/field",
-        name=f"{prefix.strip('/') + ' ' if prefix else ''}field, top-down ({field.name})",
+        origin=f"{prefix}/field", name=title % ("from above" if oblique else "top-down"),
         background=rrb.Background(color=FIELD_BACKGROUND), line_grid=rrb.LineGrid3D(False),
-        eye_controls=rrb.EyeControls3D(position=(0.0, -0.01, eye_height_m),
-                                       look_target=(0.0, 0.0, 0.0), eye_up=(0.0, 1.0, 0.0)),
-    )
+        eye_controls=eye)
 
 
 def _series(origin: str, name: str) -> rrb.View:
@@ -75,7 +87,8 @@ def _series(origin: str, name: str) -> rrb.View:
                               plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop))
 
 
-def _layout(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Container:
+def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
+            heights: bool) -> rrb.Container:
     error = _series("/plots/error", "error vs ground truth [m]")
     small = [_series("/plots/blob_area", "blob area [px]"),
              _series("/plots/estimator_ms", "estimator time [ms]")]
@@ -83,26 +96,33 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Container
         # a handful of frames of a still ball: the images and the field say most
         return rrb.Horizontal(
             cameras_view(robots),
-            rrb.Vertical(field_view(field), rrb.Horizontal(error, *small), row_shares=[3.0, 1.2]),
+            rrb.Vertical(field_view(field, oblique=heights), rrb.Horizontal(error, *small),
+                         row_shares=[3.0, 1.2]),
             column_shares=[1.0, 1.45])
     bottom: list[rrb.View] = small
     shares = [1.0, 1.0]
     if kind == "moving":
         bottom = [_series("/plots/speed", "ball speed [m/s]"), *small]
         shares = [2.0, 1.0, 1.0]
+    if heights:  # the ball's height beside the truth's: the arc, to read off
+        bottom.insert(len(bottom) - 2, _series("/plots/height", "ball height [m]"))
+        shares.insert(len(shares) - 2, 2.0)
     return rrb.Horizontal(
         rrb.Vertical(cameras_view(robots), error, row_shares=[3.0, 2.0]),
-        rrb.Vertical(field_view(field), rrb.Horizontal(*bottom, column_shares=shares),
+        rrb.Vertical(field_view(field, oblique=heights),
+                     rrb.Horizontal(*bottom, column_shares=shares),
                      row_shares=[3.0, 1.3]),
         column_shares=[1.0, 1.6])
 
 
-def blueprint(robots: Sequence[str], field: FieldSpec, kind: str) -> rrb.Blueprint:
-    """The layout of a replay of ``robots`` on ``field`` for a scenario ``kind``."""
+def blueprint(robots: Sequence[str], field: FieldSpec, kind: str, *,
+              heights: bool = False) -> rrb.Blueprint:
+    """The layout of a replay of ``robots`` on ``field`` for a scenario ``kind``;
+    ``heights``: a 3-D fusion's (the field seen obliquely, the height plotted)."""
     if kind not in KINDS:
         raise ValueError(f"scenario kind {kind!r}; choose one of {', '.join(KINDS)}")
     return rrb.Blueprint(
-        _layout(robots, field, kind),
+        _layout(robots, field, kind, heights),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="sim_time", play_state="following"),

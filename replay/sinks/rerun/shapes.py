@@ -11,7 +11,7 @@ from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Covariance
 from replay.records import StepResult
 
-__all__ = ["ellipse", "fused_label", "landing_mark", "ring"]
+__all__ = ["ellipse", "fused_label", "landing_mark", "ring", "truth_mark"]
 
 
 def ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
@@ -30,6 +30,17 @@ def ring(x: float, y: float, r: float, n: int = 32, *, z: float | None = None) -
     a = np.linspace(0.0, 2 * math.pi, n + 1)
     return np.column_stack([x + r * np.cos(a), y + r * np.sin(a),
                             np.full(n + 1, 2 * r if z is None else z)])
+
+
+def truth_mark(x: float, y: float, z: float) -> list[np.ndarray]:
+    """The true ball with its centre at height z: a ring of its radius atop it and, while it
+    is off the ground, a line from the ground up to it (seen obliquely, a ring alone floats
+    off the spot it is over)."""
+    r = BALL_RADIUS_M
+    strips = [ring(x, y, r, z=z + r)]
+    if z > 2 * r:  # its underside more than a radius up
+        strips.append(np.array([(x, y, 0.0), (x, y, z - r)]))
+    return strips
 
 
 def fused_label(result: StepResult) -> str:

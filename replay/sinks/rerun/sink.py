@@ -47,7 +47,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
-from replay.sinks.rerun.shapes import ellipse, fused_label, landing_mark, ring
+from replay.sinks.rerun.shapes import ellipse, fused_label, landing_mark, truth_mark
 from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
@@ -55,6 +55,7 @@ from replay.sinks.style import (
     CANDIDATE_COLOUR,
     FIELD_LINE_COLOUR,
     FUSED_COLOUR,
+    LANDING_COLOUR,
     LINE_POINT_COLOUR,
     OUTLINE_COLOUR,
     RADIUS_COLOUR,
@@ -135,8 +136,9 @@ class RerunSink(SinkBase):
         self.colours = {r: robot_colour(i) for i, r in enumerate(info.robots)}
         name = info.scenario.name if info.scenario is not None else None
         self.kind = scenario_kind(name, tracked=options.fusion_method in ("track", "ballistic"))
+        self.heights = options.fusion_method in ("triangulate", "ballistic")
         self.candidates = options.detector_name == "real"
-        self._trail: deque[tuple[int, float, float]] = deque()
+        self._trail: deque[tuple[int, float, float, float]] = deque()
         try:
             self._open(force=options.force)
         except BaseException:
@@ -144,7 +146,7 @@ class RerunSink(SinkBase):
             raise
 
     def blueprint(self) -> rrb.Blueprint:
-        return blueprint(self.info.robots, self.field, self.kind)
+        return blueprint(self.info.robots, self.field, self.kind, heights=self.heights)
 
     def _open(self, *, force: bool) -> None:
         mode, target = self.target.mode, self.target.target
@@ -206,9 +208,12 @@ class RerunSink(SinkBase):
             width = 3.0 if name == "fused" else 1.5
             rec.log(f"/plots/error/{name}",
                     rr.SeriesLines(colors=[colour], names=[name], widths=[width]), static=True)
-        for name, colour in (("track", TRACK_COLOUR), ("truth", TRUTH_COLOUR)):
-            rec.log(f"/plots/speed/{name}", rr.SeriesLines(colors=[colour], names=[name]),
-                    static=True)
+        series = [("speed/track", TRACK_COLOUR), ("speed/truth", TRUTH_COLOUR)]
+        if self.heights:  # the plot's own colours, not the viewer's defaults
+            series += [("height/fused", FUSED_COLOUR), ("height/truth", TRUTH_COLOUR)]
+        for path, colour in series:
+            rec.log(f"/plots/{path}", rr.SeriesLines(colors=[colour],
+                                                     names=[path.split("/")[1]]), static=True)
         for robot in self.info.robots:
             for plot in ("blob_area", "estimator_ms"):
                 rec.log(f"/plots/{plot}/{robot}",
@@ -362,10 +367,9 @@ class RerunSink(SinkBase):
             rec.log("/field/ground_truth/ball", rr.Clear(recursive=False))
         else:
             z_true = BALL_RADIUS_M if result.truth_z_m is None else result.truth_z_m
-            rec.log("/field/ground_truth/ball",
-                    rr.LineStrips3D([ring(result.truth[0], result.truth[1], BALL_RADIUS_M,
-                                           z=z_true + BALL_RADIUS_M)],
-                                    colors=[TRUTH_COLOUR], radii=0.03))
+            strips = truth_mark(result.truth[0], result.truth[1], z_true)
+            rec.log("/field/ground_truth/ball", rr.LineStrips3D(
+                strips, colors=[TRUTH_COLOUR], radii=[0.03, 0.01][:len(strips)]))
         self._scalar("/plots/error/fused", result.error_m)
         self._track(result)
         rec.reset_time()
@@ -394,14 +398,15 @@ class RerunSink(SinkBase):
             self.rec.log("/field/track", rr.Clear(recursive=True))
             self._scalar("/plots/speed/track", None)
             return
-        self._trail.append((result.stamp_ns, fused.x_m, fused.y_m))
+        z, vz = _BALL_Z if fused.z_m is None else fused.z_m, result.vz_m_s or 0.0
+        ground = 0.03 if fused.z_m is None else z  # a 3-D fusion's trail is the flight's arc
+        self._trail.append((result.stamp_ns, fused.x_m, fused.y_m, ground))
         while self._trail and result.stamp_ns - self._trail[0][0] > TRAIL_S * NS_PER_S:
             self._trail.popleft()
         self.rec.log("/field/track/trail",
-                     rr.LineStrips3D([[(x, y, 0.03) for _, x, y in self._trail]],
+                     rr.LineStrips3D([[(x, y, h) for _, x, y, h in self._trail]],
                                      colors=[TRACK_COLOUR], radii=0.03))
         vx, vy = velocity
-        z, vz = _BALL_Z if fused.z_m is None else fused.z_m, result.vz_m_s or 0.0
         self.rec.log("/field/track/velocity",
                      rr.Arrows3D(origins=[(fused.x_m, fused.y_m, z)],
                                  vectors=[(vx, vy, vz)], colors=[TRACK_COLOUR], radii=0.04))
@@ -413,7 +418,7 @@ class RerunSink(SinkBase):
             return
         strips, label = landing_mark(result)
         self.rec.log("/field/track/landing", rr.LineStrips3D(
-            strips, colors=[TRACK_COLOUR], radii=0.02, labels=[label], show_labels=True))
+            strips, colors=[LANDING_COLOUR], radii=0.02, labels=[label], show_labels=True))
 
     def close(self, ok: bool) -> None:
         """Flush and disconnect; a saved .rrd is renamed into place only when ``ok``. A

@@ -7,14 +7,21 @@ today, so a change to them must be explained in the commit that regenerates them
     python scripts/make_golden.py --force                  # re-record, replay, rewrite all
     python scripts/make_golden.py --force --expected-only  # replay the pinned logs again
     python scripts/make_golden.py --force --images         # the image suite's scores only
+    python scripts/make_golden.py --force --scene lobs     # add or refresh one scene alone
 
 For each scene in :data:`SCENES` it records a small MCAP log with the EGL renderer
 (:data:`RENDERER`), replays it once per configuration in :data:`CONFIGS` and keeps the
 results file exactly as replay writes it (every field, floats as replay rounds them, the
-same bytes) as ``<scene>.<method>-<fusion>.json``. The manifest ``manifest.json`` pins each
-log's SHA-256, size, topics and message counts, the record options, the renderer and the
-package versions the logs were made with. ``--expected-only`` leaves the logs alone (they
-must still match the manifest) and rewrites only the expected files and the manifest.
+same bytes) as ``<scene>.<method>-<fusion>.json``; a scene in :data:`EXTRA_CONFIGS` is
+replayed with its own configurations too (the lob's 3-D fusions). The manifest
+``manifest.json`` pins each log's SHA-256, size, topics and message counts, the record
+options, the renderer and the package versions the logs were made with.
+``--expected-only`` leaves the logs alone (they must still match the manifest) and rewrites
+only the expected files and the manifest.
+``--scene NAME`` records (or with ``--expected-only`` replays) that one scene and rewrites
+its files and its manifest entry alone: every other log, expected file and manifest entry
+is left as it is (a log re-recorded on another machine may differ in the last bit of a
+pixel, so adding a scene must not re-record the others).
 
 ``tests/replay/test_golden.py`` imports this module by path for its constants (GOLDEN_DIR,
 SCENES, CONFIGS, TOLERANCES, replay_results, ...). Importing it is cheap: the recorder
@@ -57,6 +64,11 @@ SCENES: dict[str, dict[str, Any]] = {
     # at 240 Hz; 4 frames per robot at 5 Hz (0.8 s), two distractors beside the field
     "match": {"scenario": "match", "seed": 0, "frames": 4, "rate_hz": 5.0,
               "camera": "ideal", "distractors": 2},
+    # a lob: kicked into the air at t = 0; cameras in sync (rays of one instant), 4 frames at
+    # 5 Hz (0.6 s): robot2 and robot3 see the ball at 0.11, 0.80, 0.95 and 0.71 m, robot1
+    # never; poses and truth (3-D, with the velocity) at 240 Hz
+    "lobs": {"scenario": "lobs", "seed": 0, "frames": 4, "rate_hz": 5.0,
+             "camera": "ideal", "camera_phase": "sync"},
 }
 """Golden scene name (= log file stem) -> keyword arguments of ``recorder.record.record``."""
 
@@ -69,6 +81,17 @@ CONFIGS: tuple[tuple[str, str], ...] = (
     ("corrected", "track"),  # the tracker: a step at every image stamp, with the velocity
 )
 """(method, fusion) pairs replayed for every scene (each expected file is ~5 kB)."""
+
+EXTRA_CONFIGS: dict[str, tuple[tuple[str, str], ...]] = {
+    # the 3-D fusions: rays crossed into a point, and the ballistic tracker on those points
+    "lobs": (("corrected", "triangulate"), ("corrected", "ballistic")),
+}
+"""Scene -> (method, fusion) pairs replayed for that scene after :data:`CONFIGS`."""
+
+
+def scene_configs(scene: str) -> tuple[tuple[str, str], ...]:
+    """Every (method, fusion) a scene is replayed with: :data:`CONFIGS` and its extras."""
+    return CONFIGS + EXTRA_CONFIGS.get(scene, ())
 
 TOLERANCES: dict[str, float] = {
     # replaying a golden log must give the expected file exactly: every field, every byte
@@ -161,13 +184,14 @@ def _recorder_metadata(log: Path) -> dict[str, str]:
     return {}
 
 
-def targets(*, expected_only: bool = False) -> list[Path]:
-    """Every file the script writes (without the logs when ``expected_only``)."""
-    names = [MANIFEST]
-    for scene in SCENES:
+def targets(*, expected_only: bool = False, scene: str | None = None) -> list[Path]:
+    """Every file the script writes (without the logs when ``expected_only``; only one
+    scene's files, the manifest aside, when ``scene``)."""
+    names = [MANIFEST] if scene is None else []
+    for name in SCENES if scene is None else [scene]:
         if not expected_only:
-            names.append(log_name(scene))
-        names += [expected_name(scene, m, f) for m, f in CONFIGS]
+            names.append(log_name(name))
+        names += [expected_name(name, m, f) for m, f in scene_configs(name)]
     return [GOLDEN_DIR / n for n in names]
 
 
@@ -178,16 +202,20 @@ def _manifest_head() -> dict[str, Any]:
         "renderer": RENDERER,
         "expected": "the replay results file as written: every field, the same bytes",
         "configs": [{"method": m, "fusion": f} for m, f in CONFIGS],
+        "extra_configs": {scene: [{"method": m, "fusion": f} for m, f in pairs]
+                          for scene, pairs in EXTRA_CONFIGS.items()},
         "regenerate": "python scripts/make_golden.py --force",
+        "regenerate_scene": "python scripts/make_golden.py --force --scene NAME",
         "regenerate_expected": "python scripts/make_golden.py --force --expected-only",
         "scenes": {},
     }
 
 
 def _write_expected(scene: str, log: Path, work: Path) -> dict[str, str]:
-    """Replay ``log`` in every configuration into ``work``; config label -> file name."""
+    """Replay ``log`` in every configuration of ``scene`` into ``work``; config label -> file
+    name."""
     expected = {}
-    for method, fusion in CONFIGS:
+    for method, fusion in scene_configs(scene):
         name = expected_name(scene, method, fusion)
         text = replay_text(log, method, fusion, work)
         (work / name).write_text(text, encoding="ascii", newline="\n")
@@ -195,12 +223,13 @@ def _write_expected(scene: str, log: Path, work: Path) -> dict[str, str]:
     return expected
 
 
-def _record_scenes(work: Path, manifest: dict[str, Any]) -> None:
-    """Record every scene into ``work`` and fill the manifest's scenes and versions."""
+def _record_scenes(work: Path, manifest: dict[str, Any], scenes: list[str]) -> dict[str, str]:
+    """Record ``scenes`` into ``work``, fill their manifest entries; the package versions."""
     from recorder.record import RecordOptions, record
 
     versions: dict[str, str] = {}
-    for scene, options in SCENES.items():
+    for scene in scenes:
+        options = SCENES[scene]
         log = work / log_name(scene)
         summary = record(log, RecordOptions(renderer=RENDERER, **options))
         if summary.renderer != RENDERER:  # pragma: no cover - record() raises first
@@ -221,14 +250,13 @@ def _record_scenes(work: Path, manifest: dict[str, Any]) -> None:
             "message_count": sum(counts.values()),
             "topics": counts,
         }
-    manifest["versions"] = versions
+    return versions
 
 
-def _pinned_scenes(manifest: dict[str, Any]) -> None:
-    """Copy the existing manifest's log entries into ``manifest`` after checking that every
-    pinned log is still the one it names (same size and SHA-256)."""
-    old = load_manifest()
-    for scene in SCENES:
+def _pinned_scenes(manifest: dict[str, Any], old: dict[str, Any], scenes: list[str]) -> None:
+    """Copy the old manifest's entries of ``scenes`` into ``manifest`` after checking that
+    every such pinned log is still the one it names (same size and SHA-256)."""
+    for scene in scenes:
         entry = dict(old["scenes"][scene])
         log = GOLDEN_DIR / log_name(scene)
         if not log.is_file() or log.stat().st_size != entry["bytes"] or (
@@ -237,33 +265,57 @@ def _pinned_scenes(manifest: dict[str, Any]) -> None:
                                "goldens with --force (without --expected-only)")
         entry.pop("expected", None)
         manifest["scenes"][scene] = entry
-    manifest["versions"] = old["versions"]
 
 
-def generate(force: bool = False, *, expected_only: bool = False) -> dict[str, Any]:
+def _old_manifest(scene: str | None, expected_only: bool) -> dict[str, Any] | None:
+    """The manifest this run builds on: needed to keep pinned logs or the other scenes."""
+    if scene is None and not expected_only:
+        return None
+    if not (GOLDEN_DIR / MANIFEST).is_file():
+        raise RuntimeError(f"{GOLDEN_DIR / MANIFEST} is missing; make every golden first "
+                           "(python scripts/make_golden.py)")
+    return load_manifest()
+
+
+def generate(force: bool = False, *, expected_only: bool = False,
+             scene: str | None = None) -> dict[str, Any]:
     """Record every scene, replay every configuration, write logs, expected files and the
     manifest into GOLDEN_DIR. With ``expected_only`` the pinned logs are replayed as they
-    are and only the expected files and the manifest are rewritten. Refuses to overwrite
-    existing goldens unless ``force``."""
-    existing = [p for p in targets(expected_only=expected_only) if p.exists()]
+    are and only the expected files and the manifest are rewritten. With ``scene`` only that
+    scene is recorded (or replayed) and only its files and its manifest entry are written;
+    the other entries are kept as they are. Refuses to overwrite existing goldens unless
+    ``force``."""
+    if scene is not None and scene not in SCENES:
+        raise ValueError(f"unknown golden scene {scene!r}; choose from {', '.join(SCENES)}")
+    existing = [p for p in targets(expected_only=expected_only, scene=scene) if p.exists()]
     if existing and not force:
         raise FileExistsError(
             f"{len(existing)} golden file(s) exist in {GOLDEN_DIR} (e.g. {existing[0].name}); "
             "regenerating them is deliberate: pass --force and explain why in the commit"
         )
+    scenes = list(SCENES) if scene is None else [scene]
+    old = _old_manifest(scene, expected_only)
     GOLDEN_DIR.mkdir(parents=True, exist_ok=True)
     manifest = _manifest_head()
+    if old is not None:
+        manifest["versions"] = old["versions"]
+        if scene is not None:  # the other scenes' entries, as they are
+            manifest["scenes"] = {k: v for k, v in old["scenes"].items() if k != scene}
     with tempfile.TemporaryDirectory(dir=GOLDEN_DIR, prefix=".tmp-") as tmp:
         work = Path(tmp)
         if expected_only:
-            _pinned_scenes(manifest)
+            _pinned_scenes(manifest, old or {}, scenes)
         else:
-            _record_scenes(work, manifest)
-        staged = [] if expected_only else [log_name(scene) for scene in SCENES]
-        for scene in SCENES:
-            log = GOLDEN_DIR / log_name(scene) if expected_only else work / log_name(scene)
-            expected = _write_expected(scene, log, work)
-            manifest["scenes"][scene]["expected"] = expected
+            versions = _record_scenes(work, manifest, scenes)
+            if scene is None:
+                manifest["versions"] = versions
+            elif versions != manifest["versions"]:  # this scene's own, beside the others'
+                manifest["scenes"][scene]["versions"] = versions
+        staged = [] if expected_only else [log_name(name) for name in scenes]
+        for name in scenes:
+            log = GOLDEN_DIR / log_name(name) if expected_only else work / log_name(name)
+            expected = _write_expected(name, log, work)
+            manifest["scenes"][name]["expected"] = expected
             staged += expected.values()
         (work / MANIFEST).write_text(dumps(manifest), encoding="ascii", newline="\n")
         staged.append(MANIFEST)
@@ -323,6 +375,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--expected-only", action="store_true",
                         help="keep the pinned logs; replay them and rewrite only the expected "
                              "outputs and the manifest")
+    parser.add_argument("--scene", choices=list(SCENES), metavar="NAME",
+                        help="only this scene (record, replay, its manifest entry); the other "
+                             f"goldens are left as they are ({', '.join(SCENES)})")
     parser.add_argument("--images", action="store_true",
                         help="only the image suite's golden scores (images-*.json)")
     args = parser.parse_args(argv)
@@ -330,7 +385,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.images:
             generate_images(force=args.force)
         else:
-            generate(force=args.force, expected_only=args.expected_only)
+            generate(force=args.force, expected_only=args.expected_only, scene=args.scene)
     except FileExistsError as err:
         print(f"make_golden: {err}", file=sys.stderr)
         return 2

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shutil
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -40,8 +41,11 @@ def _load_make_golden() -> ModuleType:
 mg = _load_make_golden()
 SCENES = list(mg.SCENES)
 CONFIGS = list(mg.CONFIGS)
+CASES = [(scene, m, f) for scene in SCENES for m, f in mg.scene_configs(scene)]
+"""Every (scene, method, fusion) with an expected file: CONFIGS, and a scene's extras."""
 MAX_FOLDER_BYTES = 10_000_000
-RERECORD = ("scenario1", "rolling")  # the far ball (worst renderer gap) and a moving scene
+# the far ball (worst renderer gap), a moving scene and a ball in the air
+RERECORD = ("scenario1", "rolling", "lobs")
 
 
 @pytest.fixture(scope="module")
@@ -79,8 +83,14 @@ def test_manifest_matches_the_script(manifest: dict[str, Any]) -> None:
     assert manifest["version"] == mg.MANIFEST_VERSION
     assert manifest["renderer"] == mg.RENDERER
     assert [(d["method"], d["fusion"]) for d in manifest["configs"]] == CONFIGS
+    assert {scene: [(d["method"], d["fusion"]) for d in pairs]
+            for scene, pairs in manifest["extra_configs"].items()} == {
+        scene: list(pairs) for scene, pairs in mg.EXTRA_CONFIGS.items()}
+    assert set(mg.EXTRA_CONFIGS) <= set(SCENES)
     assert list(manifest["scenes"]) == sorted(SCENES)
     for scene, entry in manifest["scenes"].items():
+        assert entry["expected"] == {mg.config_label(m, f): mg.expected_name(scene, m, f)
+                                     for m, f in mg.scene_configs(scene)}
         assert entry["record"] == {**mg.SCENES[scene], "renderer": mg.RENDERER}
         assert entry["renderer"] == mg.RENDERER
         assert entry["robots"] == 3 and entry["record"]["camera"] == "ideal"
@@ -111,7 +121,29 @@ def test_make_golden_refuses_to_overwrite(capsys: pytest.CaptureFixture[str]) ->
     assert err.count("\n") == 1 and "--force" in err
     assert mg.main(["--expected-only"]) == 2
     assert "--force" in capsys.readouterr().err
+    assert mg.main(["--scene", "lobs"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--force" in err and "lobs.mcap" in err
+    with pytest.raises(ValueError, match="unknown golden scene 'nope'"):
+        mg.generate(force=True, scene="nope")
     assert {p: p.stat().st_mtime_ns for p in mg.targets()} == before
+
+
+def test_one_scene_is_regenerated_alone(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--force --expected-only --scene lobs`` on a copy of the goldens rewrites the lob's
+    expected files and the manifest only, to the same bytes: every other file is not even
+    touched, and the other scenes' manifest entries are kept as they are."""
+    copy = tmp_path / "golden"
+    shutil.copytree(mg.GOLDEN_DIR, copy, ignore=shutil.ignore_patterns("images-*"))
+    before = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in copy.iterdir()}
+    monkeypatch.setattr(mg, "GOLDEN_DIR", copy)
+    mg.generate(force=True, expected_only=True, scene="lobs")
+    after = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in copy.iterdir()}
+    assert set(after) == set(before)  # nothing left behind (the work folder is gone)
+    rewritten = {mg.MANIFEST, *(mg.expected_name("lobs", m, f)
+                                for m, f in mg.scene_configs("lobs"))}
+    assert {n for n in after if after[n][1] != before[n][1]} == rewritten
+    assert all(after[n][0] == before[n][0] for n in after)  # the same bytes
 
 
 FRAME_FIELDS = {"frame", "robot", "stamp_ns", "t_s", "status", "detection", "pose", "estimate",
@@ -121,15 +153,16 @@ STEP_FIELDS = {"step", "stamp_ns", "t_s", "robots", "fused_robots", "x_m", "y_m"
 
 
 @pytest.mark.parametrize("scene", SCENES)
-def test_expected_files_hold_every_field(scene: str) -> None:
+def test_expected_files_hold_every_field(scene: str, manifest: dict[str, Any]) -> None:
     """The expected files are whole results files: poses, truth, errors, bbox, circularity
     and the summary's mean errors are pinned too, at the results file's precision."""
     doc = _expected(scene, "corrected", "weighted")
     assert {"format", "version", "log", "options", "frames", "fused", "summary"} <= set(doc)
     assert len(doc["log"]["sha256"]) == 64
     assert all(set(f) == FRAME_FIELDS for f in doc["frames"])
-    # a log with the ball's true velocity (match) adds it to every step
-    velocity = {"truth_velocity_m_s"} if scene == "match" else set()
+    # a log with the ball's true velocity (match, lobs) adds it to every step
+    odometry = c.GT_BALL_ODOMETRY_TOPIC in manifest["scenes"][scene]["topics"]
+    velocity = {"truth_velocity_m_s"} if odometry else set()
     assert all(set(s) == STEP_FIELDS | velocity for s in doc["fused"])
     ok = [f for f in doc["frames"] if f["status"] == "ok"]
     assert ok and all(f["pose"] and f["truth"] and f["error_m"] is not None for f in ok)
@@ -139,11 +172,24 @@ def test_expected_files_hold_every_field(scene: str) -> None:
     assert any(len(repr(f["estimate"]["x_m"]).split(".")[-1]) == 6 for f in ok)
 
 
+def test_the_lob_golden_holds_a_ball_in_the_air_seen_by_two_robots() -> None:
+    """The lob scene pins the 3-D fusions where they matter: steps with the ball well off
+    the ground whose rays two robots crossed, the height found, a landing predicted."""
+    steps = _expected("lobs", "corrected", "triangulate")["fused"]
+    flying = [s for s in steps if s["truth_z_m"] > 0.3]
+    assert len(flying) >= 2
+    assert all(s["triangulated"] and len(s["fused_robots"]) >= 2 for s in flying)
+    assert all(abs(s["z_m"] - s["truth_z_m"]) < 0.05 for s in flying)
+    track = _expected("lobs", "corrected", "ballistic")["fused"]
+    assert any(s["landing"] is not None for s in track)
+    assert all(s["z_m"] > 0.3 for s, t in zip(track, steps, strict=True) if t in flying)
+
+
 # --- replay reproduces the expected outputs ------------------------------------------------
 
 
-@pytest.mark.parametrize(("method", "fusion"), CONFIGS, ids=[mg.config_label(*c) for c in CONFIGS])
-@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize(("scene", "method", "fusion"), CASES,
+                         ids=[f"{s}-{mg.config_label(m, f)}" for s, m, f in CASES])
 def test_replay_reproduces_the_golden_output(scene: str, method: str, fusion: str,
                                              tmp_path: Path) -> None:
     text = mg.replay_text(_log(scene), method, fusion, tmp_path)

@@ -61,7 +61,7 @@ def _golden_frames() -> list[npt.NDArray[np.uint8]]:
 
 def test_every_golden_frame_gives_the_whole_images_blobs() -> None:
     frames = _golden_frames()
-    assert len(frames) == 60  # 3 x 3 x 4 paper scenes, 3 x 4 rolling, 3 x 4 match
+    assert len(frames) == 72  # 3 x 3 x 4 paper scenes, 3 x 4 each rolling, match, lobs
     params = [DetectionParams(), DetectionParams(ignore_radius_px=100.0),
               DetectionParams(open_kernel_px=7, search_stride_px=4)]
     balls = 0

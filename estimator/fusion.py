@@ -52,6 +52,7 @@ __all__ = [
     "MeanFusion",
     "NearestFusion",
     "RobustFusion",
+    "TimedFusion",
     "TriangulateFusion",
     "WeightedFusion",
     "get_fusion",
@@ -79,6 +80,19 @@ class Fusion(Protocol):
 
     def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
         """The fused estimate of ``estimates`` (None when there are none)."""
+        ...
+
+
+@runtime_checkable
+class TimedFusion(Fusion, Protocol):
+    """A fusion that keeps time, as a tracker does: the replay calls :meth:`fuse_at` at every
+    step, in time order, with the step's stamp, also when no robot saw the ball (a tracker
+    may predict then), instead of :meth:`Fusion.fuse`, which stays its one-shot form."""
+
+    def fuse_at(self, stamp_ns: int,
+                estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
+        """The fused estimate at ``stamp_ns`` [ns] after ``estimates``, the step's (maybe
+        none), or None for no estimate."""
         ...
 
 

@@ -263,6 +263,8 @@ class FrameEstimator:
             if flight is not None:
                 velocity = flight.velocity[:2]
                 velocity_cov = covariance_rows(flight.velocity_covariance)
+        elif isinstance(self.fusion, fusion.TimedFusion):  # a tracker from outside
+            fused = self.fusion.fuse_at(stamp_ns, balls)
         elif self.tracker is None:
             fused = self.fusion.fuse(balls) if balls else None
         else:

@@ -19,7 +19,9 @@ A part is named on the command line (``dsp-replay --detector SPEC``, ``--fusion 
 
 The class is called with no arguments. A fusion is an :class:`estimator.fusion.Fusion`
 (``name``, ``fuse(estimates) -> FusedEstimate | None``), made afresh for each replay
-(:func:`new_part`) so one that keeps state from step to step, a tracker, starts clean; a
+(:func:`new_part`) so one that keeps state from step to step, a tracker, starts clean (a
+tracker that needs the time also has ``fuse_at(stamp_ns, estimates)``, an
+:class:`estimator.fusion.TimedFusion`: the replay then calls it at every step); a
 detector a :class:`Detector` (``name``, ``detect(image_bgr) -> Detection | None``, called
 from the decoding threads, so it must be thread-safe); a calibration model an
 :class:`estimator.calibration.Calibration` (``name``, ``range_m(r_px) -> float``, raising

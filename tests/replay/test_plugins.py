@@ -171,15 +171,18 @@ def test_a_calibration_model_and_a_tracker_from_outside(site: Path, tmp_path: Pa
     _check_ranges(a["frames"])
     _check_ranges(b["frames"])  # scenario 2: one robot sees the ball beyond 500 px
     assert {f["status"] for f in b["frames"]} == {"ok", "out_of_range"}
-    # the tracker: each step moves half way from its last output to the step's median
-    track = None
+    # the tracker keeps time (fuse_at): each step moves 1 - exp(-dt / 0.5 s) of the way from
+    # its last output to the step's median, dt from the step before
+    track, last = None, 0
     moved = 0
     for step in a["fused"]:
         est = [f["estimate"] for f in a["frames"]
                if f["stamp_ns"] == step["stamp_ns"] and f["estimate"] is not None]
         median = np.array([np.median([e["x_m"] for e in est]),
                            np.median([e["y_m"] for e in est])])
-        track = median if track is None else track + 0.5 * (median - track)
+        gain = 1.0 - np.exp(-(step["stamp_ns"] - last) / 1e9 / 0.5)
+        track = median if track is None else track + gain * (median - track)
+        last = step["stamp_ns"]
         assert [step["x_m"], step["y_m"]] == pytest.approx(list(track), abs=2e-6)
         moved += bool(np.hypot(*(track - median)) > 0.05)
     assert len(a["fused"]) >= 3 and moved >= 2  # the state shows: the track lags the median

@@ -5,14 +5,16 @@
 Each RUN is a folder of ``dsp-replay`` results files (``--out-dir``, or ``--out RUN/X.json``
 per log). For every run, over the fused steps with a truth and an estimate (image steps; a
 ``--clock``'s ticks are left out): the RMSE pooled over all its logs' steps (the root of the
-mean squared error, not a mean of RMSEs), each log's RMSE, the range of the logs' median
-errors, the median of the velocity errors over all steps and its range over the logs.
+mean squared error, not a mean of RMSEs), each log's RMSE (the logs in name order, numbers
+by value), the range of the logs' median errors, the median of the velocity errors over all
+steps and its range over the logs.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 import statistics
 import sys
 from pathlib import Path
@@ -31,6 +33,11 @@ def _steps(path: Path) -> tuple[list[float], list[float]]:
     return errors, velocity
 
 
+def _natural(path: Path) -> list[tuple[int, str]]:
+    """match-9 before match-10: the numbers in the name compared as numbers."""
+    return [(int(t), "") if t.isdigit() else (-1, t) for t in re.split(r"(\d+)", path.name)]
+
+
 def _rmse(errors: list[float]) -> float:
     return math.sqrt(sum(e * e for e in errors) / len(errors))
 
@@ -41,7 +48,8 @@ def _span(values: list[float], nd: int) -> str:
 
 def row(run: Path) -> str:
     """One run's table row."""
-    logs = sorted(p for p in run.glob("*.json") if not p.name.startswith("batch-summary"))
+    logs = sorted((p for p in run.glob("*.json") if not p.name.startswith("batch-summary")),
+                  key=_natural)
     if not logs:
         raise SystemExit(f"{run}: no results files (*.json)")
     per_log = [_steps(p) for p in logs]

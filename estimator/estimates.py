@@ -22,7 +22,8 @@ Covariance = tuple[tuple[float, float], tuple[float, float]]
 
 Covariance3 = tuple[tuple[float, float, float], tuple[float, float, float],
                     tuple[float, float, float]]
-"""A 3 x 3 covariance [m^2] (x, y, z) as a tuple of rows."""
+"""A 3 x 3 covariance as a tuple of rows: a point's over (x, y, z) [m^2], or a robot pose's
+over (x [m], y [m], yaw [rad])."""
 
 Matrix = npt.NDArray[np.float64]
 
@@ -62,6 +63,11 @@ class BallEstimate:
     camera_height_m: float | None = None
     """The camera's optical centre above the ground [m], None when unknown: with it the
     estimate is also a ray (:func:`estimator.rays.ball_ray`)."""
+    pose_covariance: Covariance3 | None = None
+    """The covariance of the robot's own pose over (x [m], y [m], yaw [rad]) the estimate
+    was located from, None when unknown: the noise models then add the ball's share of it
+    (:func:`estimator.noise.localisation_covariance`), so a robot that is unsure where it
+    stands, or which way it faces at a long range, weighs less."""
 
 
 @dataclass(frozen=True)

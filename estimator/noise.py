@@ -15,6 +15,20 @@ residuals, its slope for the range growth, the centroid's pixel noise for the be
 covariances close to the real errors, so ``robust``'s n-sigma test and the tracker's gate
 reject what does not belong. Any object with ``covariance(estimate)`` (:class:`Noise`) will
 do; both models orient their two sigmas the same way (:func:`_oriented`).
+
+A robot is also wrong about its own pose. When an estimate carries the covariance P of the
+pose it was located from (:attr:`~estimator.estimates.BallEstimate.pose_covariance`: from
+the log, the field-line fit, or a stated default), both models add the ball's share of it,
+with J the ball's derivative by the pose (x, y, yaw) and (dx, dy) from robot to ball::
+
+    Sigma_loc = J P J^T,   J = [[1, 0, -dy], [0, 1, dx]]
+
+(:func:`localisation_covariance`): the position error as it is, and the yaw error across
+the bearing, ``sigma_perp = range sigma_yaw``, so a far robot with a doubtful heading weighs
+less than a near one. It is not divided by the visibility (the pose's error is the same
+whatever the blob shows), and :class:`CalibratedNoise` then drops its fixed
+``yaw_sigma_rad`` and ``position_sigma_m``, which stand for the same error when it is not
+known.
 """
 
 from __future__ import annotations
@@ -35,6 +49,7 @@ __all__ = [
     "CalibratedNoise",
     "Noise",
     "NoiseModel",
+    "localisation_covariance",
     "range_sigma_m",
 ]
 
@@ -69,11 +84,31 @@ class NoiseModel:
             )
 
     def covariance(self, estimate: BallEstimate) -> Matrix:
-        """Sigma_i of one estimate in the field frame [m^2]."""
+        """Sigma_i of one estimate in the field frame [m^2], with the pose's share when the
+        estimate carries its pose's covariance (:func:`localisation_covariance`)."""
         d = estimate.range_m
         sigma_r = abs(range_sigma_m(d, self.range_sigma_coefficients))
-        return _oriented(estimate, sigma_r, abs(d) * self.bearing_sigma_rad, self.min_sigma_m,
-                         self.min_visibility)
+        sigma = _oriented(estimate, sigma_r, abs(d) * self.bearing_sigma_rad, self.min_sigma_m,
+                          self.min_visibility)
+        return sigma if estimate.pose_covariance is None else \
+            sigma + localisation_covariance(estimate)
+
+
+def localisation_covariance(estimate: BallEstimate) -> Matrix:
+    """The ball's covariance [m^2] that its robot's pose covariance P (x, y, yaw) gives:
+    J P J^T with J = [[1, 0, -dy], [0, 1, dx]], (dx, dy) from robot to ball (module
+    docstring); zero when the estimate carries no pose covariance."""
+    if estimate.pose_covariance is None:
+        return np.zeros((2, 2))
+    p = np.asarray(estimate.pose_covariance, dtype=np.float64)
+    if p.shape != (3, 3) or not np.all(np.isfinite(p)):
+        raise FusionError(f"{estimate.robot}: pose covariance must be 3 x 3 and finite, "
+                          f"not {p.tolist()}")
+    dx = estimate.x_m - estimate.robot_x_m
+    dy = estimate.y_m - estimate.robot_y_m
+    j = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx]])
+    out = j @ (0.5 * (p + p.T)) @ j.T
+    return np.asarray(0.5 * (out + out.T), dtype=np.float64)
 
 
 def _oriented(estimate: BallEstimate, sigma_r: float, sigma_t: float, min_sigma: float,
@@ -170,13 +205,17 @@ class CalibratedNoise:
             )
 
     def covariance(self, estimate: BallEstimate) -> Matrix:
-        """Sigma_i of one estimate in the field frame [m^2]."""
+        """Sigma_i of one estimate in the field frame [m^2]; an estimate that carries its
+        pose's covariance has the pose's share from it instead of the fixed sigmas."""
         calibration = self.calibrations.get(estimate.robot, self.default)
         d = abs(estimate.range_m)
         r = estimate.r_px if estimate.r_px is not None else _radius_px(calibration, d)
         slope = _slope_m_per_px(calibration, r)
-        loc2 = self.position_sigma_m**2
+        known = estimate.pose_covariance is not None
+        loc2 = 0.0 if known else self.position_sigma_m**2
+        yaw2 = 0.0 if known else self.yaw_sigma_rad**2
         sigma_r = math.sqrt(self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2 + loc2)
-        bearing2 = (self.centroid_sigma_px / max(r, 1.0)) ** 2 + self.yaw_sigma_rad**2
+        bearing2 = (self.centroid_sigma_px / max(r, 1.0)) ** 2 + yaw2
         sigma_t = math.sqrt(d * d * bearing2 + loc2)
-        return _oriented(estimate, sigma_r, sigma_t, self.min_sigma_m, self.min_visibility)
+        sigma = _oriented(estimate, sigma_r, sigma_t, self.min_sigma_m, self.min_visibility)
+        return sigma + localisation_covariance(estimate) if known else sigma

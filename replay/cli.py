@@ -124,16 +124,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_localise_arguments(p: argparse.ArgumentParser) -> None:
-    """``--localise`` and ``--pose-sigma``."""
+    """``--localise``, ``--pose-sigma`` and ``--pose-uncertainty``."""
     p.add_argument("--localise", choices=LOCALISE_MODES, default="none",
                    help="lines: correct each frame's pose from the field lines in its image "
                    "before the ball is located (the field from the log's scenario metadata; "
                    "about 7 ms more per frame on one core); none: the believed poses (default)")
     p.add_argument("--pose-sigma", metavar="M,DEG", type=_pose_sigma,
                    default=DEFAULT_POSE_SIGMA,
-                   help="with --localise lines: the believed pose's standard deviation, "
-                   "position in metres and yaw in degrees (default 0.05,1); a fit that "
-                   "moves the pose further than this allows is refused")
+                   help="the believed pose's standard deviation, position in metres and yaw "
+                   "in degrees (default 0.05,1): with --localise lines a fit that moves the "
+                   "pose further than this allows is refused; with --pose-uncertainty, the "
+                   "pose's covariance when neither the lines nor the log give one")
+    p.add_argument("--pose-uncertainty", action="store_true",
+                   help="weigh each robot's estimate by its own pose's uncertainty too (the "
+                   "position's, and the yaw's across the bearing, growing with range): the "
+                   "line fit's covariance with --localise lines, else the log pose's "
+                   "(PoseWithCovarianceStamped), else --pose-sigma's")
 
 
 def _pose_sigma(text: str) -> tuple[float, float]:
@@ -229,6 +235,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         cameras=_input(args.cameras), smooth=args.smooth, noise=args.noise,
         clock_hz=args.clock_hz, localise=args.localise,
         pose_sigma_m=args.pose_sigma[0], pose_sigma_deg=args.pose_sigma[1],
+        pose_uncertainty=args.pose_uncertainty,
         image_topic=args.image_topic, pose_topic=args.pose_topic,
         truth_topic=args.truth_topic, robots=robots, start_s=start, end_s=end,
         start_absolute=start_absolute, end_absolute=end_absolute,

@@ -21,8 +21,12 @@ covariance (:class:`~estimator.noise.CalibratedNoise`), and read at the step's s
 the ball's velocity; or (``ballistic``) the step's triangulated point fed to the 3-D
 tracker, read with its velocity and predicted landing
 (:class:`~estimator.fusion.BallisticFusion`). The tracker makes a step at every image stamp
-(:meth:`FrameEstimator.step_window_ns`). Offline (``smooth``), the steps are held back and
-leave with the RTS smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
+(:meth:`FrameEstimator.step_window_ns`). With a ``pose_covariance``
+(``--pose-uncertainty``) each estimate carries the covariance of the pose it was located
+from, which every fusion's noise model adds the ball's share of
+(:func:`estimator.noise.localisation_covariance`): the line fit's, else the log pose's, else
+that default. Offline (``smooth``), the steps are held back and leave with the RTS
+smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
 :meth:`FrameEstimator.flush`, :mod:`replay.smoothing`).
 """
 
@@ -40,7 +44,14 @@ from estimator import corrected, fusion, paper
 from estimator.detection import Detection, detect_ball
 from estimator.detection.real import Candidate
 from estimator.errors import EstimatorError
-from estimator.estimates import BallEstimate, Covariance, FusedEstimate, covariance_rows
+from estimator.estimates import (
+    BallEstimate,
+    Covariance,
+    Covariance3,
+    FusedEstimate,
+    covariance3_rows,
+    covariance_rows,
+)
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement
@@ -148,8 +159,13 @@ class FrameEstimator:
     def __init__(self, *, method: str, fusion_method: str, cameras: Cameras,
                  smooth: bool = False, noise: str = "cambada",
                  finder: BallFinder | None = None,
-                 detector: Detector | None = None) -> None:
+                 detector: Detector | None = None,
+                 pose_covariance: np.ndarray | None = None) -> None:
         self.cameras = cameras
+        self.pose_covariance = (None if pose_covariance is None
+                                else covariance3_rows(np.asarray(pose_covariance, np.float64)))
+        """The pose covariance (x, y, yaw) an estimate carries when neither its line fit
+        nor its log pose gives one; None: estimates carry none (module docstring)."""
         self.finder = finder
         self._centres = dict(cameras.centres)
         self._heights = {r: m.height_m for r, m in cameras.models.items()}
@@ -218,7 +234,18 @@ class FrameEstimator:
             estimate = self.locator.locate(robot, det, pose.pose if loc is None else loc.pose)
         except EstimatorError:
             return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
+        if self.pose_covariance is not None:
+            estimate = replace(estimate, pose_covariance=self._pose_covariance(pose, loc))
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate, localisation=loc)
+
+    def _pose_covariance(self, pose: PoseMatch, loc: Localisation | None) -> Covariance3 | None:
+        """The covariance of the pose an estimate is located from: the line fit's (or its
+        held or prior one), else the log pose's, else the default."""
+        if loc is not None:
+            return covariance3_rows(np.asarray(loc.covariance, np.float64))
+        if pose.covariance is not None:
+            return covariance3_rows(np.asarray(pose.covariance, np.float64).reshape(3, 3))
+        return self.pose_covariance
 
     def field_pose(self, robot: str, pose: PoseMatch) -> PoseMatch:
         """The believed pose in the field frame: the camera file's map-to-field transform
@@ -227,7 +254,13 @@ class FrameEstimator:
         if transform is None:
             return pose
         x, y, yaw = transform.apply(pose.pose.x_m, pose.pose.y_m, pose.pose.yaw_rad)
-        return replace(pose, pose=RobotPose(x, y, yaw))
+        cov = pose.covariance
+        if cov is not None:  # the position's axes turned with the frame; the yaw's stays
+            c, s = math.cos(transform.yaw_rad), math.sin(transform.yaw_rad)
+            rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            turned = rot @ np.asarray(cov, np.float64).reshape(3, 3) @ rot.T
+            cov = tuple(float(v) for v in turned.ravel())
+        return replace(pose, pose=RobotPose(x, y, yaw), covariance=cov)
 
     def sinks(self, sinks: Sequence[Sink]) -> list[Sink]:
         """The sinks the runner feeds: these, or (smoothing) one that passes frames on and
@@ -300,4 +333,5 @@ def _ball(e: RobotEstimate, r_px: float | None = None,
           camera_height_m: float | None = None) -> BallEstimate:
     return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
                         range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
-                        visibility=e.visibility, r_px=r_px, camera_height_m=camera_height_m)
+                        visibility=e.visibility, r_px=r_px, camera_height_m=camera_height_m,
+                        pose_covariance=e.pose_covariance)

@@ -175,7 +175,14 @@ class ReplayOptions:
     pose_sigma_m: float = DEFAULT_POSE_SIGMA[0]
     pose_sigma_deg: float = DEFAULT_POSE_SIGMA[1]
     """The believed pose's standard deviation (position [m], yaw [deg]) the line fit weighs
-    it with (``--pose-sigma``): a fit further from it than this allows is refused."""
+    it with (``--pose-sigma``): a fit further from it than this allows is refused. With
+    ``pose_uncertainty``, also the pose's covariance when nothing better is known."""
+    pose_uncertainty: bool = False
+    """Each robot's estimate carries the covariance of the pose it was located from, and
+    the fusion adds the ball's share of it (:func:`estimator.noise.localisation_covariance`:
+    the position's, and the yaw's across the bearing, growing with range): the line fit's
+    (``--localise lines``), else the log pose's own (PoseWithCovarianceStamped, Odometry),
+    else ``--pose-sigma``'s."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -328,8 +335,10 @@ class ReplayOptions:
             **({"end_absolute": True} if self.end_absolute else {}),
             **({"detector": "real", "ball": self.ball.name}
                if self.detector_name == "real" and self.ball is not None else {}),
-            **({"localise": self.localise, "pose_sigma_m": self.pose_sigma_m,
-                "pose_sigma_deg": self.pose_sigma_deg} if self.localising else {}),
+            **({"localise": self.localise} if self.localising else {}),
+            **({"pose_uncertainty": True} if self.pose_uncertainty else {}),
+            **({"pose_sigma_m": self.pose_sigma_m, "pose_sigma_deg": self.pose_sigma_deg}
+               if self.localising or self.pose_uncertainty else {}),
         }
 
     @property
@@ -367,8 +376,12 @@ class ReplayOptions:
         d = asdict(self)
         d.pop("threads")
         if not self.localising:  # as before the option existed: the same recording ids
-            for key in ("localise", "pose_sigma_m", "pose_sigma_deg"):
-                d.pop(key)
+            d.pop("localise")
+        if not self.pose_uncertainty:
+            d.pop("pose_uncertainty")
+        if not (self.localising or self.pose_uncertainty):
+            d.pop("pose_sigma_m")
+            d.pop("pose_sigma_deg")
         if self.calibration_model is None:
             d.pop("calibration_model")
         d["fusion"] = self.fusion_method

@@ -18,6 +18,7 @@ from estimator.constants import PAPER_CENTRE_PX
 from estimator.detection import Detection
 from estimator.detection.real import Candidate
 from estimator.estimates import Covariance, FusedEstimate
+from estimator.estimates import Covariance3 as PoseCovariance
 from estimator.geometry import RobotPose
 from estimator.tracking.ballistic import Landing
 
@@ -58,6 +59,9 @@ class RobotEstimate:
     robot_yaw_rad: float
     visibility: float = 1.0
     """Detected blob area / a whole ball's expected area at this range (1: unknown)."""
+    pose_covariance: PoseCovariance | None = None
+    """With ``--pose-uncertainty``: the covariance over (x, y, yaw) of the pose the estimate
+    was located from, which the fusion adds the ball's share of (:mod:`estimator.noise`)."""
 
 
 Covariance3 = tuple[tuple[float, float, float], ...]

@@ -47,7 +47,7 @@ from replay.cameras import cameras_for
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
-from replay.localise import Localiser, check_field
+from replay.localise import Localiser, check_field, prior_covariance
 from replay.log import (
     ImageMessage,
     LogInfo,
@@ -110,7 +110,9 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
             smooth=options.smooth, noise=options.noise, finder=finder,
-            detector=options.detector_part())
+            detector=options.detector_part(),
+            pose_covariance=prior_covariance(options.pose_sigma_m, options.pose_sigma_deg)
+            if options.pose_uncertainty else None)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots)
         diagnosis = Diagnosis(path, info.robots, cameras)

@@ -99,6 +99,9 @@ class PoseMatch:
     gap_ns: int
     """Distance from the image stamp to the nearest pose sample [ns]."""
     interpolated: bool
+    covariance: tuple[float, ...] | None = None
+    """The nearest pose sample's covariance over (x, y, yaw), row-major, when the log
+    gives one (:attr:`~replay.log.PoseMessage.covariance`)."""
 
 
 def interpolate_pose(history: History[PoseMessage], t_ns: int, tolerance_ns: int) -> (
@@ -118,11 +121,13 @@ def interpolate_pose(history: History[PoseMessage], t_ns: int, tolerance_ns: int
         y = before.y_m + s * (after.y_m - before.y_m)
         q = slerp((before.qx, before.qy, before.qz, before.qw),
                   (after.qx, after.qy, after.qz, after.qw), s)
-        return PoseMatch(RobotPose(x, y, yaw_from_quaternion(*q)), gap, True)
+        nearer = before if t_ns - before.stamp_ns <= after.stamp_ns - t_ns else after
+        return PoseMatch(RobotPose(x, y, yaw_from_quaternion(*q)), gap, True,
+                         nearer.covariance)
     p = before if before is not None else after
     assert p is not None
     return PoseMatch(RobotPose(p.x_m, p.y_m, yaw_from_quaternion(p.qx, p.qy, p.qz, p.qw)),
-                     gap, False)
+                     gap, False, p.covariance)
 
 
 def interpolate_truth(history: History[TruthMessage], t_ns: int, tolerance_ns: int) -> (

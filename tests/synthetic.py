@@ -146,15 +146,17 @@ def write_log(
     ball_colour: tuple[int, int, int] = ORANGE_BGR,
     image_topic: str | None = None,
     robot_velocity: tuple[float, float] = (0.0, 0.0),
+    pose_covariance: dict[str, Sequence[float]] | None = None,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
     bytes are garbage; ``image_encoding`` is "png", "jpeg" or "bgr8"/"rgb8"/"mono8" (raw).
     ``pose_schema`` POSE_WITH_COVARIANCE_STAMPED writes poses as a localiser (AMCL) does,
-    on ``pose_topic``. ``camera_phases_ns={"robot2": 17_000_000}`` delays a robot's images
-    (free-running, unsynchronised cameras); ``ball_path(t_ns) -> ((x, y), (vx, vy))`` moves
-    the ball any way (instead of ``ball + ball_velocity t``); ``with_odometry`` writes the
-    true position and velocity on /ground_truth/ball/odometry too; ``pose_bias_m={"robot3":
+    on ``pose_topic``, each robot's with its ``pose_covariance`` (36 values; default zeros).
+    ``camera_phases_ns={"robot2": 17_000_000}`` delays a robot's images (free-running,
+    unsynchronised cameras); ``ball_path(t_ns) -> ((x, y), (vx, vy))`` moves the ball any way
+    (instead of ``ball + ball_velocity t``); ``with_odometry`` writes the true position and
+    velocity on /ground_truth/ball/odometry too; ``pose_bias_m={"robot3":
     (dx, dy)}`` shifts the pose a robot believes (its images stay true), so its estimate of
     the ball is off by (dx, dy). The log's camera metadata describes the camera the images
     are drawn for (``cameras="paper"``: the paper's lookup entry, eq. 4 at ``centre_px``);
@@ -256,8 +258,9 @@ def write_log(
                 msg = _pose_msg(t + stamp_offset_ns, x, y,
                                 yaw + (yaw_bias_rad or {}).get(name, 0.0))
                 if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
+                    cov = (pose_covariance or {}).get(name, [0.0] * 36)
                     msg = {"header": msg["header"],
-                           "pose": {"pose": msg["pose"], "covariance": [0.0] * 36}}
+                           "pose": {"pose": msg["pose"], "covariance": list(cov)}}
                 writer.write_message(
                     contract.topic_for(pose_topic, name), schemas[pose_schema],
                     msg, log_time=t + stamp_offset_ns, publish_time=t + stamp_offset_ns,

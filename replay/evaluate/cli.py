@@ -3,6 +3,7 @@
     dsp-eval [--camera ideal] [--calibration calib.json] [--out-dir eval/]
     dsp-eval --suite random --count 200 --seed 1 [--workers N | --ray]
     dsp-eval --suite match --count 20 [--workers N | --ray]
+    dsp-eval --suite match --camera mirror --realism field --localise lines
     dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
     dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, in 3-D
 
@@ -42,7 +43,7 @@ from replay.evaluate.match import (
     match_markdown,
     run_match_suite,
 )
-from replay.evaluate.scenes import SceneMapper, SceneTask
+from replay.evaluate.scenes import SceneMapper, SceneTask, configs_for
 from replay.evaluate.suites import (
     PAPER_SCENARIOS,
     paper_markdown,
@@ -50,6 +51,7 @@ from replay.evaluate.suites import (
     run_paper_suite,
     run_random_suite,
 )
+from replay.options import LOCALISE_MODES
 from replay.parallel import Outcome, Workers, map_tasks
 from replay.parallel.cli import add_worker_arguments, workers_from_args
 from replay.real_ball import DETECTORS
@@ -110,6 +112,14 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
                    help="record every scene with this preset of localisation error and "
                    "camera effects (dsp-record --realism; field: a real field's); the logs "
                    "and tables are named after it (default none: exact poses, ideal images)")
+    p.add_argument("--localise", choices=LOCALISE_MODES, default="none",
+                   help="lines: replay every scene also with each frame's pose corrected "
+                   "from the field lines in its image (dsp-replay --localise lines), scored "
+                   "beside the believed poses (rows '+ lines'); paper, random and match "
+                   "suites (default none)")
+    p.add_argument("--pose-uncertainty", action="store_true",
+                   help="every replay weighs each robot by its own pose's covariance "
+                   "(dsp-replay --pose-uncertainty); the tables are named after it")
 
 
 def _add_images_arguments(p: argparse.ArgumentParser) -> None:
@@ -158,6 +168,7 @@ def _check(args: argparse.Namespace) -> None:
     if args.realism != "none" and args.suite in ("lobs", "images"):
         raise UsageError(f"--realism records its scenes with a field's errors; --suite "
                          f"{args.suite} does not take it")
+    _check_poses(args)
     check_int("--count", args.count, low=1, high=MAX_COUNT)
     check_int("--seed", args.seed, low=0, high=MAX_SEED)
     check_int("--sync-count", args.sync_count, low=0, high=MAX_COUNT)
@@ -166,6 +177,13 @@ def _check(args: argparse.Namespace) -> None:
         raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
     if args.calibration is not None:  # a bad file would otherwise only show at the first replay
         read_calibration(args.calibration)
+
+
+def _check_poses(args: argparse.Namespace) -> None:
+    """--localise and --pose-uncertainty replay logs: the lobs and images suites refuse them."""
+    if (args.localise != "none" or args.pose_uncertainty) and args.suite in ("lobs", "images"):
+        raise UsageError(f"--localise and --pose-uncertainty go with the paper, random and "
+                         f"match suites; --suite {args.suite} does not take them")
 
 
 @dataclass(frozen=True)
@@ -209,11 +227,13 @@ def _run_suite(args: argparse.Namespace,
         if args.suite == "paper":
             suite = run_paper_suite(record, _log_dir(args), camera=args.camera,
                                     calibration=args.calibration, seed=args.seed,
-                                    map_scenes=map_scenes)
+                                    configs=configs_for(args.localise), map_scenes=map_scenes,
+                                    pose_uncertainty=args.pose_uncertainty)
             return stem, paper_markdown(suite), suite.to_dict()
         rsuite = run_random_suite(record, _log_dir(args), camera=args.camera, count=args.count,
                                   seed=args.seed, calibration=args.calibration,
-                                  map_scenes=map_scenes)
+                                  configs=configs_for(args.localise), map_scenes=map_scenes,
+                                  pose_uncertainty=args.pose_uncertainty)
     return stem, random_markdown(rsuite), rsuite.to_dict()
 
 
@@ -222,6 +242,10 @@ def _stem(args: argparse.Namespace) -> str:
     stem = f"{args.suite}-{args.camera}"
     if args.realism != "none":
         stem += f"-{args.realism}"
+    if args.localise != "none":
+        stem += f"-{args.localise}"
+    if args.pose_uncertainty:
+        stem += "-posecov"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
 
 
@@ -237,7 +261,8 @@ def _run_match_suite(args: argparse.Namespace,
     options = MatchOptions(camera=args.camera, duration_s=args.duration, rate_hz=args.rate,
                            face_px=args.face_px, distractors=args.distractors,
                            renderer=args.renderer, calibration=args.calibration,
-                           realism=args.realism)
+                           realism=args.realism, localise=args.localise,
+                           pose_uncertainty=args.pose_uncertainty)
     sync = args.count if args.sync_count is None else min(args.sync_count, args.count)
     with progress_bar(args.count + sync, PROG, progress_enabled(args), unit="log") as bar:
 
@@ -286,6 +311,7 @@ def _run_images(args: argparse.Namespace) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     if args.suite == "images":
+        _check_poses(args)
         return _run_images(args)
     if args.dirs:
         raise UsageError("folders (DIR) go with --suite images")

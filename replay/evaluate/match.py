@@ -21,6 +21,12 @@ two predicted from older estimates. So the tracker is also read on a common cloc
 tick of :data:`CLOCK_HZ` (``replay --clock``, the row :data:`CLOCK_ROW`): the same instants
 in either phase, as a robot's control loop would read it.
 
+With ``localise="lines"`` every replay runs twice, with the poses the robots believe and
+with each corrected from its image's field lines (``replay --localise lines``): each row
+(and robot) is scored both ways, the second labelled :data:`LINES_SUFFIX`. With
+``pose_uncertainty`` every replay weighs the robots by their own pose's covariance
+(``replay --pose-uncertainty``).
+
 :func:`run_match_task` is a function of one :class:`MatchTask` (seed, camera phase,
 options) alone, so logs can be scored in any order, in a process pool or as Ray tasks;
 :func:`run_match_suite` folds them in task order.
@@ -29,19 +35,24 @@ options) alone, so logs can be scored in any order, in a process pool or as Ray 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from dsp import contract
 from dsp.jsonio import Json
 from dsp.metadata import MetadataError, ScenarioMetadata
 from dsp.realism import realism_preset
 from estimator.fusion import FUSION_METHODS
+from replay.evaluate.match_score import (
+    CAPTURE_ERROR_M,
+    CAPTURE_RADIUS_M,
+    CAPTURE_STEPS,
+    Scores,
+    captures,
+    score_steps,
+)
 from replay.evaluate.scenes import serial_map
 from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
@@ -54,6 +65,7 @@ __all__ = [
     "CAPTURE_STEPS",
     "CLOCK_HZ",
     "CLOCK_ROW",
+    "LINES_SUFFIX",
     "MATCH_FUSIONS",
     "MatchLogScore",
     "MatchOptions",
@@ -73,18 +85,30 @@ __all__ = [
 
 MATCH_FUSIONS = tuple(f for f in ("track", "mean", "weighted", "robust") if f in FUSION_METHODS)
 """The fusions the suite compares (``track`` first when the estimator has it)."""
-CAPTURE_ERROR_M = 0.5
-CAPTURE_RADIUS_M = 0.75
-CAPTURE_STEPS = 3
 PHASES = ("random", "sync")
 CLOCK_HZ = 100.0
 """The common clock the tracker is also scored on (``dsp-replay --clock``)."""
 CLOCK_ROW = "track, 100 Hz clock"
+LINES_SUFFIX = " + lines"
+"""A row's (or robot's) label suffix when its poses were corrected from the field lines."""
 
 
-def score_rows(fusions: Sequence[str]) -> tuple[str, ...]:
-    """The table's rows: each fusion, and the tracker on the clock after ``track``."""
-    return tuple(r for f in fusions for r in ((f, CLOCK_ROW) if f == "track" else (f,)))
+def pose_label(row: str, localise: str) -> str:
+    """The label of ``row`` replayed with ``--localise localise``."""
+    return row if localise == "none" else row + LINES_SUFFIX
+
+
+def score_rows(fusions: Sequence[str], localise: str = "none") -> tuple[str, ...]:
+    """The table's rows: each fusion, and the tracker on the clock after ``track``; with
+    ``localise``, each of them with the believed poses, then with the corrected ones."""
+    rows = tuple(r for f in fusions for r in ((f, CLOCK_ROW) if f == "track" else (f,)))
+    return tuple(pose_label(r, mode) for mode in pose_modes(localise) for r in rows)
+
+
+def pose_modes(localise: str) -> tuple[str, ...]:
+    """The ``--localise`` modes each log is replayed with: the believed poses, and the
+    corrected ones when ``localise`` asks for them."""
+    return ("none",) if localise == "none" else ("none", localise)
 
 
 @dataclass(frozen=True)
@@ -103,6 +127,10 @@ class MatchOptions:
     realism: str = "none"
     """The recorder's preset of localisation error and camera effects (:mod:`dsp.realism`);
     ``distractors`` stays as given."""
+    localise: str = "none"
+    """"lines": each log also replayed with its poses corrected from the field lines."""
+    pose_uncertainty: bool = False
+    """Every replay weighs the robots by their pose's covariance (``--pose-uncertainty``)."""
 
     def log_name(self, seed: int, phase: str) -> str:
         return match_log_name(seed, phase, self)
@@ -116,40 +144,6 @@ def match_log_name(seed: int, phase: str, options: MatchOptions) -> str:
     realism = "" if options.realism == "none" else f"-{options.realism}"
     return (f"match-{seed}-{phase}-{options.camera}-d{options.distractors}"
             f"-{options.duration_s:g}s{rate}{face}{realism}.mcap")
-
-
-@dataclass
-class Scores:
-    """Pooled errors of one fusion method over steps (and matches)."""
-
-    errors: list[float] = field(default_factory=list)
-    velocity_errors: list[float] = field(default_factory=list)
-    captures: int = 0
-    matches_captured: int = 0
-    steps: int = 0
-    missing: int = 0
-    """Steps with a truth but no estimate."""
-
-    def add(self, other: Scores) -> None:
-        self.errors += other.errors
-        self.velocity_errors += other.velocity_errors
-        self.captures += other.captures
-        self.matches_captured += other.matches_captured
-        self.steps += other.steps
-        self.missing += other.missing
-
-    def stats(self) -> dict[str, Any]:
-        e, v = np.array(self.errors), np.array(self.velocity_errors)
-        return {
-            "steps": self.steps, "estimates": len(e), "missing": self.missing,
-            "rmse_m": float(np.sqrt(np.mean(e**2))) if len(e) else None,
-            "median_m": float(np.median(e)) if len(e) else None,
-            "p95_m": float(np.percentile(e, 95)) if len(e) else None,
-            "max_m": float(e.max()) if len(e) else None,
-            "velocity_median_m_s": float(np.median(v)) if len(v) else None,
-            "velocity_p95_m_s": float(np.percentile(v, 95)) if len(v) else None,
-            "captures": self.captures, "matches_captured": self.matches_captured,
-        }
 
 
 @dataclass(frozen=True)
@@ -216,51 +210,6 @@ def _distractors(log: Path) -> list[tuple[float, float]]:
     return []
 
 
-def captures(fused: Sequence[dict[str, Any]], distractors: Sequence[tuple[float, float]],
-             *, error_m: float = CAPTURE_ERROR_M, radius_m: float = CAPTURE_RADIUS_M,
-             steps: int = CAPTURE_STEPS) -> int:
-    """Runs of >= ``steps`` consecutive fused steps more than ``error_m`` from the truth and
-    within ``radius_m`` of a distractor."""
-    runs, run = 0, 0
-    for f in fused:
-        err = f.get("error_m")
-        near = f.get("x_m") is not None and any(
-            math.hypot(f["x_m"] - x, f["y_m"] - y) <= radius_m for x, y in distractors)
-        if err is not None and err > error_m and near:
-            run += 1
-            if run == steps:
-                runs += 1
-        else:
-            run = 0
-    return runs
-
-
-def _velocity_error(f: dict[str, Any]) -> float | None:
-    if f.get("velocity_error_m_s") is not None:
-        return float(f["velocity_error_m_s"])
-    v, t = f.get("velocity_m_s"), f.get("truth_velocity_m_s")
-    if v is None or t is None:
-        return None
-    return math.hypot(v[0] - t[0], v[1] - t[1])
-
-
-def _score(fused: list[dict[str, Any]], distractors: list[tuple[float, float]]) -> Scores:
-    s = Scores()
-    for f in fused:
-        if f.get("truth") is None:
-            continue
-        s.steps += 1
-        if f.get("error_m") is None:
-            s.missing += 1
-            continue
-        s.errors.append(float(f["error_m"]))
-        if (ve := _velocity_error(f)) is not None:
-            s.velocity_errors.append(ve)
-    s.captures = captures(fused, distractors)
-    s.matches_captured = int(s.captures > 0)
-    return s
-
-
 def run_match_task(task: MatchTask) -> MatchLogScore:
     """Record the match when its log is missing, replay it with each fusion, score it."""
     if not task.log.exists():
@@ -268,19 +217,24 @@ def run_match_task(task: MatchTask) -> MatchLogScore:
     distractors = _distractors(task.log)
     fused: dict[str, Scores] = {}
     robots: dict[str, list[float]] = {}
-    for fusion in task.fusions:
+    o = task.options
+    for mode, fusion in ((m, f) for m in pose_modes(o.localise) for f in task.fusions):
         collected = ResultsCollector()
         clock = CLOCK_HZ if fusion == "track" else None
         replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
-                                       calibration=task.options.calibration, progress=False),
+                                       calibration=o.calibration, localise=mode,
+                                       pose_uncertainty=o.pose_uncertainty, progress=False),
                sinks=[collected])
-        fused[fusion] = _score([f for f in collected.fused if not f.get("tick")], distractors)
+        fused[pose_label(fusion, mode)] = score_steps(
+            [f for f in collected.fused if not f.get("tick")], distractors)
         if clock is not None:  # the ticks: steps without images
-            fused[CLOCK_ROW] = _score([f for f in collected.fused if f.get("tick")], distractors)
-        if not robots:  # the robots' own estimates are the same under every fusion
+            fused[pose_label(CLOCK_ROW, mode)] = score_steps(
+                [f for f in collected.fused if f.get("tick")], distractors)
+        if fusion == task.fusions[0]:  # the robots' own: the same under every fusion
             for fr in collected.frames:
                 if fr.get("error_m") is not None:
-                    robots.setdefault(fr["robot"], []).append(float(fr["error_m"]))
+                    robots.setdefault(pose_label(fr["robot"], mode), []).append(
+                        float(fr["error_m"]))
     return MatchLogScore(task.seed, task.phase, fused, robots)
 
 
@@ -293,7 +247,7 @@ class MatchSuite:
     logs: list[MatchLogScore] = field(default_factory=list)
 
     def pooled(self, phase: str, seeds: set[int] | None = None) -> dict[str, Scores]:
-        out = {f: Scores() for f in score_rows(self.fusions)}
+        out = {f: Scores() for f in score_rows(self.fusions, self.options.localise)}
         for log in self.logs:
             if log.phase == phase and (seeds is None or log.seed in seeds):
                 for fusion, s in log.fused.items():
@@ -320,6 +274,10 @@ class MatchSuite:
                         "distractors": self.options.distractors,
                         **({"realism": self.options.realism}
                            if self.options.realism != "none" else {}),
+                        **({"localise": self.options.localise}
+                           if self.options.localise != "none" else {}),
+                        **({"pose_uncertainty": True} if self.options.pose_uncertainty
+                           else {}),
                         "calibration": (self.options.calibration.name
                                         if self.options.calibration else None)},
             "capture": {"error_m": CAPTURE_ERROR_M, "radius_m": CAPTURE_RADIUS_M,
@@ -362,6 +320,15 @@ def _fmt(v: float | None, nd: int = 4) -> str:
     return "-" if v is None else f"{v:.{nd}f}"
 
 
+def _poses_note(o: MatchOptions) -> str:
+    """How the poses were taken, for the table's heading."""
+    note = ("" if o.localise == "none" else
+            f"; rows `{LINES_SUFFIX.strip()}`: poses corrected from the field lines "
+            f"(`--localise {o.localise}`), the others as the robots believe them")
+    return note + ("; each robot weighed by its pose's covariance (`--pose-uncertainty`)"
+                   if o.pose_uncertainty else "")
+
+
 def match_markdown(suite: MatchSuite) -> str:
     """The fused errors per method, the robots' own errors and the phase comparison."""
     o = suite.options
@@ -370,7 +337,7 @@ def match_markdown(suite: MatchSuite) -> str:
              f"`{o.camera}` at {rate} Hz per robot, random phases, {o.distractors} "
              "distractors" + ("" if o.realism == "none" else
                               f", localisation error and camera effects `--realism {o.realism}`")
-             + ".", "",
+             + _poses_note(o) + ".", "",
              "| fusion | steps | RMSE [m] | median [m] | p95 [m] | max [m] | "
              "velocity median [m/s] | velocity p95 [m/s] | captures (matches) |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -392,7 +359,7 @@ def match_markdown(suite: MatchSuite) -> str:
         lines += ["", f"Random vs synchronised camera phases, the same {len(both)} matches:", "",
                   "| fusion | RMSE random [m] | RMSE sync [m] | random / sync |",
                   "|---|---|---|---|"]
-        for fusion in score_rows(suite.fusions):
+        for fusion in score_rows(suite.fusions, o.localise):
             a, b = rnd[fusion].stats()["rmse_m"], syn[fusion].stats()["rmse_m"]
             ratio = "-" if a is None or not b else f"{a / b:.2f}"
             lines.append(f"| {fusion} | {_fmt(a)} | {_fmt(b)} | {ratio} |")

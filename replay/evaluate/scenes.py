@@ -34,6 +34,7 @@ __all__ = [
     "SceneMapper",
     "SceneScorer",
     "SceneTask",
+    "configs_for",
     "replay_results",
     "run_scene",
     "serial_map",
@@ -49,16 +50,28 @@ S = TypeVar("S")
 class Config:
     method: str
     fusion: str
+    localise: str = "none"
+    """The replay's ``--localise``: "lines" corrects the poses from the field lines."""
 
     @property
     def label(self) -> str:
-        return f"{self.method}/{self.fusion}"
+        poses = "" if self.localise == "none" else f" + {self.localise}"
+        return f"{self.method}/{self.fusion}{poses}"
 
 
 CONFIGS = (Config("paper", "mean"),
            *(Config("corrected", f) for f in FUSION_METHODS if f != "ballistic"))
 """The paper and random suites' replays. Not ``ballistic``: on their still and rolling
 balls it is ``triangulate`` behind a filter; ``dsp-eval --suite lobs`` scores it."""
+
+
+def configs_for(localise: str = "none") -> tuple[Config, ...]:
+    """:data:`CONFIGS`; with ``localise`` ("lines") each corrected one again after them,
+    its poses corrected (labelled ``corrected/FUSION + lines``)."""
+    if localise == "none":
+        return CONFIGS
+    return CONFIGS + tuple(Config(c.method, c.fusion, localise) for c in CONFIGS
+                           if c.method == "corrected")
 
 Recorder = Callable[[Path, str, int], None]
 """record(path, scenario, seed): writes one log. To run scenes in other processes it must
@@ -82,6 +95,8 @@ class SceneTask(Generic[S]):
     record: Recorder
     calibration: Path | None = None
     configs: tuple[Config, ...] = CONFIGS
+    pose_uncertainty: bool = False
+    """Every replay weighs the robots by their pose's covariance (``--pose-uncertainty``)."""
 
 
 SceneScorer = Callable[[SceneTask[S], Replays], S]
@@ -101,11 +116,14 @@ def serial_map(fn: Callable[[T], R], tasks: Sequence[T]) -> list[R]:
     return [fn(task) for task in tasks]
 
 
-def replay_results(log: Path, config: Config, calibration: Path | None) -> dict[str, Any]:
+def replay_results(log: Path, config: Config, calibration: Path | None, *,
+                   pose_uncertainty: bool = False) -> dict[str, Any]:
     """The replay's frames and fused steps, as its results file would hold them."""
     collected = ResultsCollector()
     replay(log, ReplayOptions(method=config.method, fusion=config.fusion,
-                              calibration=calibration, progress=False), sinks=[collected])
+                              calibration=calibration, localise=config.localise,
+                              pose_uncertainty=pose_uncertainty, progress=False),
+           sinks=[collected])
     return {"frames": collected.frames, "fused": collected.fused}
 
 
@@ -113,5 +131,7 @@ def run_scene(task: SceneTask[S]) -> S:
     """Record the scene's log when it is missing, replay it under each config, score it."""
     if not task.log.exists():
         task.record(task.log, task.scenario, task.seed)
-    replays = ((c, replay_results(task.log, c, task.calibration)) for c in task.configs)
+    replays = ((c, replay_results(task.log, c, task.calibration,
+                                  pose_uncertainty=task.pose_uncertainty))
+               for c in task.configs)
     return task.score(task, replays)

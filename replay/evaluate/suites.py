@@ -168,11 +168,13 @@ def score_paper_scene(task: SceneTask[list[tuple[str, ScenarioScore]]],
 def run_paper_suite(record: Recorder, workdir: Path, *, camera: str,
                     calibration: Path | None = None, seed: int = 0,
                     configs: Sequence[Config] = CONFIGS,
-                    map_scenes: SceneMapper = serial_map) -> PaperSuite:
+                    map_scenes: SceneMapper = serial_map,
+                    pose_uncertainty: bool = False) -> PaperSuite:
     suite = PaperSuite(camera=camera,
                        calibration=calibration.name if calibration else "camera metadata")
     tasks = [SceneTask(score_paper_scene, name, seed, workdir / f"{name}-{camera}.mcap", record,
-                       calibration, tuple(configs)) for name in PAPER_SCENARIOS]
+                       calibration, tuple(configs), pose_uncertainty)
+             for name in PAPER_SCENARIOS]
     for scores in map_scenes(run_scene, tasks):
         for label, score in scores:
             suite.scores.setdefault(label, []).append(score)
@@ -304,13 +306,14 @@ def score_random_scene(task: SceneTask[RandomScene], replays: Replays) -> Random
 def run_random_suite(record: Recorder, workdir: Path, *, camera: str, count: int, seed: int,
                      calibration: Path | None = None,
                      configs: Sequence[Config] = CONFIGS,
-                     map_scenes: SceneMapper = serial_map) -> RandomSuite:
+                     map_scenes: SceneMapper = serial_map,
+                     pose_uncertainty: bool = False) -> RandomSuite:
     suite = RandomSuite(camera=camera,
                         calibration=calibration.name if calibration else "camera metadata",
                         count=count, seed=seed)
     tasks = [SceneTask(score_random_scene, "random", seed + i,
                        workdir / f"random-{seed + i}-{camera}.mcap", record, calibration,
-                       tuple(configs)) for i in range(count)]
+                       tuple(configs), pose_uncertainty) for i in range(count)]
     for scene in map_scenes(run_scene, tasks):
         suite.dual_sight_scenes += int(scene.dual_sight)
         suite.robot_errors.extend(scene.robot_errors)

@@ -20,6 +20,7 @@ __all__ = [
     "PoseMessage",
     "TruthMessage",
     "convert",
+    "pose_covariance",
 ]
 
 
@@ -54,6 +55,29 @@ class PoseMessage:
     qy: float
     qz: float
     qw: float
+    covariance: tuple[float, ...] | None = None
+    """The pose's 3 x 3 covariance over (x [m], y [m], yaw [rad]), row-major, from a
+    PoseWithCovarianceStamped or Odometry (its 6 x 6's rows and columns x, y and yaw); None
+    from a PoseStamped, or when the message's covariance is all zero (ROS: unknown)."""
+
+
+POSE_COVARIANCE_AXES = (0, 1, 5)
+"""x, y and yaw (rotation about z) in a ROS 6 x 6 pose covariance."""
+
+
+def pose_covariance(values: Any) -> tuple[float, ...] | None:
+    """The (x, y, yaw) block of a ROS row-major 6 x 6 pose covariance, row-major; None when
+    all zero (unknown). Raises :class:`BadMessage` when it is no covariance."""
+    flat = [float(v) for v in values]
+    if len(flat) != 36:
+        raise BadMessage(f"pose covariance of {len(flat)} values, not 36")
+    block = tuple(flat[6 * i + j] for i in POSE_COVARIANCE_AXES for j in POSE_COVARIANCE_AXES)
+    if not any(block):
+        return None
+    _finite(*block)
+    if min(block[0], block[4], block[8]) < 0:
+        raise BadMessage("negative pose variance")
+    return block
 
 
 @dataclass(frozen=True)
@@ -106,14 +130,15 @@ def convert(kind: str, robot: str, msg: Any, record: Message) -> (
     a type replay reads."""
     stamp = _stamp(msg)
     if kind == "pose":
-        pose = msg.pose
+        pose, cov = msg.pose, None
         if hasattr(pose, "pose"):  # PoseWithCovarianceStamped (AMCL), nav_msgs/Odometry
+            cov = pose_covariance(pose.covariance)
             pose = pose.pose
         p, q = pose.position, pose.orientation
         x, y, qx, qy, qz, qw = _finite(p.x, p.y, q.x, q.y, q.z, q.w)
         if math.hypot(qx, qy, qz, qw) < 1e-9:
             raise BadMessage("zero quaternion")
-        return PoseMessage(robot, stamp, x, y, qx, qy, qz, qw)
+        return PoseMessage(robot, stamp, x, y, qx, qy, qz, qw, cov)
     if kind == "truth":
         if hasattr(msg, "twist"):  # nav_msgs/Odometry: the true position and velocity
             p, v = msg.pose.pose.position, msg.twist.twist.linear

@@ -89,12 +89,15 @@ class BallisticParams:
     initial_speed_sigma_mps: float = 10.0
     launch_sigma_mps: float = 2.0
     min_way_s: float = 0.05
+    """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
     short_way_vz_sigma_mps: float = 4.0
     """The sigma of vz at a restart from a way shorter than ``min_way_s``."""
+    top_m: float = 3.5
+    """No ball flies higher (a lob's apex is at most 3 m): a flight the rays take above it
+    is given up, its height unknown again."""
     lost_sigma_m: float = 0.5
     """A flying track that refused ``max_misses`` rays in a row: its position's sigma is
     widened by this, its velocity made unknown, and it takes the next ray."""
-    """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
 
 
 @dataclass(frozen=True)
@@ -120,6 +123,9 @@ class BallisticTracker:
         self._last_airborne = False
         self._refused: tuple[int, Matrix] | None = None
         """The last refused measurement, while refusals run in a row."""
+        self._ray_misses: dict[str, int] = {}
+        """Each robot's rays refused in a row (one robot's taken rays do not vouch for a
+        track the others' miss: along its ray it may be anywhere)."""
 
     @property
     def last_accepted_ns(self) -> int | None:
@@ -262,12 +268,17 @@ class BallisticTracker:
         r = E' (c - p) with E the ray's two unit vectors across it and c the camera; its
         covariance the ray's angular sigmas times the distance along the ray to the track.
         Only for a track whose height is known (:attr:`airborne`: a rolling one takes
-        points); False when there is none, or the gate (2 directions, 99.9 %) refused it."""
+        points); False when there is none, or the gate (2 directions, 99.9 %) refused it.
+        ``max_misses`` rays refused in a row, or as many of one robot's (the others' taken
+        rays do not vouch for the track along them), make the track lost:
+        it is loosened (``lost_sigma_m``, the velocity unknown) and takes the ray."""
         if self.x is None or not self.airborne:
             return False
         self.predict(stamp_ns)
-        if self.misses >= self.params.max_misses:  # lost: the velocity and where, loosened
-            self._loosen(self.params.lost_sigma_m)
+        if max([self.misses, *self._ray_misses.values()]) >= self.params.max_misses:
+            self._loosen(self.params.lost_sigma_m)  # lost: the velocity and where, loosened
+            self._ray_misses.clear()
+            self.misses = 0
         c = np.array(ray.origin)
         e_az, e_el = ray.across()
         H = np.zeros((2, 6))
@@ -278,6 +289,7 @@ class BallisticTracker:
         S = H @ self.P @ H.T + Rm
         innovation = H[:, :3] @ (c - self.x[:3])
         if float(innovation @ np.linalg.solve(S, innovation)) > _GATE_CHI2[2]:
+            self._ray_misses[ray.robot] = self._ray_misses.get(ray.robot, 0) + 1
             self.misses += 1
             return False
         K = np.linalg.solve(S, H @ self.P).T
@@ -285,10 +297,30 @@ class BallisticTracker:
         self.P = (np.eye(6) - K @ H) @ self.P
         self.P = 0.5 * (self.P + self.P.T)
         self.x[2] = max(float(self.x[2]), BALL_RADIUS_M)
+        if self._apex() > self.params.top_m:
+            self._drop_height()
+            return False
+        self._ray_misses[ray.robot] = 0
         self.misses = 0
         self._refused = None
         self._remember(stamp_ns)
         return True
+
+    def _apex(self) -> float:
+        """The highest the track's flight goes (its height now if falling)."""
+        assert self.x is not None
+        vz = max(float(self.x[5]), 0.0)
+        return float(self.x[2]) + vz * vz / (2.0 * G_MPS2)
+
+    def _drop_height(self) -> None:
+        """A flight no ball flies (above ``top_m``): rays crossed where the ball is not, at
+        a shallow angle. Its height is unknown again (on the ground, the variance of a
+        spread up to ``top_m``), and it rolls until rays of two robots lift it."""
+        assert self.x is not None
+        self.x[2], self.x[5] = BALL_RADIUS_M, 0.0
+        self.P[2, :] = self.P[:, 2] = 0.0
+        self.P[5, :] = self.P[:, 5] = 0.0
+        self.P[2, 2] = (self.params.top_m - BALL_RADIUS_M) ** 2 / 3.0
 
     def _loosen(self, sigma_m: float) -> None:
         """The velocity unknown (``initial_speed_sigma_mps``, uncorrelated), the position's
@@ -300,8 +332,11 @@ class BallisticTracker:
 
     def _remember(self, stamp_ns: int) -> None:
         assert self.x is not None
-        self._last = (stamp_ns, self.x[:3].copy())
+        position = self.x[:3].copy()
         self._last_airborne = self.airborne
+        if not self._last_airborne:  # rolling: on the ground, whatever the filter lifted
+            position[2] = BALL_RADIUS_M
+        self._last = (stamp_ns, position)
 
     def _launched(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """A rolling track shown a ball clearly in the air (3 sigma and 5 cm above the

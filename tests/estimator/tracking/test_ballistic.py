@@ -235,3 +235,17 @@ def test_one_robot_s_rays_alone_leave_the_height_unknown() -> None:
         t = 0.1 * k
         assert not tr.update_ray(round(t * NS_PER_S), _ray("robot1", (1.0 + t, 0.0, 1.0), rng))
     assert not tr.airborne and tr.P[2, 2] > 0.5
+
+
+def test_a_flight_the_rays_take_above_3_5_m_is_given_up() -> None:
+    """Rays that cross where no lob flies (the track pulled to 3.6 m, still rising): the
+    flight is given up, its height unknown again, and it rolls."""
+    rng = np.random.default_rng(14)
+    tr = BallisticTracker()
+    tr.update(0, (0.0, 0.0, 3.3), np.eye(3) * 0.05 ** 2)
+    assert tr.airborne
+    taken = [tr.update_ray(round(0.05 * k * NS_PER_S), _ray(robot, (0.0, 0.0, 3.3 + 0.3 * k),
+                                                            rng))
+             for k, robot in ((1, "robot1"), (2, "robot2"), (3, "robot1"))]
+    assert not all(taken)
+    assert not tr.airborne and tr.P[2, 2] > 0.5 and tr.x is not None and tr.x[2] == R

@@ -12,7 +12,8 @@
   velocity; as a one-shot :class:`Fusion` it gates the estimates against each other.
 - ``ballistic``: the ``triangulate`` point of each step fed to the ballistic tracker
   (:mod:`estimator.tracking.ballistic`): the ball in 3-D with its velocity through flight,
-  bounces and rolling, and where it will land.
+  bounces and rolling, and where it will land; a step of one image (free-running cameras)
+  gives its ray to a flying track at its own stamp (:mod:`estimator.tracking.ray_pairs`).
 
 Each method takes its per-estimate covariances from a noise model (:mod:`estimator.noise`).
 All methods are deterministic: no randomness, ties broken by input order (``nearest``'s
@@ -41,6 +42,7 @@ from estimator.estimates import (
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
 from estimator.rays import BallRay, ball_ray, height_unknown_covariance, triangulate
 from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
+from estimator.tracking.ray_pairs import RayPairs, ray_residual
 from estimator.tracking.tracker import TrackFusion
 
 __all__ = [
@@ -224,16 +226,6 @@ class RobustFusion:
         return _fused(position, covariance, [estimates[i].robot for i in kept])
 
 
-def _ray_residual(ray: BallRay, point: Matrix) -> float:
-    """How far ``point`` lies off ``ray``, in the ray's sigmas (root of the chi-square)."""
-    o = np.array(ray.origin)
-    e_az, e_el = ray.across()
-    length = max(float(np.array(ray.direction) @ (point - o)), 1e-6)
-    a = float(e_az @ (point - o)) / (length * ray.sigma_azimuth_rad)
-    b = float(e_el @ (point - o)) / (length * ray.sigma_elevation_rad)
-    return math.hypot(a, b)
-
-
 @dataclass(frozen=True)
 class TriangulateFusion:
     """The ball in 3-D from the robots' rays (:func:`estimator.rays.triangulate`).
@@ -288,7 +280,7 @@ class TriangulateFusion:
             if solved is None:
                 continue
             point = np.array(solved[0])
-            residuals = [_ray_residual(r, point) for r in rays]
+            residuals = [ray_residual(r, point) for r in rays]
             kept = [k for k, res in enumerate(residuals) if res <= self.n_sigma]
             if i not in kept or j not in kept:
                 continue
@@ -336,12 +328,19 @@ class BallisticFusion:
     ball, or a clock tick) gives the track's prediction until ``coast_s`` after its last
     accepted point. ``fuse`` alone is one instant, which has no flight: the triangulation.
     The fused estimate's ``robots`` are the point's when the track took it (none when it
-    coasts or refused it); ``triangulated``: this step's point came from crossed rays."""
+    coasts or refused it); ``triangulated``: this step's point came from crossed rays.
+
+    A step of one robot's image (free-running cameras: each image at its own stamp) has no
+    ray to cross it with: a flying track takes the ray itself
+    (:meth:`~estimator.tracking.ballistic.BallisticTracker.update_ray`); one that rolls,
+    or has no height, the point the ray crosses another robot's recent ray at
+    (:class:`~estimator.tracking.ray_pairs.RayPairs`), else the image's ground estimate."""
 
     def __init__(self, noise: Noise | None = None, params: BallisticParams | None = None,
                  coast_s: float = 1.0) -> None:
         self.triangulate = TriangulateFusion(noise or CalibratedNoise())
         self.tracker = BallisticTracker(params)
+        self.pairs = RayPairs()
         self.coast_ns = round(coast_s * NS_PER_S)
 
     @property
@@ -354,25 +353,59 @@ class BallisticFusion:
     def step(self, stamp_ns: int, estimates: Sequence[BallEstimate]) -> BallisticStep | None:
         """The track at ``stamp_ns`` after this step's estimates (None: no track yet, or
         none seen for ``coast_s``)."""
-        point = self.triangulate.fuse(estimates) if estimates else None
-        taken = False
         tracker = self.tracker
-        if point is not None and point.z_m is not None and point.covariance_3d is not None:
-            taken = tracker.update(stamp_ns, (point.x_m, point.y_m, point.z_m),
-                                   np.array(point.covariance_3d, dtype=np.float64))
+        rays = self._rays(estimates)
+        if len(estimates) == 1 and len(rays) == 1:  # one image: its ray at its own stamp
+            taken, robots, crossed = self._one_ray(stamp_ns, estimates, rays[0])
         else:
-            tracker.predict(stamp_ns)
+            point = self.triangulate.fuse(estimates) if estimates else None
+            taken, robots = False, point.robots if point is not None else ()
+            crossed = point is not None and point.triangulated
+            if point is not None and point.z_m is not None and point.covariance_3d is not None:
+                taken = tracker.update(stamp_ns, (point.x_m, point.y_m, point.z_m),
+                                       np.array(point.covariance_3d, dtype=np.float64))
+            else:
+                tracker.predict(stamp_ns)
+        for ray in rays:
+            self.pairs.remember(stamp_ns, ray)
         last = tracker.last_accepted_ns
         if tracker.x is None or last is None or stamp_ns - last > self.coast_ns:
             return None
         x, P = tracker.x, tracker.P
         fused = FusedEstimate(
-            float(x[0]), float(x[1]), covariance_rows(P[:2, :2]),
-            point.robots if taken and point is not None else (), z_m=float(x[2]),
-            covariance_3d=covariance3_rows(P[:3, :3]),
-            triangulated=point is not None and point.triangulated)
+            float(x[0]), float(x[1]), covariance_rows(P[:2, :2]), robots if taken else (),
+            z_m=float(x[2]), covariance_3d=covariance3_rows(P[:3, :3]), triangulated=crossed)
         return BallisticStep(fused, (float(x[3]), float(x[4]), float(x[5])),
                              0.5 * (P[3:5, 3:5] + P[3:5, 3:5].T), tracker.landing())
+
+    def _rays(self, estimates: Sequence[BallEstimate]) -> list[BallRay]:
+        rays = []
+        for e in estimates:
+            if e.camera_height_m is not None:
+                try:
+                    cov = self.triangulate.noise.covariance(e)
+                    rays.append(ball_ray(e, e.camera_height_m, cov))
+                except EstimatorError:
+                    continue
+        return rays
+
+    def _one_ray(self, stamp_ns: int, estimates: Sequence[BallEstimate], ray: BallRay
+                 ) -> tuple[bool, tuple[str, ...], bool]:
+        """One robot's image: a flying track takes its ray; one that rolls (or has no
+        height) the point it crosses a recent ray of another robot at, else the image's
+        ground estimate with its height unknown. (taken, robots, crossed)."""
+        tracker = self.tracker
+        if tracker.airborne:
+            return tracker.update_ray(stamp_ns, ray), (ray.robot,), False
+        paired = self.pairs.point(stamp_ns, ray, tracker)
+        if paired is not None:
+            return tracker.update(stamp_ns, *paired), (ray.robot,), False
+        point = self.triangulate.fuse(estimates)
+        if point is None or point.z_m is None or point.covariance_3d is None:
+            tracker.predict(stamp_ns)
+            return False, (), False
+        return tracker.update(stamp_ns, (point.x_m, point.y_m, point.z_m),
+                              np.array(point.covariance_3d, dtype=np.float64)), point.robots, False
 
 
 _METHODS: dict[str, Callable[[Noise | None], Fusion]] = {

@@ -20,7 +20,8 @@ frame by the camera description's ``map_to_field`` first; a camera mounted turne
 covariance (:class:`~estimator.noise.CalibratedNoise`), and read at the step's stamp, with
 the ball's velocity; or (``ballistic``) the step's triangulated point fed to the 3-D
 tracker, read with its velocity and predicted landing
-(:class:`~estimator.fusion.BallisticFusion`). The tracker makes a step at every image stamp
+(:class:`~estimator.fusion.BallisticFusion`; a step of one image, free-running cameras,
+gives the tracker its ray at its stamp). The trackers make a step at every image stamp
 (:meth:`FrameEstimator.step_window_ns`). With a ``pose_covariance``
 (``--pose-uncertainty``) each estimate carries the covariance of the pose it was located
 from, which every fusion's noise model adds the ball's share of
@@ -277,8 +278,10 @@ class FrameEstimator:
 
     def step_window_ns(self, window_ns: int) -> int:
         """The window that groups frames into steps: the fusion window, or 1 ns for the
-        tracker, which gives a fused estimate at every image stamp."""
-        return 1 if self.tracker is not None else window_ns
+        trackers (``track``, ``ballistic``), which give a fused estimate at every image
+        stamp (synchronised cameras' images share theirs)."""
+        tracked = self.tracker is not None or isinstance(self.fusion, fusion.BallisticFusion)
+        return 1 if tracked else window_ns
 
     def step(self, index: int, stamp_ns: int, frames: tuple[FrameResult, ...],
              truth: tuple[float, float] | None,

@@ -30,6 +30,12 @@ once (a kick up), its velocity from the way from the last measurement; so does o
 crossing at a shallow angle: the rolling track, its vertical speed held at 0 with no
 variance, would otherwise fly on at 0 and fall short of the rising ball).
 
+Free-running cameras give one robot's ray at a time, never two of one instant:
+:meth:`BallisticTracker.update_ray` takes a ray at its own stamp into a flying track (the
+offset across the ray, 2 directions), so rays of several robots over a few images fix the
+3-D state. A rolling track lifted by the filter itself (two robots' height-unknown points
+that cross in it) takes an unknown velocity: it was held at vz = 0 while it rolled.
+
 :meth:`BallisticTracker.landing` predicts where and when a flying ball next meets the
 ground: t = (vz + sqrt(vz^2 + 2 g (z - R))) / g from now, (x + vx t, y + vy t).
 """
@@ -43,6 +49,7 @@ import numpy as np
 
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Matrix
+from estimator.rays import BallRay
 
 __all__ = ["GATE_CHI2_3DOF_999", "G_MPS2", "BallisticParams", "BallisticTracker", "Landing"]
 
@@ -53,6 +60,8 @@ _LAUNCH_ABOVE_M = 0.1
 """A measurement the rolling track refuses starts a flight when it is this high."""
 _GATE_CHI2 = {1: 10.83, 2: 13.82, 3: GATE_CHI2_3DOF_999}
 """The gate by the measured directions' count (99.9 %)."""
+_MIN_RAY_LENGTH_M = 0.1
+"""A ray's sigmas are scaled by at least this distance from its camera."""
 
 
 @dataclass(frozen=True)
@@ -79,6 +88,16 @@ class BallisticParams:
     sooner or later than predicted)."""
     initial_speed_sigma_mps: float = 10.0
     launch_sigma_mps: float = 2.0
+    min_way_s: float = 0.05
+    """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
+    short_way_vz_sigma_mps: float = 4.0
+    """The sigma of vz at a restart from a way shorter than ``min_way_s``."""
+    top_m: float = 3.5
+    """No ball flies higher (a lob's apex is at most 3 m): a flight the rays take above it
+    is given up, its height unknown again."""
+    lost_sigma_m: float = 0.5
+    """A flying track that refused ``max_misses`` rays in a row: its position's sigma is
+    widened by this, its velocity made unknown, and it takes the next ray."""
 
 
 @dataclass(frozen=True)
@@ -104,6 +123,9 @@ class BallisticTracker:
         self._last_airborne = False
         self._refused: tuple[int, Matrix] | None = None
         """The last refused measurement, while refusals run in a row."""
+        self._ray_misses: dict[str, int] = {}
+        """Each robot's rays refused in a row (one robot's taken rays do not vouch for a
+        track the others' miss: along its ray it may be anywhere)."""
 
     @property
     def last_accepted_ns(self) -> int | None:
@@ -230,17 +252,91 @@ class BallisticTracker:
         self.P = 0.5 * (self.P + self.P.T)
         if self.x[2] < BALL_RADIUS_M:
             self.x[2] = BALL_RADIUS_M
-        if rolling and self.airborne and keep.all() and self._launched(stamp_ns, z, Rm):
-            return True
+        if rolling and self.airborne:
+            if keep.all() and self._launched(stamp_ns, z, Rm):
+                return True
+            if not keep.all():  # rays of two robots crossed in the filter: a kick up,
+                self._loosen(0.0)  # its velocity unknown
         self.misses = 0
         self._refused = None
         self._remember(stamp_ns)
         return True
 
+    def update_ray(self, stamp_ns: int, ray: BallRay) -> bool:
+        """One robot's ray at its own stamp (free-running cameras: no other ray of that
+        instant to cross it with). The measurement is the track's offset across the ray,
+        r = E' (c - p) with E the ray's two unit vectors across it and c the camera; its
+        covariance the ray's angular sigmas times the distance along the ray to the track.
+        Only for a track whose height is known (:attr:`airborne`: a rolling one takes
+        points); False when there is none, or the gate (2 directions, 99.9 %) refused it.
+        ``max_misses`` rays refused in a row, or as many of one robot's (the others' taken
+        rays do not vouch for the track along them), make the track lost:
+        it is loosened (``lost_sigma_m``, the velocity unknown) and takes the ray."""
+        if self.x is None or not self.airborne:
+            return False
+        self.predict(stamp_ns)
+        if max([self.misses, *self._ray_misses.values()]) >= self.params.max_misses:
+            self._loosen(self.params.lost_sigma_m)  # lost: the velocity and where, loosened
+            self._ray_misses.clear()
+            self.misses = 0
+        c = np.array(ray.origin)
+        e_az, e_el = ray.across()
+        H = np.zeros((2, 6))
+        H[0, :3], H[1, :3] = e_az, e_el
+        length = max(float(np.array(ray.direction) @ (self.x[:3] - c)), _MIN_RAY_LENGTH_M)
+        Rm = np.diag([(length * ray.sigma_azimuth_rad) ** 2,
+                      (length * ray.sigma_elevation_rad) ** 2])
+        S = H @ self.P @ H.T + Rm
+        innovation = H[:, :3] @ (c - self.x[:3])
+        if float(innovation @ np.linalg.solve(S, innovation)) > _GATE_CHI2[2]:
+            self._ray_misses[ray.robot] = self._ray_misses.get(ray.robot, 0) + 1
+            self.misses += 1
+            return False
+        K = np.linalg.solve(S, H @ self.P).T
+        self.x = self.x + K @ innovation
+        self.P = (np.eye(6) - K @ H) @ self.P
+        self.P = 0.5 * (self.P + self.P.T)
+        self.x[2] = max(float(self.x[2]), BALL_RADIUS_M)
+        if self._apex() > self.params.top_m:
+            self._drop_height()
+            return False
+        self._ray_misses[ray.robot] = 0
+        self.misses = 0
+        self._refused = None
+        self._remember(stamp_ns)
+        return True
+
+    def _apex(self) -> float:
+        """The highest the track's flight goes (its height now if falling)."""
+        assert self.x is not None
+        vz = max(float(self.x[5]), 0.0)
+        return float(self.x[2]) + vz * vz / (2.0 * G_MPS2)
+
+    def _drop_height(self) -> None:
+        """A flight no ball flies (above ``top_m``): rays crossed where the ball is not, at
+        a shallow angle. Its height is unknown again (on the ground, the variance of a
+        spread up to ``top_m``), and it rolls until rays of two robots lift it."""
+        assert self.x is not None
+        self.x[2], self.x[5] = BALL_RADIUS_M, 0.0
+        self.P[2, :] = self.P[:, 2] = 0.0
+        self.P[5, :] = self.P[:, 5] = 0.0
+        self.P[2, 2] = (self.params.top_m - BALL_RADIUS_M) ** 2 / 3.0
+
+    def _loosen(self, sigma_m: float) -> None:
+        """The velocity unknown (``initial_speed_sigma_mps``, uncorrelated), the position's
+        covariance widened by ``sigma_m`` each way."""
+        self.P[3:, :] = 0.0
+        self.P[:, 3:] = 0.0
+        self.P[3:, 3:] = np.eye(3) * self.params.initial_speed_sigma_mps ** 2
+        self.P[:3, :3] += np.eye(3) * sigma_m ** 2
+
     def _remember(self, stamp_ns: int) -> None:
         assert self.x is not None
-        self._last = (stamp_ns, self.x[:3].copy())
+        position = self.x[:3].copy()
         self._last_airborne = self.airborne
+        if not self._last_airborne:  # rolling: on the ground, whatever the filter lifted
+            position[2] = BALL_RADIUS_M
+        self._last = (stamp_ns, position)
 
     def _launched(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """A rolling track shown a ball clearly in the air (3 sigma and 5 cm above the
@@ -278,14 +374,24 @@ class BallisticTracker:
 
     def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a
-        flight under gravity when ``z`` is in the air (vz now = dz / dt - g dt / 2)."""
-        v = (z - z0) / dt
-        if z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M:
-            v[2] -= 0.5 * G_MPS2 * dt
+        flight under gravity when ``z`` is in the air (vz now = dz / dt - g dt / 2). A way
+        shorter than ``min_way_s`` (two free-running cameras' images) tells no speed: the
+        track's level velocity is kept, its sigma ``initial_speed_sigma_mps``, and vz is 0
+        with ``short_way_vz_sigma_mps`` (the height stays known over a camera's period)."""
+        p = self.params
+        sigma = np.full(3, p.launch_sigma_mps)
+        if dt < p.min_way_s:
+            v = np.zeros(3) if self.x is None else np.array([self.x[3], self.x[4], 0.0])
+            sigma = np.array([p.initial_speed_sigma_mps, p.initial_speed_sigma_mps,
+                              p.short_way_vz_sigma_mps])
+        else:
+            v = (z - z0) / dt
+            if z[2] - BALL_RADIUS_M > _LAUNCH_ABOVE_M:
+                v[2] -= 0.5 * G_MPS2 * dt
         self._start(stamp_ns, z, Rm)
         assert self.x is not None
         self.x[3:] = v
-        self.P[3:, 3:] = np.eye(3) * self.params.launch_sigma_mps ** 2
+        self.P[3:, 3:] = np.diag(sigma ** 2)
         self._remember(stamp_ns)
         return True
 

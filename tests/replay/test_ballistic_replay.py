@@ -100,6 +100,29 @@ def test_one_robot_seeing_a_lob_gives_no_height() -> None:
     assert flying and all(s.z_error_m is not None and s.z_error_m < -0.5 for s in flying)
 
 
+def test_free_running_cameras_rays_at_their_own_stamps_give_the_lob_in_3d() -> None:
+    """Each robot's camera at its own phase (10 Hz, 33 ms apart): every step has one image,
+    one ray, nothing to cross it with at that instant. The steps are the images' stamps;
+    the rays, each at its own, lift the track and fly it within 2 cm from 0.15 s on, with
+    its landing (one ray at a time held no height before)."""
+    est = _estimator()
+    assert est.step_window_ns(50_000_000) == 1
+    phase = {"robot1": 0.0, "robot2": 0.033, "robot3": 0.067}
+    land_t = 2 * V[2] / G_MPS2
+    images = sorted((k / 10 + p, r) for r, p in phase.items() for k in range(10)
+                    if k / 10 + p < land_t - 0.05)
+    steps = []
+    for i, (t, robot) in enumerate(images):
+        stamp, ball = round(t * NS_PER_S), _ball(t)
+        steps.append(est.step(i, stamp, (_frame(robot, stamp, ball),), (ball[0], ball[1]),
+                              truth_z=ball[2]))
+    late = [s for s in steps if s.stamp_ns >= 0.15 * NS_PER_S]
+    assert all(s.error_3d_m is not None and s.error_3d_m < 0.02 for s in late)
+    assert all(s.landing is not None and not s.fused.triangulated for s in late if s.fused)
+    last = late[-1].landing
+    assert last is not None and last.stamp_ns / NS_PER_S == pytest.approx(land_t, abs=0.03)
+
+
 def test_the_one_shot_fusion_is_the_triangulation() -> None:
     f = BallisticFusion()
     assert f.name == "ballistic" and f.fuse([]) is None

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
+from estimator.rays import BallRay
 from estimator.tracking.ballistic import G_MPS2, BallisticParams, BallisticTracker
 
 R = BALL_RADIUS_M
@@ -180,3 +181,71 @@ def test_a_kick_seen_with_a_wide_height_takes_its_vertical_speed() -> None:
         assert tr.x is not None
         errors.append(float(np.linalg.norm(tr.x[:3] - np.array([x, y, z]))))
     assert max(errors) < 0.2 and errors[-1] < 0.1, errors
+
+
+CAMERAS = {"robot1": (-4.0, 2.0, 12.0), "robot2": (4.0, 3.0, 12.0)}
+
+
+def _ray(robot: str, ball: tuple[float, float, float], rng: np.random.Generator,
+         sigma_rad: float = 0.001) -> BallRay:
+    """The robot's ray to ``ball``, its direction off by ``sigma_rad`` each way across."""
+    o = np.array(CAMERAS[robot])
+    u = np.array(ball) - o
+    u /= np.linalg.norm(u)
+    exact = BallRay(robot, tuple(o), tuple(u), sigma_rad, sigma_rad)
+    e_az, e_el = exact.across()
+    u = u + rng.normal(0.0, sigma_rad) * e_az + rng.normal(0.0, sigma_rad) * e_el
+    u /= np.linalg.norm(u)
+    return BallRay(robot, exact.origin, (float(u[0]), float(u[1]), float(u[2])),
+                   sigma_rad, sigma_rad)
+
+
+def test_rays_of_two_robots_at_their_own_stamps_give_the_lob_in_3d() -> None:
+    """Free-running cameras: the robots' images alternate (each robot at 10 Hz, 50 ms after
+    the other), so no two rays are of one instant. Started 0.3 m off with its velocity
+    unknown, the track takes each ray at its stamp and within 0.3 s is within a few
+    centimetres in 3-D."""
+    rng = np.random.default_rng(12)
+    v = (4.0, 1.0, 5.0)
+    start = np.array(arc(0.1, v)) + np.array([0.2, -0.15, 0.15])
+    tr = BallisticTracker()
+    tr.update(round(0.1 * NS_PER_S), tuple(start), np.eye(3) * 0.3 ** 2)
+    errors = []
+    for k in range(1, 16):
+        t = 0.1 + 0.05 * k
+        robot = "robot1" if k % 2 else "robot2"
+        assert tr.update_ray(round(t * NS_PER_S), _ray(robot, arc(t, v), rng))
+        assert tr.x is not None
+        errors.append(float(np.linalg.norm(tr.x[:3] - np.array(arc(t, v)))))
+    assert max(errors[6:]) < 0.05, errors
+    assert tr.x is not None and tr.x[5] == pytest.approx(v[2] - G_MPS2 * 0.85, abs=0.3)
+    assert tr.airborne and tr.P[2, 2] < 0.05 ** 2
+
+
+def test_one_robot_s_rays_alone_leave_the_height_unknown() -> None:
+    """One robot's ray on a track whose height is unknown (its ground estimate, spread along
+    the ray): the track does not take it as a ray (it has no height to correct) and its
+    height variance stays wide."""
+    rng = np.random.default_rng(13)
+    first = _ray("robot1", (1.0, 0.0, 1.0), rng)
+    u = np.array(first.direction)
+    tr = BallisticTracker()
+    tr.update(0, first.ground_point, np.outer(u, u) * 9.0 + np.eye(3) * 1e-4)
+    for k in range(1, 20):
+        t = 0.1 * k
+        assert not tr.update_ray(round(t * NS_PER_S), _ray("robot1", (1.0 + t, 0.0, 1.0), rng))
+    assert not tr.airborne and tr.P[2, 2] > 0.5
+
+
+def test_a_flight_the_rays_take_above_3_5_m_is_given_up() -> None:
+    """Rays that cross where no lob flies (the track pulled to 3.6 m, still rising): the
+    flight is given up, its height unknown again, and it rolls."""
+    rng = np.random.default_rng(14)
+    tr = BallisticTracker()
+    tr.update(0, (0.0, 0.0, 3.3), np.eye(3) * 0.05 ** 2)
+    assert tr.airborne
+    taken = [tr.update_ray(round(0.05 * k * NS_PER_S), _ray(robot, (0.0, 0.0, 3.3 + 0.3 * k),
+                                                            rng))
+             for k, robot in ((1, "robot1"), (2, "robot2"), (3, "robot1"))]
+    assert not all(taken)
+    assert not tr.airborne and tr.P[2, 2] > 0.5 and tr.x is not None and tr.x[2] == R

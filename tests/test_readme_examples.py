@@ -23,7 +23,8 @@ SKIP = {
     "dsp-record match.mcap": "a match recording: simulation time, not the README's words",
     "dsp-record yellow.mcap": "a match recording: simulation time (the golden match log stands "
                               "in as yellow.mcap)",
-    "dsp-record lobs.mcap": "a lob recording: simulation time",
+    "dsp-record lobs.mcap": "a lob recording: simulation time (the golden lob log stands in "
+                            "as lobs.mcap)",
     "dsp-record m.mcap": "a match recording: simulation time",
     "dsp-replay m.mcap": "needs m.mcap, the match recording left out above",
     "dsp-eval --suite random --count 200": "200 simulated scenes: minutes",
@@ -41,7 +42,8 @@ SKIP = {
 }
 
 STAND_INS = {"dsp-record run.mcap": ("logs/golden/rolling.mcap", "run.mcap"),
-             "dsp-record yellow.mcap": ("logs/golden/match.mcap", "yellow.mcap")}
+             "dsp-record yellow.mcap": ("logs/golden/match.mcap", "yellow.mcap"),
+             "dsp-record lobs.mcap": ("logs/golden/lobs.mcap", "lobs.mcap")}
 """A left-out recording's file, made from a golden log so the lines after it run."""
 
 

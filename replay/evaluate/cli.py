@@ -6,6 +6,7 @@
     dsp-eval --suite match --camera mirror --realism field --localise lines
     dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
     dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, in 3-D
+    dsp-eval --suite lobs --camera-phase random    # the same, free-running cameras
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
@@ -35,7 +36,7 @@ from dsp.progress import Progress, progress_bar
 from dsp.realism import REALISM, realism_preset
 from replay.cameras import read_calibration
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
-from replay.evaluate.lobs import LobsOptions, lobs_markdown, run_lobs_suite
+from replay.evaluate.lobs import CAMERA_PHASES, LobsOptions, lobs_markdown, run_lobs_suite
 from replay.evaluate.match import (
     MatchLogScore,
     MatchOptions,
@@ -106,6 +107,12 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
                    "lobs: 10)")
     g.add_argument("--face-px", type=int, metavar="PX",
                    help="render resolution (default: the recorder's, 1024)")
+    g.add_argument("--camera-phase", choices=CAMERA_PHASES, default=None,
+                   help="lobs: record the scenes with the cameras in sync (default: rays of "
+                   "one instant, triangulated) or free-running (random: each robot's at its "
+                   "own seeded phase, as in a match; the ballistic fusion is scored at the "
+                   "steps two robots saw within 0.1 s). The match suite records both "
+                   "(--sync-count)")
     g.add_argument("--distractors", type=int, default=3, metavar="N",
                    help="orange boxes beside the field per match (default %(default)s)")
     p.add_argument("--realism", choices=REALISM, default="none",
@@ -169,6 +176,9 @@ def _check(args: argparse.Namespace) -> None:
         raise UsageError(f"--realism records its scenes with a field's errors; --suite "
                          f"{args.suite} does not take it")
     _check_poses(args)
+    if args.camera_phase is not None and args.suite != "lobs":
+        raise UsageError(f"--camera-phase goes with --suite lobs (the match suite records "
+                         f"both phases, see --sync-count); --suite {args.suite} does not take it")
     check_int("--count", args.count, low=1, high=MAX_COUNT)
     check_int("--seed", args.seed, low=0, high=MAX_SEED)
     check_int("--sync-count", args.sync_count, low=0, high=MAX_COUNT)
@@ -216,7 +226,8 @@ def _run_suite(args: argparse.Namespace,
     if args.suite == "lobs":
         options = LobsOptions(camera=args.camera, duration_s=args.duration,
                               rate_hz=10.0 if args.rate is None else args.rate,
-                              renderer=args.renderer, calibration=args.calibration)
+                              renderer=args.renderer, calibration=args.calibration,
+                              camera_phase=args.camera_phase or "sync")
         lobs = run_lobs_suite(args.out_dir, options, count=args.count, seed=args.seed)
         return _stem(args), lobs_markdown(lobs), lobs.to_dict()
     record = SimRecorder(args.camera, args.renderer, args.realism)
@@ -246,6 +257,8 @@ def _stem(args: argparse.Namespace) -> str:
         stem += f"-{args.localise}"
     if args.pose_uncertainty:
         stem += "-posecov"
+    if args.camera_phase not in (None, "sync"):
+        stem += f"-{args.camera_phase}"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
 
 

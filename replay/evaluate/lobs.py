@@ -15,6 +15,10 @@ fused step against the 3-D truth at its stamp:
 - the ground-plane fusion on the same steps: its 3-D error with the ball assumed at z = R
   (expected: metres in flight);
 - per robot: the RMSE of its own ground-plane estimates in flight.
+
+With ``camera_phase="random"`` (free-running cameras, as in a match) the scenes are recorded
+so and only the ``ballistic`` fusion is replayed and scored, by the rule of
+:mod:`replay.evaluate.lobs_free` (the table and JSON say which rule and why).
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from typing import Any
 
 from dsp.jsonio import Json
 from estimator.constants import BALL_RADIUS_M
+from replay.evaluate.lobs_free import FREE_RUNNING_RULE, FREE_RUNNING_WHY, score_free_running
 from replay.evaluate.lobs_track import LEAD_S, TrackScore, score_track, true_landings
 from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
@@ -35,6 +40,7 @@ from replay.runner import replay
 from replay.sinks import ResultsCollector
 
 __all__ = [
+    "CAMERA_PHASES",
     "FLIGHT_ABOVE_M",
     "GROUND_WITHIN_M",
     "LobsOptions",
@@ -50,6 +56,8 @@ FLIGHT_ABOVE_M = 0.3
 """A step is in flight when the ball's centre is truly higher than this [m]."""
 GROUND_WITHIN_M = 0.01
 """A step is on the ground when the true height is within this of the ball's radius [m]."""
+CAMERA_PHASES = ("sync", "random")
+"""The recorder's ``--camera-phase``: in sync (the default here) or free-running."""
 
 
 @dataclass(frozen=True)
@@ -59,11 +67,13 @@ class LobsOptions:
     rate_hz: float = 10.0
     renderer: str = "auto"
     calibration: Path | None = None
+    camera_phase: str = "sync"
 
 
 def lobs_log_name(seed: int, options: LobsOptions) -> str:
     """The log's name: every option that changes the recording is in it."""
-    return f"lobs-{seed}-sync-{options.camera}-{options.duration_s:g}s-r{options.rate_hz:g}.mcap"
+    o = options
+    return f"lobs-{seed}-{o.camera_phase}-{o.camera}-{o.duration_s:g}s-r{o.rate_hz:g}.mcap"
 
 
 def _record(path: Path, seed: int, o: LobsOptions) -> None:
@@ -71,8 +81,8 @@ def _record(path: Path, seed: int, o: LobsOptions) -> None:
     from recorder.record import RecordOptions, record
 
     record(path, RecordOptions(scenario="lobs", seed=seed, camera=o.camera, renderer=o.renderer,
-                               camera_phase="sync", duration_s=o.duration_s, rate_hz=o.rate_hz,
-                               face_px=DEFAULT_FACE_PX))
+                               camera_phase=o.camera_phase, duration_s=o.duration_s,
+                               rate_hz=o.rate_hz, face_px=DEFAULT_FACE_PX))
 
 
 @dataclass
@@ -174,8 +184,14 @@ def _replay(log: Path, fusion: str, calibration: Path | None) -> ResultsCollecto
     return collected
 
 
-def score_lobs_log(log: Path, calibration: Path | None = None) -> LobsScore:
-    """Replay one lobs log with ``triangulate``, ``robust`` and ``ballistic``; score it."""
+def score_lobs_log(log: Path, calibration: Path | None = None,
+                   camera_phase: str = "sync") -> LobsScore:
+    """Replay one lobs log with ``triangulate``, ``robust`` and ``ballistic``; score it.
+    Free-running cameras: ``ballistic`` alone, by :func:`score_free_running`."""
+    if camera_phase != "sync":
+        tracked = _replay(log, "ballistic", calibration)
+        return LobsScore(track=score_free_running(
+            tracked.fused, tracked.frames, true_landings(log, FLIGHT_ABOVE_M), FLIGHT_ABOVE_M))
     tri = _replay(log, "triangulate", calibration)
     plane = _replay(log, "robust", calibration)
     score = score_lobs(tri.fused, plane.fused, tri.frames)
@@ -197,13 +213,35 @@ class LobsSuite:
             out.add(self.per_seed[seed])
         return out
 
+    @property
+    def free_running(self) -> bool:
+        return self.options.camera_phase != "sync"
+
     def to_dict(self) -> dict[str, Json]:
-        return rounded_doc({
+        score = _free_dict if self.free_running else LobsScore.to_dict
+        doc: dict[str, Json] = {
             "suite": "lobs", "camera": self.options.camera,
             "duration_s": self.options.duration_s, "rate_hz": self.options.rate_hz,
-            "seeds": list(self.seeds), "pooled": self.pooled().to_dict(),
-            "per_seed": {str(s): self.per_seed[s].to_dict() for s in self.seeds},
-        })
+            "seeds": list(self.seeds), "pooled": score(self.pooled()),
+            "per_seed": {str(s): score(self.per_seed[s]) for s in self.seeds},
+        }
+        if self.free_running:  # the synchronised document stays as it was
+            doc |= {"camera_phase": self.options.camera_phase,
+                    "rule": FREE_RUNNING_RULE.format(above=FLIGHT_ABOVE_M),
+                    "triangulate": FREE_RUNNING_WHY}
+        return rounded_doc(doc)
+
+
+def _free_dict(score: LobsScore) -> dict[str, Json]:
+    """A free-running score: the ``ballistic`` fusion's alone (:mod:`lobs_free`)."""
+    t = score.track
+    return {"flight": {"steps": t.flight_steps, "seen_by_two": len(t.flight_3d),
+                       "rmse_3d_m": _rmse(t.flight_3d),
+                       "median_3d_error_m": _median_abs(t.flight_3d),
+                       "median_abs_z_error_m": _median_abs(t.flight_z)},
+            "track": {"landings": t.landings, "landings_predicted": len(t.landing_errors),
+                      "landing_median_error_m": _median_abs(t.landing_errors),
+                      "landing_median_lead_s": _median_abs(t.landing_leads_s)}}
 
 
 def run_lobs_suite(out_dir: Path, options: LobsOptions, *, count: int, seed: int) -> LobsSuite:
@@ -214,7 +252,7 @@ def run_lobs_suite(out_dir: Path, options: LobsOptions, *, count: int, seed: int
         log = out_dir / lobs_log_name(s, options)
         if not log.exists():
             _record(log, s, options)
-        suite.per_seed[s] = score_lobs_log(log, options.calibration)
+        suite.per_seed[s] = score_lobs_log(log, options.calibration, options.camera_phase)
     return suite
 
 
@@ -223,6 +261,8 @@ def _fmt(v: float | None) -> str:
 
 
 def lobs_markdown(suite: LobsSuite) -> str:
+    if suite.free_running:
+        return _free_markdown(suite)
     p = suite.pooled()
     d = p.to_dict()
     flight, ground = d["flight"], d["ground"]
@@ -243,10 +283,32 @@ def lobs_markdown(suite: LobsSuite) -> str:
     lines.append(
         f"| `ballistic` (the tracker on those points) in flight | {len(t.flight_3d)} | "
         f"{_fmt(_rmse(t.flight_3d))} | | |")
-    lines += ["", f"Landing point predicted {LEAD_S:g} s ahead (median lead "
-              f"{_fmt(_median_abs(t.landing_leads_s))} s): median error "
-              f"{_fmt(_median_abs(t.landing_errors))} m over {len(t.landing_errors)} of "
-              f"{t.landings} landings (the others: no prediction then)."]
+    lines += ["", _landing_line(t)]
     robots = ", ".join(f"{r} {_fmt(_rmse(e))}" for r, e in sorted(p.robots_flight.items()))
     lines += ["", f"Each robot's own ground-plane estimates in flight, 3-D RMSE [m]: {robots}."]
     return "\n".join(lines) + "\n"
+
+
+def _landing_line(t: TrackScore) -> str:
+    return (f"Landing point predicted {LEAD_S:g} s ahead (median lead "
+            f"{_fmt(_median_abs(t.landing_leads_s))} s): median error "
+            f"{_fmt(_median_abs(t.landing_errors))} m over {len(t.landing_errors)} of "
+            f"{t.landings} landings (the others: no prediction then).")
+
+
+def _free_markdown(suite: LobsSuite) -> str:
+    t = suite.pooled().track
+    seeds = ", ".join(str(s) for s in suite.seeds)
+    o = suite.options
+    return "\n".join([
+        f"Camera `{o.camera}`, free-running cameras (`--camera-phase {o.camera_phase}`: each "
+        f"robot's at its own seeded phase) at {o.rate_hz:g} Hz, {o.duration_s:g} s of lobs "
+        f"per seed; seeds {seeds}.", "",
+        f"Scored: {FREE_RUNNING_RULE.format(above=FLIGHT_ABOVE_M)}. No `triangulate` rows: "
+        f"{FREE_RUNNING_WHY}.", "",
+        "| | steps | 3-D RMSE [m] | median 3-D error [m] | median abs z error [m] |",
+        "|---|---|---|---|---|",
+        f"| `ballistic` in flight (z > {FLIGHT_ABOVE_M} m), two or more robots within 0.1 s | "
+        f"{len(t.flight_3d)} of {t.flight_steps} | {_fmt(_rmse(t.flight_3d))} | "
+        f"{_fmt(_median_abs(t.flight_3d))} | {_fmt(_median_abs(t.flight_z))} |",
+        "", _landing_line(t)]) + "\n"

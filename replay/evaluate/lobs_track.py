@@ -32,6 +32,10 @@ LANDED_WITHIN_M = 0.005
 class TrackScore:
     flight_3d: list[float] = field(default_factory=list)
     """The tracker's 3-D error at the steps in flight that two robots saw."""
+    flight_z: list[float] = field(default_factory=list)
+    """|z - z_true| at those steps (the free-running rule, :mod:`replay.evaluate.lobs_free`)."""
+    flight_steps: int = 0
+    """Steps in flight (the free-running rule: seen by two robots or not)."""
     landing_errors: list[float] = field(default_factory=list)
     landing_leads_s: list[float] = field(default_factory=list)
     landings: int = 0
@@ -39,6 +43,8 @@ class TrackScore:
 
     def add(self, other: TrackScore) -> None:
         self.flight_3d += other.flight_3d
+        self.flight_z += other.flight_z
+        self.flight_steps += other.flight_steps
         self.landing_errors += other.landing_errors
         self.landing_leads_s += other.landing_leads_s
         self.landings += other.landings

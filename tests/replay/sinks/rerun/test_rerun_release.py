@@ -37,7 +37,9 @@ def test_a_hundred_saved_replays_keep_threads_and_memory_flat(tmp_path: Path) ->
         counts.append(threads())
         rss.append(status_kib("VmRSS"))
         size.append(status_kib("VmSize"))
-    assert max(counts[10:]) <= counts[9], counts  # no thread per replay (was four)
+    # no thread per replay (was four: 360 more over these 90); the process may start one or
+    # two of its own meanwhile (a pool or runtime another test left idle: seen once, +1)
+    assert max(counts[10:]) <= counts[9] + 2, counts
     # the allocator settles over the first replays; after that nothing grows with each one
     # (each used to keep four threads, one reserving ~2.9 GiB of address space)
     assert size[-1] - size[49] < 256 * 1024, size[::10]

@@ -246,12 +246,7 @@ class BallisticTracker:
             self._refused = (stamp_ns, z.copy())
             self.misses += 1
             return False
-        K = np.linalg.solve(S, H @ self.P).T
-        self.x = self.x + K @ innovation
-        self.P = (np.eye(6) - K @ H) @ self.P
-        self.P = 0.5 * (self.P + self.P.T)
-        if self.x[2] < BALL_RADIUS_M:
-            self.x[2] = BALL_RADIUS_M
+        self._correct(H, S, innovation)
         if rolling and self.airborne:
             if keep.all() and self._launched(stamp_ns, z, Rm):
                 return True
@@ -292,11 +287,7 @@ class BallisticTracker:
             self._ray_misses[ray.robot] = self._ray_misses.get(ray.robot, 0) + 1
             self.misses += 1
             return False
-        K = np.linalg.solve(S, H @ self.P).T
-        self.x = self.x + K @ innovation
-        self.P = (np.eye(6) - K @ H) @ self.P
-        self.P = 0.5 * (self.P + self.P.T)
-        self.x[2] = max(float(self.x[2]), BALL_RADIUS_M)
+        self._correct(H, S, innovation)
         if self._apex() > self.params.top_m:
             self._drop_height()
             return False
@@ -305,6 +296,16 @@ class BallisticTracker:
         self._refused = None
         self._remember(stamp_ns)
         return True
+
+    def _correct(self, H: Matrix, S: Matrix, innovation: Matrix) -> None:
+        """The Kalman update of a measurement taken (``H``, its innovation and covariance
+        ``S``); the ball's centre kept at or above the ground."""
+        assert self.x is not None
+        K = np.linalg.solve(S, H @ self.P).T
+        self.x = self.x + K @ innovation
+        self.P = (np.eye(6) - K @ H) @ self.P
+        self.P = 0.5 * (self.P + self.P.T)
+        self.x[2] = max(float(self.x[2]), BALL_RADIUS_M)
 
     def _apex(self) -> float:
         """The highest the track's flight goes (its height now if falling)."""

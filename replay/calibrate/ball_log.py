@@ -4,7 +4,8 @@ A log written by ``dsp-record`` carries what a team draws by hand: where the bal
 (``/ground_truth/ball``, or its odometry) and where each robot truly stands
 (``/ground_truth/{robot}/pose``), and each camera's projection model in its ``dsp.cameras``
 metadata. For each of the first N images (by stamp, then robot) the ball's true centre and
-the robot's true pose at the image's stamp (interpolated between the 240 Hz samples) place
+the robot's true pose at the image's stamp (interpolated between the 240 Hz samples, as the
+replay does: :mod:`replay.sync`) place
 the ball in the camera's frame; the cone of rays tangent to it, through the model
 (:func:`estimator.camera.ball_outline_px`), gives its outline and so its box, as a labelled
 frame's box. The frames then go to the same fit as a folder's
@@ -26,7 +27,7 @@ import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import overload
+from typing import TypeVar, overload
 
 import cv2
 import numpy as np
@@ -39,9 +40,10 @@ from estimator.camera import ball_outline_px
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.detection.real import Box
 from estimator.detection.real.colour import to_ycrcb
-from estimator.geometry import yaw_from_quaternion
+from estimator.geometry import RobotPose
 from replay.errors import MissingPosesError
 from replay.log import ImageMessage, LogReader, PoseMessage, TruthMessage, decode_image
+from replay.sync import History, interpolate_pose, interpolate_truth, interpolate_truth_z
 
 __all__ = ["VISIBLE_SHARE", "LogFrames", "frames_from_log", "visible"]
 
@@ -51,33 +53,7 @@ box's is at least this share of the median box's."""
 MAX_TRUTH_GAP_NS = 50_000_000
 """An image farther than this from the nearest true pose or ball sample has no label."""
 Image = npt.NDArray[np.uint8]
-
-
-@dataclass(frozen=True)
-class _Series:
-    """Samples of a quantity over time: stamps [ns] and rows of values."""
-
-    stamps: npt.NDArray[np.int64]
-    values: npt.NDArray[np.float64]
-
-    def at(self, stamp_ns: int) -> npt.NDArray[np.float64] | None:
-        """The values at ``stamp_ns``, linear between samples; None far from any."""
-        if not len(self.stamps):
-            return None
-        i = int(np.searchsorted(self.stamps, stamp_ns))
-        near = min(abs(int(self.stamps[j]) - stamp_ns) for j in (i - 1, i)
-                   if 0 <= j < len(self.stamps))
-        if near > MAX_TRUTH_GAP_NS:
-            return None
-        t = self.stamps.astype(np.float64)
-        return np.array([np.interp(float(stamp_ns), t, col) for col in self.values.T])
-
-
-def _series(rows: Sequence[tuple[float, ...]]) -> _Series:
-    """The series of (stamp, value, ...) rows, by stamp."""
-    data = np.asarray(rows, np.float64).reshape(-1, len(rows[0]) if rows else 1)
-    order = np.argsort(data[:, 0], kind="stable")
-    return _Series(data[order, 0].astype(np.int64), data[order, 1:])
+T = TypeVar("T", PoseMessage, TruthMessage)
 
 
 @dataclass
@@ -85,8 +61,8 @@ class _Truth:
     """What the log says: the chosen images, the true poses and the ball's truth."""
 
     images: list[ImageMessage]
-    poses: dict[str, list[tuple[float, float, float, float]]]
-    ball: list[tuple[float, float, float, float]]
+    poses: dict[str, list[PoseMessage]]
+    ball: list[TruthMessage]
 
 
 def _done(truth: _Truth, count: int | None) -> bool:
@@ -94,32 +70,33 @@ def _done(truth: _Truth, count: int | None) -> bool:
     if count is None or len(truth.images) < count or not truth.ball:
         return False
     last = truth.images[-1].stamp_ns
-    return truth.ball[-1][0] >= last and all(
-        truth.poses.get(img.robot) and truth.poses[img.robot][-1][0] >= img.stamp_ns
+    return truth.ball[-1].stamp_ns >= last and all(
+        truth.poses.get(img.robot) and truth.poses[img.robot][-1].stamp_ns >= img.stamp_ns
         for img in truth.images)
 
 
 def _read(reader: LogReader, count: int | None) -> _Truth:
     truth = _Truth([], {}, [])
-    unwrapped: dict[str, float] = {}
     for msg in reader.messages():
         if isinstance(msg, ImageMessage):
             if count is None or len(truth.images) < count:
                 truth.images.append(msg)
         elif isinstance(msg, PoseMessage):
-            yaw = yaw_from_quaternion(msg.qx, msg.qy, msg.qz, msg.qw)
-            prev = unwrapped.get(msg.robot, yaw)  # unwrapped, so interpolation turns the
-            yaw = prev + math.remainder(yaw - prev, math.tau)  # short way
-            unwrapped[msg.robot] = yaw
-            truth.poses.setdefault(msg.robot, []).append(
-                (float(msg.stamp_ns), msg.x_m, msg.y_m, yaw))
+            truth.poses.setdefault(msg.robot, []).append(msg)
         elif isinstance(msg, TruthMessage):
-            z = BALL_RADIUS_M if msg.z_m is None else msg.z_m
-            truth.ball.append((float(msg.stamp_ns), msg.x_m, msg.y_m, z))
+            truth.ball.append(msg)
         if _done(truth, count):
             break
     truth.images.sort(key=lambda m: (m.stamp_ns, m.robot))
     return truth
+
+
+def _history(samples: Sequence[T]) -> History[T]:
+    """All of a stream's samples, for interpolation at any image's stamp."""
+    history: History[T] = History(horizon_ns=2**62, max_samples=len(samples) + 2)
+    for sample in samples:
+        history.add(sample)
+    return history
 
 
 def _box(spec: CameraSpec, outline: npt.NDArray[np.float64]) -> Box | str | None:
@@ -141,12 +118,12 @@ def _box(spec: CameraSpec, outline: npt.NDArray[np.float64]) -> Box | str | None
             float(v.max()) + 0.5)
 
 
-def _label(spec: CameraSpec, pose: npt.NDArray[np.float64], ball: npt.NDArray[np.float64]
+def _label(spec: CameraSpec, pose: RobotPose, ball: tuple[float, float, float]
            ) -> Box | str | None:
-    """The ball's box in the image of a camera at ``pose`` (x, y, yaw, field frame)."""
+    """The ball's box in the image of a camera at ``pose`` (field frame)."""
     if spec.camera is None:
         raise ValueError("no projection model")
-    x, y, yaw = (float(v) for v in pose)
+    x, y, yaw = pose.x_m, pose.y_m, pose.yaw_rad
     if spec.map_to_field is not None:
         x, y, yaw = spec.map_to_field.apply(x, y, yaw)
     heading = yaw + spec.mount_yaw_rad  # the field direction image up shows
@@ -249,17 +226,20 @@ def frames_from_log(log: Path, train_count: int | None
     """The first ``train_count`` images of ``log`` (None: all) with their ball boxes, less
     those left out, and what the fit records of them."""
     truth, specs = _open_truth(log, train_count)
-    ball = _series(truth.ball)
-    poses = {r: _series(rows) for r, rows in truth.poses.items()}
+    ball = _history(truth.ball)
+    poses = {r: _history(msgs) for r, msgs in truth.poses.items()}
     kept: list[ImageMessage] = []
     boxes: list[list[Box]] = []
     left_out = 0
     for msg in truth.images:
-        pose = poses[msg.robot].at(msg.stamp_ns) if msg.robot in poses else None
-        where = ball.at(msg.stamp_ns)
-        label = None if pose is None or where is None else _label(specs[msg.robot], pose,
-                                                                   where)
-        if pose is None or where is None or isinstance(label, str):
+        t = msg.stamp_ns
+        pose = (interpolate_pose(poses[msg.robot], t, MAX_TRUTH_GAP_NS) if msg.robot in poses
+                else None)
+        xy = interpolate_truth(ball, t, MAX_TRUTH_GAP_NS)
+        z = interpolate_truth_z(ball, t, MAX_TRUTH_GAP_NS)
+        label = None if pose is None or xy is None else _label(
+            specs[msg.robot], pose.pose, (*xy, BALL_RADIUS_M if z is None else z))
+        if pose is None or xy is None or isinstance(label, str):
             left_out += 1
             continue
         kept.append(msg)

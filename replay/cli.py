@@ -128,12 +128,17 @@ def _add_localise_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--localise", choices=LOCALISE_MODES, default="none",
                    help="lines: correct each frame's pose from the field lines in its image "
                    "before the ball is located (the field from the log's scenario metadata; "
-                   "about 7 ms more per frame on one core); none: the believed poses (default)")
+                   "about 7 ms more per frame on one core); ball: correct each robot's pose by "
+                   "its drifting bias, estimated from how its ball disagrees with the "
+                   "tracked one (--fusion track; only the robots' biases relative to each "
+                   "other can be seen); none: the believed poses (default)")
     p.add_argument("--pose-sigma", metavar="M,DEG", type=_pose_sigma,
                    default=DEFAULT_POSE_SIGMA,
                    help="the believed pose's standard deviation, position in metres and yaw "
                    "in degrees (default 0.05,1): with --localise lines a fit that moves the "
-                   "pose further than this allows is refused; with --pose-uncertainty, the "
+                   "pose further than this allows is refused; with --localise ball, the "
+                   "spread of each robot's bias (drifting with a 5 s time constant); with "
+                   "--pose-uncertainty, the "
                    "pose's covariance when neither the lines nor the log give one")
     p.add_argument("--pose-uncertainty", action="store_true",
                    help="weigh each robot's estimate by its own pose's uncertainty too (the "

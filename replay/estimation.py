@@ -55,7 +55,8 @@ from estimator.estimates import (
 )
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise, Noise
-from estimator.tracking import BallTracker, Measurement
+from estimator.tracking import BallTracker, Measurement, TrackState
+from estimator.tracking.bias import BiasEstimator
 from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.plugins import Detector
@@ -154,6 +155,11 @@ class CorrectedLocator:
                              pose.yaw_rad, self.cameras.visibility(robot, det, e.range_m))
 
 
+BIAS_SUPPORT_NS = 500_000_000
+"""``--localise ball``: a robot's residual teaches its bias only when another robot's
+estimate went into the track this recently [ns] (else the track is its own)."""
+
+
 class FrameEstimator:
     """The estimator as the options choose it: detection, the method's locator, the fusion."""
 
@@ -161,8 +167,15 @@ class FrameEstimator:
                  smooth: bool = False, noise: str = "cambada",
                  finder: BallFinder | None = None,
                  detector: Detector | None = None,
-                 pose_covariance: np.ndarray | None = None) -> None:
+                 pose_covariance: np.ndarray | None = None,
+                 bias: BiasEstimator | None = None) -> None:
         self.cameras = cameras
+        self.bias = bias
+        self._accepted_ns: dict[str, int] = {}
+        """Each robot's last estimate the tracker accepted (its stamp)."""
+        """``--localise ball``: each robot's pose bias, estimated from the tracker's residuals
+        (:mod:`estimator.tracking.bias`); every estimate is located from the believed pose
+        plus its robot's bias."""
         self.pose_covariance = (None if pose_covariance is None
                                 else covariance3_rows(np.asarray(pose_covariance, np.float64)))
         """The pose covariance (x, y, yaw) an estimate carries when neither its line fit
@@ -226,6 +239,8 @@ class FrameEstimator:
         if pose is None:
             return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
         pose = self.field_pose(robot, pose)
+        if loc is None and self.bias is not None:
+            loc = self._bias_corrected(robot, pose.pose)
         if det is None:
             return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose, localisation=loc)
         usable = self.cameras.usable_radius_px(robot)
@@ -237,7 +252,17 @@ class FrameEstimator:
             return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
         if self.pose_covariance is not None:
             estimate = replace(estimate, pose_covariance=self._pose_covariance(pose, loc))
+        elif loc is not None and loc.source == "ball":  # the bias's uncertainty, always
+            estimate = replace(estimate, pose_covariance=covariance3_rows(
+                np.asarray(loc.covariance, np.float64)))
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate, localisation=loc)
+
+    def _bias_corrected(self, robot: str, pose: RobotPose) -> Localisation:
+        """The believed pose plus the robot's estimated bias (``--localise ball``)."""
+        assert self.bias is not None
+        (x, y, yaw), cov = self.bias.corrected(robot, pose.x_m, pose.y_m, pose.yaw_rad)
+        return Localisation(RobotPose(x, y, yaw), cov, status="ok", source="ball", points=0,
+                            inliers=0)
 
     def _pose_covariance(self, pose: PoseMatch, loc: Localisation | None) -> Covariance3 | None:
         """The covariance of the pose an estimate is located from: the line fit's (or its
@@ -321,15 +346,46 @@ class FrameEstimator:
         for f in frames:
             if f.estimate is None:
                 continue
+            prior = self._bias_prior(tracker, f)
             sigma = self.noise.covariance(_ball(f.estimate, f.r_px))
-            tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m, f.estimate.y_m,
-                                       covariance_rows(sigma)))
+            accepted = tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m,
+                                                  f.estimate.y_m, covariance_rows(sigma)))
+            if prior is not None and accepted:
+                self._learn_bias(f, prior)
+            if accepted:
+                self._accepted_ns[f.robot] = f.stamp_ns
         state = tracker.state_at(stamp_ns)
         if state is None or not state.confirmed:  # a tentative track may be a false blob
             return None, None, None
         fused = FusedEstimate(state.x_m, state.y_m, state.position_covariance,
                               tracker.accepted_at(stamp_ns))
         return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
+
+    def _bias_prior(self, tracker: BallTracker, f: FrameResult) -> TrackState | None:
+        """``--localise ball``: the confirmed track at the frame's stamp before its estimate
+        goes in, the reference its robot's bias is measured against (None: none)."""
+        if self.bias is None or f.localisation is None or f.localisation.source != "ball":
+            return None
+        others = [t for r, t in self._accepted_ns.items() if r != f.robot]
+        if not others or f.stamp_ns - max(others) > BIAS_SUPPORT_NS:
+            return None  # a track of this robot's own estimates tells nothing of its bias
+        state = tracker.state_at(f.stamp_ns)
+        return state if state is not None and state.confirmed else None
+
+    def _learn_bias(self, f: FrameResult, prior: TrackState) -> None:
+        """The frame's residual against the track into its robot's bias filter."""
+        assert self.bias is not None and f.estimate is not None and f.localisation is not None
+        est, corr, believed = f.estimate, f.localisation.pose, f.pose
+        if believed is None:
+            return
+        used = (corr.x_m - believed.x_m, corr.y_m - believed.y_m,
+                math.remainder(corr.yaw_rad - believed.yaw_rad, math.tau))
+        # the estimate's own noise (not the bias's share, which the filter holds) and the
+        # track's uncertainty
+        own = self.noise.covariance(_ball(replace(est, pose_covariance=None), f.r_px))
+        cov = own + np.asarray(prior.position_covariance, np.float64)
+        self.bias.update(f.robot, f.stamp_ns, (prior.x_m - est.x_m, prior.y_m - est.y_m),
+                         (est.x_m - corr.x_m, est.y_m - corr.y_m), covariance_rows(cov), used)
 
 
 def _ball(e: RobotEstimate, r_px: float | None = None,

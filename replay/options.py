@@ -42,9 +42,10 @@ poses, so the look-ahead stays bounded."""
 MAX_CLOCK_HZ = 10_000.0
 """The fastest ``--clock`` [Hz]."""
 RERUN_MODES = ("spawn", "save", "connect", "serve")
-LOCALISE_MODES = ("none", "lines")
-"""``--localise``: the believed poses as they are, or each corrected from its image's field
-lines (:mod:`replay.localise`)."""
+LOCALISE_MODES = ("none", "lines", "ball")
+"""``--localise``: the believed poses as they are, each corrected from its image's field
+lines (:mod:`replay.localise`), or each corrected by its robot's bias as the tracker's
+residuals give it (:mod:`estimator.tracking.bias`)."""
 DEFAULT_POSE_SIGMA = (0.05, 1.0)
 """The believed pose's standard deviation the line fit weighs it with, (m, deg)."""
 FIT_LEAD_S = 0.1
@@ -171,7 +172,9 @@ class ReplayOptions:
     """Refuse to decode an image whose header declares more megapixels than this."""
     localise: str = "none"
     """"lines": each frame's pose corrected from the field lines in its image before the
-    ball is located (:mod:`replay.localise`); "none": the believed poses."""
+    ball is located (:mod:`replay.localise`); "ball": corrected by its robot's bias, which
+    the tracker's residuals estimate (:mod:`estimator.tracking.bias`; ``--fusion track``
+    only); "none": the believed poses."""
     pose_sigma_m: float = DEFAULT_POSE_SIGMA[0]
     pose_sigma_deg: float = DEFAULT_POSE_SIGMA[1]
     """The believed pose's standard deviation (position [m], yaw [deg]) the line fit weighs
@@ -226,6 +229,9 @@ class ReplayOptions:
         if self.localise not in LOCALISE_MODES:
             raise UsageError(f"--localise {self.localise!r}; choose one of "
                              f"{', '.join(LOCALISE_MODES)}")
+        if self.localise == "ball" and self.fusion_method != "track":
+            raise UsageError(f"--localise ball learns the biases from the tracker's residuals; "
+                             f"it needs --fusion track, not {self.fusion_method!r}")
         check_number("--pose-sigma", self.pose_sigma_m, low=0, high=10, low_open=True,
                      unit="m")
         check_number("--pose-sigma", self.pose_sigma_deg, low=0, high=90, low_open=True,
@@ -271,7 +277,7 @@ class ReplayOptions:
             start_ns=stamp(self.start_s, self.start_absolute),
             end_ns=stamp(self.end_s, self.end_absolute),
             clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
-            lead_ns=round(FIT_LEAD_S * NS_PER_S) if self.localising else 0,
+            lead_ns=round(FIT_LEAD_S * NS_PER_S) if self.localise == "lines" else 0,
         )
 
     @property

@@ -42,6 +42,7 @@ from dsp.errors import UsageError
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from estimator.localisation import PoseCorrection
+from estimator.tracking.bias import BiasEstimator, BiasParams
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
 from replay.diagnosis import Diagnosis
@@ -112,7 +113,10 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             smooth=options.smooth, noise=options.noise, finder=finder,
             detector=options.detector_part(),
             pose_covariance=prior_covariance(options.pose_sigma_m, options.pose_sigma_deg)
-            if options.pose_uncertainty else None)
+            if options.pose_uncertainty else None,
+            bias=BiasEstimator(BiasParams(options.pose_sigma_m,
+                                          math.radians(options.pose_sigma_deg)))
+            if options.localise == "ball" else None)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots)
         diagnosis = Diagnosis(path, info.robots, cameras)
@@ -146,7 +150,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
 def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
                path: Path) -> Localiser | None:
     """The field-line correction the options ask for, on the field the log names."""
-    if not options.localising:
+    if options.localise != "lines":
         return None
     field = check_field(None if info.scenario is None else info.scenario.field, str(path))
     cams = estimator.cameras

@@ -7,7 +7,9 @@
   its input :class:`Measurement` and output :class:`TrackState`;
 - :mod:`estimator.tracking.reacquire`, :mod:`estimator.tracking.clutter`: restarting on a
   new path, and where false blobs keep falling;
-- :mod:`estimator.tracking.smoother`: the offline RTS smoother over a recorded track.
+- :mod:`estimator.tracking.smoother`: the offline RTS smoother over a recorded track;
+- :mod:`estimator.tracking.bias`: each robot's drifting pose bias, learned from how its
+  estimates disagree with the track (``--localise ball``).
 
 It builds on the shared leaves :mod:`estimator.estimates` and :mod:`estimator.noise`, never
 on :mod:`estimator.fusion` (which offers the tracker as its ``track`` method).

@@ -122,8 +122,9 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--localise", choices=LOCALISE_MODES, default="none",
                    help="lines: replay every scene also with each frame's pose corrected "
                    "from the field lines in its image (dsp-replay --localise lines), scored "
-                   "beside the believed poses (rows '+ lines'); paper, random and match "
-                   "suites (default none)")
+                   "beside the believed poses (rows '+ lines'); ball: the tracker's rows "
+                   "also with each robot's bias learned from the ball (dsp-replay --localise "
+                   "ball; rows '+ ball'); paper, random and match suites (default none)")
     p.add_argument("--pose-uncertainty", action="store_true",
                    help="every replay weighs each robot by its own pose's covariance "
                    "(dsp-replay --pose-uncertainty); the tables are named after it")

@@ -90,19 +90,28 @@ CLOCK_HZ = 100.0
 """The common clock the tracker is also scored on (``dsp-replay --clock``)."""
 CLOCK_ROW = "track, 100 Hz clock"
 LINES_SUFFIX = " + lines"
-"""A row's (or robot's) label suffix when its poses were corrected from the field lines."""
+"""A row's (or robot's) label suffix when its poses were corrected from the field lines
+(``--localise ball``: " + ball")."""
 
 
 def pose_label(row: str, localise: str) -> str:
     """The label of ``row`` replayed with ``--localise localise``."""
-    return row if localise == "none" else row + LINES_SUFFIX
+    return row if localise == "none" else f"{row} + {localise}"
+
+
+def replays_with(fusion: str, localise: str) -> bool:
+    """Whether ``fusion`` is replayed with ``--localise localise``: "ball" learns the biases
+    from the tracker, so only ``track`` is."""
+    return localise != "ball" or fusion == "track"
 
 
 def score_rows(fusions: Sequence[str], localise: str = "none") -> tuple[str, ...]:
     """The table's rows: each fusion, and the tracker on the clock after ``track``; with
     ``localise``, each of them with the believed poses, then with the corrected ones."""
-    rows = tuple(r for f in fusions for r in ((f, CLOCK_ROW) if f == "track" else (f,)))
-    return tuple(pose_label(r, mode) for mode in pose_modes(localise) for r in rows)
+    def rows(mode: str) -> tuple[str, ...]:
+        return tuple(r for f in fusions if replays_with(f, mode)
+                     for r in ((f, CLOCK_ROW) if f == "track" else (f,)))
+    return tuple(pose_label(r, mode) for mode in pose_modes(localise) for r in rows(mode))
 
 
 def pose_modes(localise: str) -> tuple[str, ...]:
@@ -218,7 +227,8 @@ def run_match_task(task: MatchTask) -> MatchLogScore:
     fused: dict[str, Scores] = {}
     robots: dict[str, list[float]] = {}
     o = task.options
-    for mode, fusion in ((m, f) for m in pose_modes(o.localise) for f in task.fusions):
+    for mode, fusion in ((m, f) for m in pose_modes(o.localise) for f in task.fusions
+                         if replays_with(f, m)):
         collected = ResultsCollector()
         clock = CLOCK_HZ if fusion == "track" else None
         replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
@@ -322,8 +332,9 @@ def _fmt(v: float | None, nd: int = 4) -> str:
 
 def _poses_note(o: MatchOptions) -> str:
     """How the poses were taken, for the table's heading."""
+    how = {"lines": "from the field lines", "ball": "by each robot's bias the tracker learns"}
     note = ("" if o.localise == "none" else
-            f"; rows `{LINES_SUFFIX.strip()}`: poses corrected from the field lines "
+            f"; rows `+ {o.localise}`: poses corrected {how.get(o.localise, '')} "
             f"(`--localise {o.localise}`), the others as the robots believe them")
     return note + ("; each robot weighed by its pose's covariance (`--pose-uncertainty`)"
                    if o.pose_uncertainty else "")

@@ -51,7 +51,8 @@ class Config:
     method: str
     fusion: str
     localise: str = "none"
-    """The replay's ``--localise``: "lines" corrects the poses from the field lines."""
+    """The replay's ``--localise``: "lines" corrects the poses from the field lines, "ball"
+    by the robots' biases the tracker learns (``track`` only)."""
 
     @property
     def label(self) -> str:
@@ -71,7 +72,8 @@ def configs_for(localise: str = "none") -> tuple[Config, ...]:
     if localise == "none":
         return CONFIGS
     return CONFIGS + tuple(Config(c.method, c.fusion, localise) for c in CONFIGS
-                           if c.method == "corrected")
+                           if c.method == "corrected" and (localise != "ball"
+                                                           or c.fusion == "track"))
 
 Recorder = Callable[[Path, str, int], None]
 """record(path, scenario, seed): writes one log. To run scenes in other processes it must

@@ -147,6 +147,8 @@ def test_the_viewer_shows_the_corrected_pose_beside_the_believed_one(
     centres: dict[str, list[tuple[float, float]]] = {}
     labels: dict[str, list[str]] = {}
     lines_seen = set()
+    believed_labels: dict[str, list[str]] = {}
+    shown: set[object] = set()
     for ch in chunk.RrdReader(rrd).stream():
         path = ch.entity_path
         batch = ch.to_record_batch().to_pydict()
@@ -156,6 +158,12 @@ def test_the_viewer_shows_the_corrected_pose_beside_the_believed_one(
                 (c[0][0], c[0][1]) for c in batch["Boxes3D:centers"] if c)
             labels.setdefault(robot, []).extend(
                 lab[0] for lab in batch.get("Boxes3D:labels", []) if lab)
+        if path.count("/") == 3 and path.startswith("/field/robots/") and (
+                "Boxes3D:labels" in batch):  # the believed pose's box
+            believed_labels.setdefault(path.split("/")[3], []).extend(
+                lab[0] for lab in batch["Boxes3D:labels"] if lab)
+        if path.endswith("/corrected") and "Boxes3D:show_labels" in batch:
+            shown.update(tuple(v) for v in batch["Boxes3D:show_labels"] if v)
         if path.endswith("/camera/lines") and "Points2D:positions" in batch:
             lines_seen.update(path.split("/")[2] for p in batch["Points2D:positions"]
                               if p and len(p) > 20)
@@ -170,6 +178,10 @@ def test_the_viewer_shows_the_corrected_pose_beside_the_believed_one(
         assert all(lab.startswith(f"{robot} lines ") and " cm " in lab for lab in labels[robot])
         shift_cm = float(labels[robot][0].split()[2])
         assert 5.0 < shift_cm < 12.0
+        # the two boxes lie centimetres apart: only the believed one's label shows, and it
+        # gives the correction too
+        assert believed_labels[robot] == labels[robot]
+    assert shown == {(False,)}
 
 
 def test_a_camera_turned_on_its_robot_is_turned_back() -> None:

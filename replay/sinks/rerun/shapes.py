@@ -1,5 +1,5 @@
 """The shapes and labels the Rerun sink draws: covariance ellipses, rings, the fused label,
-the predicted landing's mark."""
+the predicted landing's mark, a pose correction's label."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Covariance
-from replay.records import StepResult
+from replay.records import FrameResult, StepResult
 
-__all__ = ["ellipse", "fused_label", "landing_mark", "ring", "truth_mark"]
+__all__ = ["correction_label", "ellipse", "fused_label", "landing_mark", "ring", "truth_mark"]
 
 
 def ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
@@ -65,3 +65,17 @@ def landing_mark(result: StepResult) -> tuple[list[np.ndarray], str]:
              np.array([(x - r, y + r, 0.01), (x + r, y - r, 0.01)])]
     ahead_s = (landing.stamp_ns - result.stamp_ns) / NS_PER_S
     return [ring(x, y, r, z=0.01), *cross], f"lands in {ahead_s:.2f} s"
+
+
+def correction_label(result: FrameResult) -> str:
+    """" lines 3.1 cm +0.50 deg": the frame's pose correction and where it comes from ("" when
+    it has none)."""
+    loc, believed = result.localisation, result.pose
+    if loc is None:
+        return ""
+    label = f" {loc.source}"
+    if believed is not None:
+        shift = math.hypot(loc.pose.x_m - believed.x_m, loc.pose.y_m - believed.y_m)
+        turn = math.degrees(math.remainder(loc.pose.yaw_rad - believed.yaw_rad, math.tau))
+        label += f" {100 * shift:.1f} cm {turn:+.2f} deg"
+    return label

@@ -47,7 +47,13 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
-from replay.sinks.rerun.shapes import ellipse, fused_label, landing_mark, truth_mark
+from replay.sinks.rerun.shapes import (
+    correction_label,
+    ellipse,
+    fused_label,
+    landing_mark,
+    truth_mark,
+)
 from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
@@ -293,8 +299,9 @@ class RerunSink(SinkBase):
     def _robot(self, result: FrameResult) -> None:
         rec, robot = self.rec, result.robot
         colour = self.colours[robot]
-        if result.pose is not None:
-            self._pose(f"/field/robots/{robot}", result.pose, colour, "solid", robot)
+        if result.pose is not None:  # the correction in its label (one label, not two)
+            self._pose(f"/field/robots/{robot}", result.pose, colour, "solid",
+                       robot + correction_label(result))
         self._corrected(result)
         est = result.estimate
         if est is None:
@@ -310,35 +317,29 @@ class RerunSink(SinkBase):
         self._scalar(f"/plots/error/{robot}", result.error_m)
 
     def _pose(self, path: str, pose: RobotPose, colour: Rgb,
-              fill: Literal["solid", "majorwireframe"], label: str) -> None:
+              fill: Literal["solid", "majorwireframe"], label: str,
+              show_label: bool = True) -> None:
         """A robot's footprint at ``pose`` and its heading arrow (``path``/heading)."""
-        c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
-        h = ROBOT_FOOTPRINT_M / 2
+        c, s, h = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad), ROBOT_FOOTPRINT_M / 2
         self.rec.log(path, rr.Boxes3D(
             centers=[(pose.x_m, pose.y_m, 0.02)], half_sizes=[(h, h, 0.02)],
             quaternions=[rr.Quaternion(xyzw=[0.0, 0.0, math.sin(pose.yaw_rad / 2),
                                              math.cos(pose.yaw_rad / 2)])],
-            colors=[colour], fill_mode=fill, labels=[label], show_labels=True))
+            colors=[colour], fill_mode=fill, labels=[label], show_labels=show_label))
         self.rec.log(f"{path}/heading", rr.Arrows3D(
             origins=[(pose.x_m, pose.y_m, 0.05)],
             vectors=[(0.9 * ROBOT_FOOTPRINT_M * c, 0.9 * ROBOT_FOOTPRINT_M * s, 0.0)],
             colors=[FIELD_LINE_COLOUR if fill == "solid" else colour], radii=0.035))
 
     def _corrected(self, result: FrameResult) -> None:
-        """With ``--localise lines``: the pose the field lines give, a wireframe beside the
-        believed (solid) one, labelled with the correction, and the line points the fit used
-        in the camera image."""
-        loc, believed = result.localisation, result.pose
+        """With ``--localise``: the corrected pose, a wireframe beside the believed (solid)
+        one whose label gives the correction, and the line points the fit used."""
+        loc = result.localisation
         if loc is None:
             return
-        robot = result.robot
-        label = f"{robot} {loc.source}"
-        if believed is not None:
-            shift = math.hypot(loc.pose.x_m - believed.x_m, loc.pose.y_m - believed.y_m)
-            turn = math.degrees(math.remainder(loc.pose.yaw_rad - believed.yaw_rad, math.tau))
-            label += f" {100 * shift:.1f} cm {turn:+.2f} deg"
+        robot = result.robot  # (its own label, the same, shows on hovering)
         self._pose(f"/field/robots/{robot}/corrected", loc.pose, self.colours[robot],
-                   "majorwireframe", label)
+                   "majorwireframe", robot + correction_label(result), show_label=False)
         if loc.pixels is None or not len(loc.pixels):
             self.rec.log(f"/robots/{robot}/camera/lines", rr.Clear(recursive=False))
         else:

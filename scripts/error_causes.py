@@ -109,7 +109,7 @@ def read_truth(log: Path) -> list[Truth]:
 
 
 def main(argv: list[str]) -> int:
-    p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0], allow_abbrev=False)
     p.add_argument("pairs", nargs="+", metavar="LOG RESULTS")
     p.add_argument("--startup", type=float, default=0.5, metavar="S")
     args = p.parse_args(argv)

@@ -226,9 +226,12 @@ class ReplayOptions:
         if self.smooth and self.fusion_method != "track":
             raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
                              f"{self.fusion_method!r}")
-        if self.hops and (self.fusion_method != "track" or self.smooth):
+        if self.hops and self.fusion_method != "track":
             raise UsageError("--hops follows the tracker's ball in 3-D; it needs --fusion "
-                             f"track (not {self.fusion_method!r}) and no --smooth")
+                             f"track, not {self.fusion_method!r}")
+        if self.hops and self.smooth:
+            raise UsageError("--hops gives the causal track's position; it does not go "
+                             "with --smooth")
         if self.localise not in LOCALISE_MODES:
             raise UsageError(f"--localise {self.localise!r}; choose one of "
                              f"{', '.join(LOCALISE_MODES)}")

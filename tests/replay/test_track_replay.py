@@ -229,6 +229,8 @@ def test_hops_give_a_lofted_ball_s_position_from_the_3d_track(tmp_path: Path) ->
     # the velocity stays the tracker's
     assert [s.get("velocity_m_s") for s in hopped["fused"]] == [
         s.get("velocity_m_s") for s in plain["fused"]]
-    for fusion, smooth in (("weighted", False), ("track", True)):
-        with pytest.raises(UsageError, match="--hops follows the tracker's ball in 3-D"):
-            ReplayOptions(fusion=fusion, smooth=smooth, hops=True)
+    with pytest.raises(UsageError, match="--hops follows the tracker's ball in 3-D; it "
+                       "needs --fusion track, not 'weighted'"):
+        ReplayOptions(fusion="weighted", hops=True)
+    with pytest.raises(UsageError, match="it does not go with --smooth"):
+        ReplayOptions(fusion="track", smooth=True, hops=True)

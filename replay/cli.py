@@ -89,6 +89,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--smooth", action="store_true",
                    help="offline: smooth the track over the whole log (RTS smoother) instead "
                    "of the causal estimate a robot would have live (--fusion track)")
+    p.add_argument("--hops", action="store_true",
+                   help="--fusion track: the ball's position from a 3-D track beside the "
+                   "tracker, on the estimates it takes, so a ball that hops is not placed "
+                   "where the far robots' lifted estimates put it (docs/hops.md)")
     p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "
@@ -237,7 +241,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         method=args.method, detector=args.detector, ball=args.ball,
         fusion=args.fusion, calibration=_input(args.calibration),
         calibration_model=args.calibration_model,
-        cameras=_input(args.cameras), smooth=args.smooth, noise=args.noise,
+        cameras=_input(args.cameras), smooth=args.smooth, hops=args.hops, noise=args.noise,
         clock_hz=args.clock_hz, localise=args.localise,
         pose_sigma_m=args.pose_sigma[0], pose_sigma_deg=args.pose_sigma[1],
         pose_uncertainty=args.pose_uncertainty,

@@ -54,6 +54,7 @@ from estimator.estimates import (
     covariance_rows,
 )
 from estimator.geometry import RobotPose
+from estimator.hops import HopFollower
 from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
@@ -167,15 +168,15 @@ class FrameEstimator:
                  smooth: bool = False, noise: str = "cambada",
                  finder: BallFinder | None = None,
                  detector: Detector | None = None,
-                 pose_covariance: np.ndarray | None = None,
+                 pose_covariance: np.ndarray | None = None, hops: bool = False,
                  bias: BiasEstimator | None = None) -> None:
         self.cameras = cameras
         self.bias = bias
-        self._accepted_ns: dict[str, int] = {}
-        """Each robot's last estimate the tracker accepted (its stamp)."""
         """``--localise ball``: each robot's pose bias, estimated from the tracker's residuals
         (:mod:`estimator.tracking.bias`); every estimate is located from the believed pose
         plus its robot's bias."""
+        self._accepted_ns: dict[str, int] = {}
+        """Each robot's last estimate the tracker accepted (its stamp)."""
         self.pose_covariance = (None if pose_covariance is None
                                 else covariance3_rows(np.asarray(pose_covariance, np.float64)))
         """The pose covariance (x, y, yaw) an estimate carries when neither its line fit
@@ -188,12 +189,15 @@ class FrameEstimator:
         self.noise: Noise = CalibratedNoise(
             calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
         self.tracker: BallTracker | None = None
+        self.hops: HopFollower | None = None
+        """``--hops``: the 3-D track beside the tracker, whose position it gives."""
         self.detector = detector
         if not plugins.is_builtin("fusion", fusion_method):  # a window fusion from outside
             self.fusion = plugins.new_part("fusion", fusion_method)  # its own: a clean state
         elif fusion_method == "track":
             self.fusion = fusion.get_fusion(fusion_method, noise=self.noise)
             self.tracker = BallTracker(record=smooth)
+            self.hops = HopFollower(self.noise) if hops else None
         else:  # the window fusions: CAMBADA's NoiseModel unless asked for the calibrated one
             # (triangulate and ballistic always: the 3-D covariance feeds a tracker, and
             # CAMBADA's range law, made for a ground-plane average, puts a lob's height
@@ -342,7 +346,9 @@ class FrameEstimator:
     def _track(self, tracker: BallTracker, stamp_ns: int, frames: tuple[FrameResult, ...]) -> (
         tuple[FusedEstimate | None, tuple[float, float] | None, Covariance | None]
     ):
-        """Each frame's estimate into the tracker at its own stamp; the track at stamp_ns."""
+        """Each frame's estimate into the tracker at its own stamp; the track at stamp_ns
+        (with ``--hops``, its position the 3-D track's, :mod:`estimator.hops`)."""
+        hops, taken = self.hops, []
         for f in frames:
             if f.estimate is None:
                 continue
@@ -354,12 +360,18 @@ class FrameEstimator:
                 self._learn_bias(f, prior)
             if accepted:
                 self._accepted_ns[f.robot] = f.stamp_ns
+            ball = _ball(f.estimate, f.r_px, self._heights.get(f.robot))
+            if hops is not None and hops.takes(ball, accepted, tracker.state_at(f.stamp_ns)):
+                taken.append(ball)
         state = tracker.state_at(stamp_ns)
-        if state is None or not state.confirmed:  # a tentative track may be a false blob
+        confirmed = state if state is not None and state.confirmed else None
+        flight = None if hops is None else hops.step(stamp_ns, taken, confirmed)
+        if confirmed is None:  # a tentative track may be a false blob
             return None, None, None
-        fused = FusedEstimate(state.x_m, state.y_m, state.position_covariance,
-                              tracker.accepted_at(stamp_ns))
-        return fused, (state.vx_m_s, state.vy_m_s), state.velocity_covariance
+        x, y, cov = ((confirmed.x_m, confirmed.y_m, confirmed.position_covariance)
+                     if flight is None else (flight.x_m, flight.y_m, flight.covariance))
+        fused = FusedEstimate(x, y, cov, tracker.accepted_at(stamp_ns))
+        return fused, (confirmed.vx_m_s, confirmed.vy_m_s), confirmed.velocity_covariance
 
     def _bias_prior(self, tracker: BallTracker, f: FrameResult) -> TrackState | None:
         """``--localise ball``: the confirmed track at the frame's stamp before its estimate

@@ -142,6 +142,9 @@ class ReplayOptions:
     smooth: bool = False
     """Offline: the tracker's fixed-interval (RTS) smoother instead of its causal estimate
     (``track`` fusion only); steps reach the sinks once the log is read."""
+    hops: bool = False
+    """The tracker's position from a 3-D track beside it while the ball hops
+    (:mod:`estimator.hops`; ``track`` fusion only, not with ``smooth``)."""
     clock_hz: float | None = None
     """Also a step at every tick k / clock_hz s of a clock (no image in it): the fused
     estimate the fusion gives then (the tracker's prediction from the estimates so far; none
@@ -226,6 +229,12 @@ class ReplayOptions:
         if self.smooth and self.fusion_method != "track":
             raise UsageError(f"--smooth smooths the tracker; it needs --fusion track, not "
                              f"{self.fusion_method!r}")
+        if self.hops and self.fusion_method != "track":
+            raise UsageError("--hops follows the tracker's ball in 3-D; it needs --fusion "
+                             f"track, not {self.fusion_method!r}")
+        if self.hops and self.smooth:
+            raise UsageError("--hops gives the causal track's position; it does not go "
+                             "with --smooth")
         if self.localise not in LOCALISE_MODES:
             raise UsageError(f"--localise {self.localise!r}; choose one of "
                              f"{', '.join(LOCALISE_MODES)}")
@@ -335,6 +344,7 @@ class ReplayOptions:
             **({"detector": self.detector}
                if self.detector is not None and self.detector not in DETECTORS else {}),
             **({"smooth": True} if self.smooth else {}),
+            **({"hops": True} if self.hops else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
             **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
             **({"start_absolute": True} if self.start_absolute else {}),
@@ -385,6 +395,8 @@ class ReplayOptions:
             d.pop("localise")
         if not self.pose_uncertainty:
             d.pop("pose_uncertainty")
+        if not self.hops:
+            d.pop("hops")
         if not (self.localising or self.pose_uncertainty):
             d.pop("pose_sigma_m")
             d.pop("pose_sigma_deg")

@@ -110,7 +110,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
-            smooth=options.smooth, noise=options.noise, finder=finder,
+            smooth=options.smooth, hops=options.hops, noise=options.noise, finder=finder,
             detector=options.detector_part(),
             pose_covariance=prior_covariance(options.pose_sigma_m, options.pose_sigma_deg)
             if options.pose_uncertainty else None,

@@ -210,3 +210,27 @@ def test_clock_ticks_add_steps_without_images_and_leave_the_image_steps_alone(
     assert all(s["x_m"] is None for s in _results(window)["fused"] if s.get("tick"))
     with pytest.raises(UsageError, match="--clock"):
         ReplayOptions(clock_hz=0.0)
+
+
+def test_hops_give_a_lofted_ball_s_position_from_the_3d_track(tmp_path: Path) -> None:
+    # the golden lob: a ball in the air, which each robot places farther out along its ray;
+    # the tracker alone follows those estimates out, --hops places it in 3-D
+    log = Path(__file__).resolve().parents[2] / "logs" / "golden" / "lobs.mcap"
+    docs = {}
+    for hops in (False, True):
+        out = tmp_path / f"hops-{hops}.json"
+        replay(log, ReplayOptions(fusion="track", hops=hops, out=out, progress=False))
+        docs[hops] = _results(out)
+    plain, hopped = docs[False], docs[True]
+    assert hopped["options"]["hops"] is True and "hops" not in plain["options"]
+    assert hopped["frames"] == plain["frames"]
+    assert plain["summary"]["fused"]["rmse_m"] > 0.3
+    assert hopped["summary"]["fused"]["rmse_m"] < 0.01
+    # the velocity stays the tracker's
+    assert [s.get("velocity_m_s") for s in hopped["fused"]] == [
+        s.get("velocity_m_s") for s in plain["fused"]]
+    with pytest.raises(UsageError, match="--hops follows the tracker's ball in 3-D; it "
+                       "needs --fusion track, not 'weighted'"):
+        ReplayOptions(fusion="weighted", hops=True)
+    with pytest.raises(UsageError, match="it does not go with --smooth"):
+        ReplayOptions(fusion="track", smooth=True, hops=True)

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from estimator.detection.real.check import BallCheck
-from estimator.detection.real.detector import Search
+from estimator.detection.real.detector import Search, search_for
 from estimator.detection.real.head import HEAD_THRESHOLD, fit_head, head_samples
 from estimator.detection.real.model import BallModel
 
@@ -39,9 +39,11 @@ def adapt(model: BallModel, samples: Sequence[Sample], check: BallCheck, *,
     """The model with its venue head fitted on the labelled frames, and the head's
     threshold (unchanged when the cross-validation keeps the shared check, or the frames
     hold too few candidates)."""
-    search = search or Search()
+    if search is None:  # the specks where the detector looks at them (camera images)
+        fine = search_for(*samples[0][0].shape[:2]).fine if samples else 0
+        search = dataclasses.replace(Search(), fine=fine)
     head, lam = fit_head(head_samples(samples, model, check, max_count=search.max_candidates,
-                                      step=search.step))
+                                      step=search.step, fine=search.fine))
     if head is None:
         return dataclasses.replace(model, fit={**model.fit, "head_lambda": None})
     return dataclasses.replace(model, fit={**model.fit, "head_lambda": lam},

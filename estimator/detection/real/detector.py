@@ -13,12 +13,16 @@ labelled, which a colour blob shaded on one side or cut by a robot is not), refi
 trained to see a ball, and checked again), blended with the centre of the winner's colour
 blob's box at full resolution by the model's ``centre_blend`` (0.5: the mean; the two
 err partly independently, and the labelled box is the visible part of the ball, which
-is what the blob's box measures where the colour is clean). Area, box, outline and
-circularity are the blob's (:func:`candidates.measure`).
+is what the blob's box measures where the colour is clean). A blob the image's border cuts
+gives its box's centre alone: the label of a ball cut by the border is its visible part,
+which the blob's box measures, while the check regresses where the whole ball would be.
+Area, box, outline and circularity are the blob's (:func:`candidates.measure`).
 
-A large frame (the project's 1080 x 1080 omni images) is searched with ``step`` 4: the
-colour map of every 4th pixel of every 4th row, a sixteenth of the pixels, and only the
-``max_candidates`` most ball-coloured blobs are checked (see :func:`search_for`).
+A camera image also has its far balls' specks looked at in full resolution (``fine``, 8
+of them, :func:`candidates.find_coarse`). A large frame (the project's 1080 x 1080 omni
+images) is searched with ``step`` 4: the colour map of every 4th pixel of every 4th row, a
+sixteenth of the pixels, only the ``max_candidates`` most ball-coloured blobs are checked
+and no specks (see :func:`search_for`).
 
 Without a check (``check=None``) the detector is the colour model alone: the most
 ball-coloured candidate is the ball, at its blob's moments (the baseline).
@@ -70,13 +74,16 @@ class Search:
     step: int = 2
     max_candidates: int = 24
     refine: bool = True
+    fine: int = 8
+    """Far balls' specks (too small for the size range in the map) looked at again in
+    full resolution, checked beside the blobs (:func:`candidates.find_coarse`)."""
 
 
 def search_for(height: int, width: int) -> Search:
     """The default search of a frame size: a 608 x 800 camera image at half resolution with
-    24 candidates; a frame over LARGE_FRAME_PX strided by 4 with 6."""
+    24 candidates and 8 specks; a frame over LARGE_FRAME_PX strided by 4 with 6 and none."""
     if height * width > LARGE_FRAME_PX:
-        return Search(step=4, max_candidates=6)
+        return Search(step=4, max_candidates=6, fine=0)
     return Search()
 
 
@@ -145,8 +152,10 @@ class RealBallDetector:
         cx, cy = self.check_centre(image, square, out, ctx, refine)
         if blob is None:
             return _rough(coarse, (cx, cy))
-        k = self.model.centre_blend
         bx, by, bw, bh = blob.bbox_px
+        height, width = image.shape[:2]
+        k = (0.0 if min(bx, by) <= 0 or bx + bw >= width or by + bh >= height
+             else self.model.centre_blend)
         cx, cy = k * cx + (1.0 - k) * (bx + bw / 2.0), k * cy + (1.0 - k) * (by + bh / 2.0)
         return Detection(cx, cy, blob.area_px, blob.bbox_px, blob.circularity,
                          blob.outline_px)
@@ -157,7 +166,8 @@ class RealBallDetector:
         _check_image(image_bgr)
         search = self.search or search_for(*image_bgr.shape[:2])
         coarse = find_coarse(image_bgr, self.tables, self.model,
-                             max_count=search.max_candidates, step=search.step)
+                             max_count=search.max_candidates, step=search.step,
+                             fine=search.fine)
         if not coarse:
             return []
         spec = SPEC if self.check is None else self.check.spec

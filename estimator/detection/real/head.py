@@ -197,7 +197,7 @@ def _jittered(squares: list[tuple[float, float, float]], positive: list[bool], c
 
 def head_samples(samples: Sequence[tuple[npt.NDArray[np.uint8], Sequence[Box]]],
                  model: BallModel, check: BallCheck, *, max_count: int = 24,
-                 step: int = 2, copies: int = 0) -> HeadSamples:
+                 step: int = 2, fine: int = 0, copies: int = 0) -> HeadSamples:
     """The check's logits and features (its 32, the 3 context ones, the blob's 4) on the
     detector's candidates in each labelled frame, labelled by the boxes as the scoring
     does: exactly what the head sees at run time; each positive also framed ``copies``
@@ -206,7 +206,7 @@ def head_samples(samples: Sequence[tuple[npt.NDArray[np.uint8], Sequence[Box]]],
     rng = np.random.default_rng(0)
     z0, feat, y, frame, w = [], [], [], [], []
     for index, (image, balls) in enumerate(samples):
-        coarse = find_coarse(image, tables, model, max_count=max_count, step=step)
+        coarse = find_coarse(image, tables, model, max_count=max_count, step=step, fine=fine)
         if not coarse:
             continue
         squares = [check.spec.square(*c.centre()) for c in coarse]

@@ -22,6 +22,7 @@ from estimator.detection.real import (
     BallCheck,
     BallModel,
     RealBallDetector,
+    Search,
     adapt,
     fit_ball_model,
     model_from_dict,
@@ -104,7 +105,7 @@ def test_the_colour_model_alone_is_worse_than_with_the_check(
 def test_candidates_are_ranked_and_scored(samples: list, model: BallModel,
                                           check: BallCheck) -> None:
     ranked = RealBallDetector(model, check).candidates(samples[10][0])
-    assert 2 <= len(ranked) <= 24
+    assert 2 <= len(ranked) <= Search().max_candidates + Search().fine
     logits = [c.check_score for c in ranked]
     assert logits[0] >= 0.5 and logits[0] == max(logits)
     assert all(0.0 <= c.field_score <= 1.0 for c in ranked)

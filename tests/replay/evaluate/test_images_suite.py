@@ -90,19 +90,21 @@ def test_the_paper_chain_on_the_subset(tmp_path: Path,
 
 def test_a_threshold_given_scores_the_venue_at_it(tmp_path: Path) -> None:
     """Fitted on 4 of the subset, scored on 10: a higher threshold turns look-alikes of
-    0.73-0.99 into no report; every report reaches the threshold; the summary says which."""
+    0.72-0.992 into no report; every report reaches the threshold; the summary says which.
+    (Four frames give the shipped check no venue head, so the model's own threshold is
+    0.5.)"""
     outcomes = {}
-    for threshold in (None, 0.95, 0.99):
+    for threshold in (None, 0.95, 0.995):
         out = tmp_path / str(threshold)
         given = [] if threshold is None else ["--threshold", str(threshold)]
         assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--train-count", "4",
                      "--out-dir", str(out), "-q", *given]) == 0
         assert json.loads((out / "images-summary.json").read_text())["threshold"] == threshold
         rows = list(csv.DictReader((out / "images.csv").read_text().splitlines()))
-        assert all(float(r["p_ball"]) >= (threshold or 0.731) for r in rows if r["p_ball"])
+        assert all(float(r["p_ball"]) >= (threshold or 0.5) for r in rows if r["p_ball"])
         outcomes[threshold] = [r["outcome"] for r in rows]
-    assert outcomes[None].count("tp") == outcomes[0.99].count("tp") == 7
-    assert [outcomes[t].count("fp") for t in (None, 0.95, 0.99)] == [2, 1, 0]
+    assert outcomes[None].count("tp") == outcomes[0.995].count("tp") == 7
+    assert [outcomes[t].count("fp") for t in (None, 0.95, 0.995)] == [3, 1, 0]
 
 
 def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -125,6 +125,9 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
                    "beside the believed poses (rows '+ lines'); ball: the tracker's rows "
                    "also with each robot's bias learned from the ball (dsp-replay --localise "
                    "ball; rows '+ ball'); paper, random and match suites (default none)")
+    p.add_argument("--hops", action="store_true",
+                   help="match suite: replay the tracker's rows with dsp-replay --hops (its "
+                   "position from a 3-D track beside it while the ball hops after kicks)")
     p.add_argument("--pose-uncertainty", action="store_true",
                    help="every replay weighs each robot by its own pose's covariance "
                    "(dsp-replay --pose-uncertainty); the tables are named after it")
@@ -195,6 +198,9 @@ def _check_poses(args: argparse.Namespace) -> None:
     if (args.localise != "none" or args.pose_uncertainty) and args.suite in ("lobs", "images"):
         raise UsageError(f"--localise and --pose-uncertainty go with the paper, random and "
                          f"match suites; --suite {args.suite} does not take them")
+    if args.hops and args.suite != "match":
+        raise UsageError(f"--hops follows the ball's hops after kicks in play: it goes with "
+                         f"--suite match, not {args.suite}")
 
 
 @dataclass(frozen=True)
@@ -258,6 +264,8 @@ def _stem(args: argparse.Namespace) -> str:
         stem += f"-{args.localise}"
     if args.pose_uncertainty:
         stem += "-posecov"
+    if args.hops:
+        stem += "-hops"
     if args.camera_phase not in (None, "sync"):
         stem += f"-{args.camera_phase}"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
@@ -276,7 +284,7 @@ def _run_match_suite(args: argparse.Namespace,
                            face_px=args.face_px, distractors=args.distractors,
                            renderer=args.renderer, calibration=args.calibration,
                            realism=args.realism, localise=args.localise,
-                           pose_uncertainty=args.pose_uncertainty)
+                           pose_uncertainty=args.pose_uncertainty, hops=args.hops)
     sync = args.count if args.sync_count is None else min(args.sync_count, args.count)
     with progress_bar(args.count + sync, PROG, progress_enabled(args), unit="log") as bar:
 

@@ -140,6 +140,9 @@ class MatchOptions:
     """"lines": each log also replayed with its poses corrected from the field lines."""
     pose_uncertainty: bool = False
     """Every replay weighs the robots by their pose's covariance (``--pose-uncertainty``)."""
+    hops: bool = False
+    """The tracker's rows replayed with ``--hops`` (its position from a 3-D track beside
+    it while the ball hops, :mod:`estimator.hops`)."""
 
     def log_name(self, seed: int, phase: str) -> str:
         return match_log_name(seed, phase, self)
@@ -233,7 +236,8 @@ def run_match_task(task: MatchTask) -> MatchLogScore:
         clock = CLOCK_HZ if fusion == "track" else None
         replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
                                        calibration=o.calibration, localise=mode,
-                                       pose_uncertainty=o.pose_uncertainty, progress=False),
+                                       pose_uncertainty=o.pose_uncertainty,
+                                       hops=o.hops and fusion == "track", progress=False),
                sinks=[collected])
         fused[pose_label(fusion, mode)] = score_steps(
             [f for f in collected.fused if not f.get("tick")], distractors)
@@ -288,6 +292,7 @@ class MatchSuite:
                            if self.options.localise != "none" else {}),
                         **({"pose_uncertainty": True} if self.options.pose_uncertainty
                            else {}),
+                        **({"hops": True} if self.options.hops else {}),
                         "calibration": (self.options.calibration.name
                                         if self.options.calibration else None)},
             "capture": {"error_m": CAPTURE_ERROR_M, "radius_m": CAPTURE_RADIUS_M,
@@ -336,8 +341,10 @@ def _poses_note(o: MatchOptions) -> str:
     note = ("" if o.localise == "none" else
             f"; rows `+ {o.localise}`: poses corrected {how.get(o.localise, '')} "
             f"(`--localise {o.localise}`), the others as the robots believe them")
-    return note + ("; each robot weighed by its pose's covariance (`--pose-uncertainty`)"
-                   if o.pose_uncertainty else "")
+    note += ("; each robot weighed by its pose's covariance (`--pose-uncertainty`)"
+             if o.pose_uncertainty else "")
+    return note + ("; the track's position from a 3-D track while the ball hops (`--hops`)"
+                   if o.hops else "")
 
 
 def match_markdown(suite: MatchSuite) -> str:

@@ -87,3 +87,4 @@ def test_suites_replay_only_the_tracker_with_it() -> None:
         "mean + lines", "track + lines", f"{CLOCK_ROW} + lines")
     extra = configs_for("ball")[len(configs_for()):]
     assert [c.label for c in extra] == ["corrected/track + ball"]
+

@@ -14,12 +14,14 @@ from replay.evaluate.match import (
     CLOCK_ROW,
     MATCH_FUSIONS,
     MatchOptions,
+    MatchTask,
     Scores,
     captures,
     match_log_name,
     match_markdown,
     match_tasks,
     run_match_suite,
+    run_match_task,
     score_rows,
 )
 
@@ -115,3 +117,20 @@ def test_cli_rewrites_the_same_tables_from_the_same_logs(
 def test_cli_refuses_a_negative_sync_count(capsys: pytest.CaptureFixture[str]) -> None:
     assert evaluate_cli.main(["--suite", "match", "--sync-count", "-1"]) == 2
     assert "--sync-count -1" in capsys.readouterr().err
+
+
+def test_the_match_suite_passes_hops_to_the_tracker_rows_only() -> None:
+    lob = Path(__file__).resolve().parents[3] / "logs" / "golden" / "lobs.mcap"
+    runs = {hops: run_match_task(MatchTask(1, "sync", lob, MatchOptions(hops=hops),
+                                           fusions=("mean", "track")))
+            for hops in (False, True)}
+    assert runs[False].fused["mean"].errors == runs[True].fused["mean"].errors
+    plain, hops = runs[False].fused["track"].errors, runs[True].fused["track"].errors
+    assert max(hops) < max(plain) / 10, (max(plain), max(hops))  # the lob followed in 3-D
+
+
+def test_dsp_eval_takes_hops_with_the_match_suite_only(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert evaluate_cli.main(["--suite", "random", "--hops", "--out-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "--hops" in err and "--suite match" in err and "Traceback" not in err

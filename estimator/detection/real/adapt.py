@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from estimator.detection.real.check import BallCheck
 from estimator.detection.real.detector import Search, search_for
-from estimator.detection.real.head import HEAD_THRESHOLD, SCALE_COPIES, fit_head, head_samples
+from estimator.detection.real.head import HEAD_THRESHOLD, fit_head, head_samples
 from estimator.detection.real.model import BallModel
 
 __all__ = ["adapt"]
@@ -43,8 +43,7 @@ def adapt(model: BallModel, samples: Sequence[Sample], check: BallCheck, *,
         fine = search_for(*samples[0][0].shape[:2]).fine if samples else 0
         search = dataclasses.replace(Search(), fine=fine)
     head, lam = fit_head(head_samples(samples, model, check, max_count=search.max_candidates,
-                                      step=search.step, fine=search.fine,
-                                      scales=SCALE_COPIES))
+                                      step=search.step, fine=search.fine))
     if head is None:
         return dataclasses.replace(model, fit={**model.fit, "head_lambda": None})
     return dataclasses.replace(model, fit={**model.fit, "head_lambda": lam},

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import cv2
 import numpy as np
 import numpy.typing as npt
 
@@ -42,8 +41,8 @@ from estimator.detection.real.model import HEAD_SIZE, BallModel
 Box = tuple[float, float, float, float]
 MARGIN_PX = 2.0
 
-__all__ = ["HEAD_THRESHOLD", "LAMBDAS", "SCALE_COPIES", "HeadSamples", "blob_features",
-           "context", "fit_head", "head_samples", "inside", "venue_logits"]
+__all__ = ["HEAD_THRESHOLD", "LAMBDAS", "HeadSamples", "blob_features", "context", "fit_head",
+           "head_samples", "inside", "venue_logits"]
 
 LAMBDAS = (1.0, 4.0, 16.0, 64.0, 256.0)
 NEWTON_STEPS = 25
@@ -55,14 +54,6 @@ so few overfits, and the two-fold choice cannot tell)."""
 MAX_POS_WEIGHT = 8.0
 HEAD_THRESHOLD = 0.731059
 """P(ball) = 1 / (1 + e^-1), rounded as a ball file stores it: the logit 1."""
-SCALE_COPIES = (0.7,)
-"""Each labelled frame is also searched downscaled by these (area-averaged, its boxes with
-it): the venue's own ball smaller and farther than in its ten frames, and its
-look-alikes at a ball's size. A copy's context is measured in the frame's own geometry
-(its boxes scaled back), so the size line's r says what it said of the original; its
-samples count as the frame's in the cross-validation. Chosen on the four MSL folders
-with each check held out (docs/detection.md): 0.7 alone raised recall at every penalty
-tried; adding 0.5 and 0.35 let in more look-alikes than balls."""
 JITTER_SCALE = 0.15
 JITTER_SHIFT = 0.08
 
@@ -92,21 +83,17 @@ def venue_logits(z0: FloatArray, feat: FloatArray, ctx: FloatArray, blobs: Float
 
 
 class HeadSamples:
-    """Logits z0 (N), features (N x k), labels (N, 0/1), frame index (N), weight (N) per
-    sample (a positive and its jittered copies share a weight of 1) and whether it comes
-    from a downscaled copy of its frame (N; such samples are not counted as evidence of
-    their own against MIN_POSITIVES and MIN_NEGATIVES)."""
+    """Logits z0 (N), features (N x k), labels (N, 0/1), frame index (N) and weight (N)
+    per sample (a positive and its jittered copies share a weight of 1)."""
 
     def __init__(self, z0: FloatArray, feat: FloatArray, y: FloatArray,
-                 frame: npt.NDArray[np.int64], w: FloatArray | None = None,
-                 copy: npt.NDArray[np.bool_] | None = None) -> None:
+                 frame: npt.NDArray[np.int64], w: FloatArray | None = None) -> None:
         self.z0, self.feat, self.y, self.frame = z0, feat, y, frame
         self.w = np.ones(len(y)) if w is None else w
-        self.copy = np.zeros(len(y), np.bool_) if copy is None else copy
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> HeadSamples:
         return HeadSamples(self.z0[keep], self.feat[keep], self.y[keep], self.frame[keep],
-                           self.w[keep], self.copy[keep])
+                           self.w[keep])
 
 
 def _weights(s: HeadSamples) -> FloatArray:
@@ -160,9 +147,8 @@ def fit_head(samples: HeadSamples, lambdas: Sequence[float] = LAMBDAS
     """The venue's (w, b) (HEAD_SIZE numbers) and the lam chosen; (None, inf) with too few
     samples or without positives in both halves (nothing to cross-validate)."""
     halves = [samples.frame % 2 == k for k in (0, 1)]
-    own = ~samples.copy
-    positives = float((samples.y * samples.w)[own].sum())
-    if positives < MIN_POSITIVES or own.sum() - positives < MIN_NEGATIVES or any(
+    positives = float((samples.y * samples.w).sum())
+    if positives < MIN_POSITIVES or len(samples.y) - positives < MIN_NEGATIVES or any(
             samples.y[h].sum() == 0 or samples.y[~h].sum() == 0 for h in halves):
         return None, float("inf")
     zero = np.zeros(samples.feat.shape[1] + 1)
@@ -209,73 +195,36 @@ def _jittered(squares: list[tuple[float, float, float]], positive: list[bool], c
     return out, owner
 
 
-def _frame_samples(image: npt.NDArray[np.uint8], balls: Sequence[Box], model: BallModel,
-                   check: BallCheck, tables: ColourTables, search: tuple[int, int, int],
-                   copies: int, rng: np.random.Generator, unscale: float
-                   ) -> tuple[FloatArray, FloatArray, list[float], list[float]] | None:
-    """One frame's logits, features, labels and weights (None without candidates); the
-    context's boxes are multiplied by ``unscale`` (a downscaled copy's blobs measured
-    against the size line as in the frame they came from)."""
-    max_count, step, fine = search
-    coarse = find_coarse(image, tables, model, max_count=max_count, step=step, fine=fine)
-    if not coarse:
-        return None
-    squares = [check.spec.square(*c.centre()) for c in coarse]
-    labels = [inside(cx, cy, balls) for cx, cy, _ in squares]
-    extra, owner = _jittered(squares, labels, copies, rng)
-    batch = crop_input(image, squares + extra, tables, check.spec)
-    rows = list(range(len(coarse))) + owner
-    boxes = np.array([c.full_box() for c in coarse], np.float64)[rows] * unscale
-    ctx = context(boxes, field_share(batch.crops), model)
-    raw, f = check.raw(batch, ctx)
-    y = [float(v) for v in labels] + [1.0] * len(extra)
-    w = [1.0 / (1 + copies) if v else 1.0 for v in labels] + [1.0 / (1 + copies)] * len(extra)
-    return raw[:, 0], np.hstack([f, ctx, blob_features(coarse)[rows]]), y, w
-
-
-def _scaled(image: npt.NDArray[np.uint8], balls: Sequence[Box], k: float
-            ) -> tuple[npt.NDArray[np.uint8], list[Box]]:
-    """The frame downscaled by k (area-averaged) and its boxes with it."""
-    height, width = image.shape[:2]
-    size = (max(2, round(width * k)), max(2, round(height * k)))
-    small = np.asarray(cv2.resize(image, size, interpolation=cv2.INTER_AREA), np.uint8)
-    kx, ky = size[0] / width, size[1] / height
-    return small, [(x0 * kx, y0 * ky, x1 * kx, y1 * ky) for x0, y0, x1, y1 in balls]
-
-
 def head_samples(samples: Sequence[tuple[npt.NDArray[np.uint8], Sequence[Box]]],
                  model: BallModel, check: BallCheck, *, max_count: int = 24,
-                 step: int = 2, fine: int = 0, copies: int = 0,
-                 scales: Sequence[float] = ()) -> HeadSamples:
+                 step: int = 2, fine: int = 0, copies: int = 0) -> HeadSamples:
     """The check's logits and features (its 32, the 3 context ones, the blob's 4) on the
     detector's candidates in each labelled frame, labelled by the boxes as the scoring
     does: exactly what the head sees at run time; each positive also framed ``copies``
-    more times a little off (seeded), sharing its weight. Each frame is also searched
-    downscaled by each of ``scales`` (its own ball small and far, its look-alikes at a
-    ball's size), a copy's samples counted as the frame's in the cross-validation."""
+    more times a little off (seeded), sharing its weight."""
     tables = ColourTables.of(model)
     rng = np.random.default_rng(0)
-    search = (max_count, step, fine)
-    z0, feat, y, frame, w, copy = [], [], [], [], [], []
+    z0, feat, y, frame, w = [], [], [], [], []
     for index, (image, balls) in enumerate(samples):
-        views = [(image, list(balls), 1.0)]
-        for k in scales:
-            small, boxes = _scaled(image, balls, k)
-            views.append((small, boxes, image.shape[0] / small.shape[0]))
-        for view, boxes, unscale in views:
-            got = _frame_samples(view, boxes, model, check, tables, search, copies, rng,
-                                 unscale)
-            if got is None:
-                continue
-            z0.append(got[0])
-            feat.append(got[1])
-            y += got[2]
-            w += got[3]
-            frame += [index] * len(got[2])
-            copy += [view is not image] * len(got[2])
+        coarse = find_coarse(image, tables, model, max_count=max_count, step=step, fine=fine)
+        if not coarse:
+            continue
+        squares = [check.spec.square(*c.centre()) for c in coarse]
+        labels = [inside(cx, cy, balls) for cx, cy, _ in squares]
+        extra, owner = _jittered(squares, labels, copies, rng)
+        batch = crop_input(image, squares + extra, tables, check.spec)
+        boxes = np.array([c.full_box() for c in coarse], np.float64)[list(range(len(coarse)))
+                                                                       + owner]
+        ctx = context(boxes, field_share(batch.crops), model)
+        raw, f = check.raw(batch, ctx)
+        z0.append(raw[:, 0])
+        blobs = blob_features(coarse)[list(range(len(coarse))) + owner]
+        feat.append(np.hstack([f, ctx, blobs]))
+        y += [float(v) for v in labels] + [1.0] * len(extra)
+        frame += [index] * (len(coarse) + len(extra))
+        w += [1.0 / (1 + copies) if v else 1.0 for v in labels] + [1.0 / (1 + copies)] * len(extra)
     if not z0:
         return HeadSamples(np.zeros(0), np.zeros((0, HEAD_SIZE - 1)), np.zeros(0),
                            np.zeros(0, np.int64))
     return HeadSamples(np.concatenate(z0), np.concatenate(feat), np.asarray(y, np.float64),
-                       np.asarray(frame, np.int64), np.asarray(w, np.float64),
-                       np.asarray(copy, np.bool_))
+                       np.asarray(frame, np.int64), np.asarray(w, np.float64))

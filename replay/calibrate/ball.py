@@ -56,14 +56,20 @@ def fit_ball(source: Path, *, ball_class: int = 0, train_count: int | None = Non
 
 
 def fit_from_folder(folder: Path, *, ball_class: int = 0, train_count: int | None = None,
-                    head: bool = True, check: bytes | None = None) -> BallModel:
-    """The ball model of ``folder``'s first ``train_count`` labelled images (None: all)."""
+                    head: bool = True, check: bytes | None = None,
+                    train_from: int = 0) -> BallModel:
+    """The ball model of ``folder``'s first ``train_count`` labelled images (None: all)
+    from its ``train_from``-th (0: the first) by name."""
     if train_count is not None and train_count < 1:
         raise UsageError(f"--train-count {train_count}: use 1 or more")
     labelled = find_labelled(folder)
     if not labelled:
         raise InputError(f"{folder}: no image with a YOLO label file (NAME.txt) beside it")
-    chosen = labelled if train_count is None else labelled[:train_count]
+    chosen = labelled[train_from:] if train_count is None else labelled[
+        train_from:train_from + train_count]
+    if not chosen:
+        raise InputError(f"{folder}: {len(labelled)} labelled images, none from number "
+                         f"{train_from + 1} on to fit on")
     samples = [item.read(ball_class) for item in chosen]
     info = {"images": len(chosen), "first": chosen[0].image.name,
             "last": chosen[-1].image.name, "ball_class": ball_class}

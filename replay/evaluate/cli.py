@@ -141,6 +141,9 @@ def _add_images_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--train-count", type=int, default=10, metavar="N",
                    help="fit on each folder's first N labelled images by name, score the rest "
                    "(default %(default)s)")
+    g.add_argument("--train-from", type=int, default=0, metavar="K",
+                   help="fit on the N labelled images from the K-th on (counted from 0) "
+                   "instead, score every other one (default 0: the first N)")
     g.add_argument("--ball-class", type=int, default=0, metavar="N",
                    help="the labels' class of the ball (default 0)")
     g.add_argument("--detector", choices=DETECTORS, default="real",
@@ -306,6 +309,7 @@ def _run_images(args: argparse.Namespace) -> int:
     if not args.dirs:
         raise UsageError("--suite images needs one or more folders of labelled images (DIR)")
     check_int("--train-count", args.train_count, low=1, high=MAX_COUNT)
+    check_int("--train-from", args.train_from, low=0, high=MAX_COUNT)
     check_number("--threshold", args.threshold, low=0.0, high=1.0)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: is not a folder")
@@ -314,7 +318,7 @@ def _run_images(args: argparse.Namespace) -> int:
     doc, rows = run_images_suite(args.dirs, train_count=args.train_count,
                                  detector=args.detector, ball_class=args.ball_class,
                                  check=check, head=not args.no_head,
-                                 threshold=args.threshold)
+                                 threshold=args.threshold, train_from=args.train_from)
     out_dir.mkdir(parents=True, exist_ok=True)
     text = images_markdown(doc)
     doc["check"] = "shipped" if args.check is None else args.check.name

@@ -2,7 +2,9 @@
 
 For each folder that holds labelled images (each venue-day apart), a venue's ball model is
 fitted on its first ``train_count`` labelled images by file name (as a team would,
-:func:`replay.calibrate.ball.fit_from_folder`) and every other labelled image is scored:
+:func:`replay.calibrate.ball.fit_from_folder`; ``train_from`` k: the ``train_count`` from
+the k-th on, to see how much the figures owe to which frames were labelled) and every
+other labelled image is scored:
 
 - per image the detector reports at most one ball; a hit (tp) is a reported centroid
   inside a labelled ball box grown by ``MARGIN_PX`` on each side; a report anywhere else is
@@ -100,12 +102,12 @@ def _paper(image: np.ndarray) -> Report:
 
 
 def _scorer(folder: Path, *, detector: str, train_count: int, ball_class: int,
-            check: bytes, head: bool, threshold: float | None = None
+            check: bytes, head: bool, threshold: float | None = None, train_from: int = 0
             ) -> Callable[[np.ndarray], Report]:
     if detector == "paper":
         return _paper
     model = fit_from_folder(folder, ball_class=ball_class, train_count=train_count,
-                            head=head, check=check)
+                            head=head, check=check, train_from=train_from)
     real = RealBallDetector(model, BallCheck(check))
     cut = model.threshold if threshold is None else threshold
 
@@ -149,20 +151,24 @@ def _folders(roots: Sequence[Path]) -> list[tuple[str, Path]]:
 def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str = "real",
                      ball_class: int = 0, check: bytes, head: bool = True,
                      threshold: float | None = None,
-                     on_folder: Callable[[str], None] | None = None
+                     on_folder: Callable[[str], None] | None = None, train_from: int = 0
                      ) -> tuple[dict[str, Json], list[ImageRow]]:
-    """The summary document (per folder and "total") and the per-image rows."""
+    """The summary document (per folder and "total"; "train_from" only when not 0) and
+    the per-image rows."""
     folders: dict[str, Json] = {}
     every: list[ImageRow] = []
+    end = train_from + train_count
     for key, folder in _folders(roots):
         labelled = find_labelled(folder)
-        if len(labelled) <= train_count:
+        if len(labelled) < end or len(labelled) == train_count:
+            which = f"{train_count}" if not train_from else f"numbers {train_from + 1}-{end}"
+            left = "needs more" if train_from and len(labelled) < end else "leaves none to score"
             raise InputError(f"{folder}: {len(labelled)} labelled images; fitting on "
-                             f"{train_count} leaves none to score")
+                             f"{which} {left}")
         score = _scorer(folder, detector=detector, train_count=train_count,
                         ball_class=ball_class, check=check, head=head,
-                        threshold=threshold)
-        rows = _score_folder(key, labelled[train_count:], score, ball_class)
+                        threshold=threshold, train_from=train_from)
+        rows = _score_folder(key, labelled[:train_from] + labelled[end:], score, ball_class)
         folders[key] = summarise(rows)
         every += rows
         if on_folder is not None:
@@ -172,6 +178,8 @@ def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str =
         "train_count": train_count, "ball_class": ball_class,
         "venue_head": head if detector == "real" else None,
         "margin_px": MARGIN_PX, "folders": folders, "total": summarise(every)}
+    if train_from:
+        doc["train_from"] = train_from
     return doc, every
 
 
@@ -183,8 +191,12 @@ def images_markdown(doc: dict[str, Json]) -> str:
     """The summary as a Markdown table, a row per folder and the total."""
     folders = doc["folders"]
     assert isinstance(folders, dict)
-    lines = [f"Detector: {doc['detector']}; fitted on each folder's first "
-             f"{doc['train_count']} labelled images, scored on the rest.", "",
+    start, count = doc.get("train_from", 0), doc["train_count"]
+    assert isinstance(start, int) and isinstance(count, int)
+    which = (f"first {count} labelled images" if not start
+             else f"labelled images {start + 1}-{start + count} by name")
+    lines = [f"Detector: {doc['detector']}; fitted on each folder's {which}, scored on "
+             "the rest.", "",
              "| folder | " + " | ".join(KEYS) + " |", "|---" * (len(KEYS) + 1) + "|"]
     for key, row in [*folders.items(), ("total", doc["total"])]:
         assert isinstance(row, dict)

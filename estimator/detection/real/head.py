@@ -17,7 +17,8 @@ positives up-weighted to balance, at most 8x), solved by Newton's method: small,
 deterministic. The penalty lam (how far the venue may move from the shared check) is
 chosen by two-fold cross-validation over the venue's frames (even / odd by name) from
 ``LAMBDAS``: the value with the least held-out log-loss; the largest (close to no change)
-wins ties, so a venue the shared check already suits keeps it.
+wins ties, so a venue the shared check already suits keeps it. A blob far smaller than a
+ball at its row (r < ``SMALLEST_R``) gets ``NO_BALL_LOGIT`` whatever the head says.
 
 A venue with a head reports its best candidate from z >= 1 (``HEAD_THRESHOLD``, P 0.731),
 not 0: the positives' up-weighting lifts every logit by up to ln 8, and at 0 a look-alike
@@ -41,8 +42,8 @@ from estimator.detection.real.model import HEAD_SIZE, BallModel
 Box = tuple[float, float, float, float]
 MARGIN_PX = 2.0
 
-__all__ = ["HEAD_THRESHOLD", "LAMBDAS", "HeadSamples", "blob_features", "context", "fit_head",
-           "head_samples", "inside", "venue_logits"]
+__all__ = ["HEAD_THRESHOLD", "LAMBDAS", "NO_BALL_LOGIT", "SMALLEST_R", "HeadSamples",
+           "blob_features", "context", "fit_head", "head_samples", "inside", "venue_logits"]
 
 LAMBDAS = (1.0, 4.0, 16.0, 64.0, 256.0)
 NEWTON_STEPS = 25
@@ -54,6 +55,15 @@ so few overfits, and the two-fold choice cannot tell)."""
 MAX_POS_WEIGHT = 8.0
 HEAD_THRESHOLD = 0.731059
 """P(ball) = 1 / (1 + e^-1), rounded as a ball file stores it: the logit 1."""
+SMALLEST_R = -1.5
+"""A blob whose larger side is under e^-1.5 (0.22) of the size line's diameter at its
+lowest row (r < -1.5; r is 0 without a size line) is no ball, whatever the head says:
+a head is linear in r and, fitted on ten frames, can carry a slope that lifts the
+slivers at the image's foot (a ball there is 100 px) to P 1.0 (Bangkok fitted on its
+frames 31-40: 11 such false hits of 20). Chosen on the four MSL folders fitted on four
+choices of ten frames each (docs/detection.md): floors from -1.25 to -2.0 did the same;
+a floor on blobs too large (r > 1.5) lost more balls than look-alikes."""
+NO_BALL_LOGIT = -20.0
 JITTER_SCALE = 0.15
 JITTER_SHIFT = 0.08
 
@@ -75,11 +85,13 @@ def context(boxes: FloatArray, field: FloatArray, model: BallModel) -> FloatArra
 
 def venue_logits(z0: FloatArray, feat: FloatArray, ctx: FloatArray, blobs: FloatArray,
                  head: tuple[float, ...] | None) -> FloatArray:
-    """The venue's logits (the shared ones when it has no head)."""
-    if head is None:
-        return z0
-    w = np.asarray(head, np.float64)
-    return np.asarray(z0 + np.hstack([feat, ctx, blobs]) @ w[:-1] + w[-1], np.float64)
+    """The venue's logits (the shared ones when it has no head), :data:`NO_BALL_LOGIT` for
+    a blob far smaller than a ball at its row (:data:`SMALLEST_R`)."""
+    z = z0
+    if head is not None:
+        w = np.asarray(head, np.float64)
+        z = z0 + np.hstack([feat, ctx, blobs]) @ w[:-1] + w[-1]
+    return np.asarray(np.where(ctx[:, 0] < SMALLEST_R, NO_BALL_LOGIT, z), np.float64)
 
 
 class HeadSamples:

@@ -107,6 +107,23 @@ def test_a_threshold_given_scores_the_venue_at_it(tmp_path: Path) -> None:
     assert [outcomes[t].count("fp") for t in (None, 0.95, 0.995)] == [3, 1, 0]
 
 
+def test_train_from_fits_on_later_frames_and_scores_every_other(tmp_path: Path) -> None:
+    """--train-from 10 --train-count 4 on the 14 subset images: fitted on the last four,
+    scored on the first ten, and the summary says so (and without it says nothing: the
+    goldens' documents stay as they were)."""
+    names = sorted(p.name for p in mg.IMAGE_SETS["subset"].rglob("*.jpg"))
+    for start, scored in ((10, names[:10]), (0, names[4:])):
+        out = tmp_path / str(start)
+        assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--train-count", "4",
+                     "--train-from", str(start), "--out-dir", str(out), "-q"]) == 0
+        rows = list(csv.DictReader((out / "images.csv").read_text().splitlines()))
+        assert [r["image"] for r in rows] == scored
+        doc = json.loads((out / "images-summary.json").read_text())
+        assert doc.get("train_from") == (start or None)
+        said = (out / "images-summary.md").read_text().splitlines()[0]
+        assert ("labelled images 11-14 by name" in said) == (start == 10)
+
+
 def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["--suite", "images", "--out-dir", str(tmp_path / "o")]) != 0
     assert "needs one or more folders" in capsys.readouterr().err
@@ -118,6 +135,12 @@ def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["--suite", "images", str(few), "--out-dir", str(tmp_path / "o")]) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "3 labelled images; fitting on 10 leaves none" in err[0]
+    assert main(["--suite", "images", str(few), "--train-count", "2", "--train-from", "2",
+                 "--out-dir", str(tmp_path / "o")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "3 labelled images; fitting on numbers 3-4 needs more" in err[0]
+    assert main(["--suite", "images", str(few), "--train-from", "-1"]) != 0
+    assert "--train-from -1" in capsys.readouterr().err
     assert main(["--suite", "images", str(few), "--check", str(few)]) != 0
     assert "is a folder; give a ball check" in capsys.readouterr().err
     assert main(["--suite", "images", str(few), "--threshold", "1.5"]) != 0

@@ -1,0 +1,59 @@
+"""The venue's logits: a blob far smaller than a ball at its row (r < SMALLEST_R) is no
+ball whatever the head's slope in r says, on arrays and in the detector on the committed
+real subset (tests/data/msl-images)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dsp.labelled import find_labelled
+from estimator.detection.real import BallCheck, RealBallDetector, adapt, fit_ball_model
+from estimator.detection.real.head import NO_BALL_LOGIT, SMALLEST_R, inside, venue_logits
+from estimator.detection.real.model import HEAD_SIZE
+
+SUBSET = Path(__file__).resolve().parents[2] / "data" / "msl-images" / "20220715" / "r7"
+R = 32  # the head's weight of the context's r follows the check's 32 features
+
+
+def test_a_blob_far_under_the_size_line_gets_no_ball_whatever_the_head() -> None:
+    z0 = np.array([3.0, 3.0, 3.0, 3.0])
+    ctx = np.array([[-3.0, 9.0, 0.5], [-1.6, 2.56, 0.5], [-1.4, 1.96, 0.5], [0.0, 0.0, 0.5]])
+    feat, blobs = np.zeros((4, 32)), np.zeros((4, 4))
+    np.testing.assert_array_equal(venue_logits(z0, feat, ctx, blobs, None),
+                                  [NO_BALL_LOGIT, NO_BALL_LOGIT, 3.0, 3.0])
+    head = [0.0] * HEAD_SIZE
+    head[R] = -5.0  # a slope that lifts small blobs: +8 at r = -1.6
+    np.testing.assert_allclose(venue_logits(z0, feat, ctx, blobs, tuple(head)),
+                               [NO_BALL_LOGIT, NO_BALL_LOGIT, 10.0, 3.0])
+
+
+def test_the_detector_gives_no_ball_to_blobs_far_under_the_size_line() -> None:
+    """The subset's venue with its size line ten times too steep: every candidate whose
+    box is under e^-1.5 of the line's diameter at its foot scores the floor's P, the
+    others keep the check's; with the fitted line the ball is found."""
+    check = BallCheck(files("estimator.detection.real").joinpath("ball_check.onnx").read_bytes())
+    frames = [it.read(0) for it in find_labelled(SUBSET)]
+    model = adapt(fit_ball_model(frames[:10]), frames[:10], check)
+    a, b = model.size_line
+    assert a > 0
+    image, balls = next((f for f in frames[10:] if f[1]), frames[10])
+    found = RealBallDetector(model, check).detect(image)
+    assert found is not None and inside(found.cx_px, found.cy_px, balls)
+    steep = dataclasses.replace(model, size_line=(10 * a, 10 * b))
+    ranked = RealBallDetector(steep, check).candidates(image)
+    floor = 1.0 / (1.0 + math.exp(-NO_BALL_LOGIT))
+    small = []
+    for c in ranked[1:]:  # the first is measured again at full resolution
+        _, y, w, h = c.detection.bbox_px
+        expected = max(10 * a * (y + h) + 10 * b, 2.0)
+        if max(w, h) < math.exp(SMALLEST_R) * expected * 0.95:
+            small.append(c.check_score)
+        elif max(w, h) > math.exp(SMALLEST_R) * expected * 1.05:
+            assert c.check_score != pytest.approx(floor, rel=1e-6, abs=0)
+    assert len(small) >= 3 and small == pytest.approx([floor] * len(small), rel=1e-6, abs=0)

@@ -12,13 +12,17 @@ them; on the recorded realistic matches this was most of the fused error with tr
 :class:`HopFollower` runs a :class:`~estimator.fusion.BallisticFusion` (a 3-D state
 through flight, bounces and rolling, each robot's ray at its own stamp) beside the ground
 tracker, on the estimates the ground tracker accepted and on those within ``near_m`` of
-it (a near robot's right estimate that the tracker refused in favour of a far robot's
-lifted one: a false blob is metres off). The fused position is the 3-D track's, the
+either track (a near robot's right estimate that the tracker refused in favour of a far
+robot's lifted one: a false blob is metres off). The fused position is the 3-D track's, the
 velocity stays the ground tracker's. The ground tracker still decides which estimates
-are the ball and whether there is a track; where the two disagree by more than
-``guard_m`` (more than a hop lifts an estimate: rays crossed from poses that disagree
-give a height, and a flight, that is not there), the ground track's position is given and
-the 3-D track starts afresh. Pure and deterministic.
+are the ball and whether there is a track. Where the two disagree by more than ``guard_m``
+(more than a hop lifts an estimate), one of them has gone astray. When the 3-D track took
+an estimate within ``keep_ns``, it is the ground track: having taken a far robot's lifted
+estimate as a kick, it runs on along that kick and refuses the near robot that sees the
+ball, while the 3-D track follows the ball. Otherwise it is the 3-D track (rays crossed
+from poses that disagree give a height, and a flight, that is not there, and it refuses
+the estimates that come): the ground track's position is given and the 3-D track starts
+afresh. Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -43,28 +47,39 @@ class HopFollower:
     near_m: float = 1.5
     """An estimate the ground tracker refused this close to its track is the ball's [m]."""
     guard_m: float = 2.0
-    """The 3-D track is given up this far from the ground track [m]."""
+    """The 3-D track is given up this far from the ground track [m]..."""
+    keep_ns: int = 100_000_000
+    """...unless it took an estimate this recently [ns]."""
 
     def __post_init__(self) -> None:
         self._flight = BallisticFusion(self.noise)
 
     def takes(self, estimate: BallEstimate, accepted: bool, track: TrackState | None) -> bool:
         """Whether the 3-D track takes an estimate: the ground tracker ``accepted`` it, or
-        it lies within ``near_m`` of the ground ``track`` at its stamp."""
-        return accepted or (track is not None and math.hypot(
-            track.x_m - estimate.x_m, track.y_m - estimate.y_m) < self.near_m)
+        it lies within ``near_m`` of the ground ``track`` at its stamp or of the 3-D
+        track's last position (the ground track may have gone astray, :meth:`step`)."""
+        near = [(track.x_m, track.y_m)] if track is not None else []
+        x = self._flight.tracker.x
+        if x is not None:
+            near.append((float(x[0]), float(x[1])))
+        return accepted or any(math.hypot(px - estimate.x_m, py - estimate.y_m) < self.near_m
+                               for px, py in near)
 
     def step(self, stamp_ns: int, taken: Sequence[BallEstimate],
              track: TrackState | None) -> FusedEstimate | None:
         """The 3-D track at ``stamp_ns`` after the ``taken`` estimates (each with its
         camera's height), as a 2-D fused estimate; None when it has none, or none within
-        ``guard_m`` of the ground ``track`` (then it starts afresh). ``track`` None: the
-        ground tracker has no confirmed track; the 3-D one still takes the estimates."""
+        ``guard_m`` of the ground ``track`` with none taken within ``keep_ns`` (then
+        it starts afresh). ``track`` None: the ground tracker has no confirmed track; the 3-D
+        one still takes the estimates."""
         flight = self._flight.step(stamp_ns, taken)
         if flight is None or track is None:
             return None
         fused = flight.fused
         if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) > self.guard_m:
-            self._flight = BallisticFusion(self.noise)
-            return None
+            last = self._flight.tracker.last_accepted_ns
+            if last is None or stamp_ns - last > self.keep_ns:
+                self._flight = BallisticFusion(self.noise)
+                return None
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots)
+

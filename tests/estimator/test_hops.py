@@ -68,15 +68,38 @@ def test_a_hopping_ball_is_placed_where_it_is_not_where_the_far_robots_lift_it()
     assert rms[1] < 0.4 * rms[0]
 
 
-def test_it_starts_afresh_where_the_ground_track_is_far_from_it() -> None:
-    hops = HopFollower(CalibratedNoise())
-    for k in range(10):  # a ball still at (-1, 0), seen by two robots in turn
+def _still_ball(hops: HopFollower, steps: int) -> None:
+    """A ball still at (-1, 0), seen by two robots in turn every 20 ms, the ground track on it."""
+    for k in range(steps):
         e = _seen(("near", "side")[k % 2], 0.0)
         flight = hops.step(k * 20 * MS, [e], _track(k * 20 * MS, e.x_m, e.y_m))
     assert flight is not None and math.hypot(flight.x_m + 1.0, flight.y_m) < 0.02
-    # the ground track is 3 m away (more than guard_m): no 3-D position, and the next
-    # estimates there start the 3-D track afresh
-    assert hops.step(200 * MS, [], _track(200 * MS, 2.0, 0.0)) is None
+
+
+def test_it_starts_afresh_where_the_ground_track_is_far_from_it_and_nothing_came() -> None:
+    hops = HopFollower(CalibratedNoise())
+    _still_ball(hops, 10)  # the last estimate at 180 ms
+    # the ground track is 3 m away (more than guard_m) and the 3-D track took nothing for
+    # more than keep_ns (100 ms): no 3-D position, and the next estimates there start the
+    # 3-D track afresh
+    assert hops.step(300 * MS, [], _track(300 * MS, 2.0, 0.0)) is None
     moved = BallEstimate("near", 2.0, -1.0, 1.0, math.pi / 2, 2.0, 0.0, camera_height_m=H)
-    flight = hops.step(220 * MS, [moved], _track(220 * MS, 2.0, 0.0))
+    flight = hops.step(320 * MS, [moved], _track(320 * MS, 2.0, 0.0))
     assert flight is not None and math.hypot(flight.x_m - 2.0, flight.y_m) < 0.02
+
+
+def test_it_stays_with_the_ball_where_the_ground_track_runs_off() -> None:
+    """The ground track 3 m off (it took a far robot's lifted estimate for a kick), the
+    robots' estimates still on the ball: the 3-D track takes them and keeps its position."""
+    hops = HopFollower(CalibratedNoise())
+    _still_ball(hops, 10)
+    for k in range(10, 20):
+        stamp = k * 20 * MS
+        astray = _track(stamp, 2.0, 0.0)
+        e = _seen(("near", "side")[k % 2], 0.0)
+        assert hops.takes(e, False, astray)  # near the 3-D track, not the ground track
+        flight = hops.step(stamp, [e], astray)
+        assert flight is not None and math.hypot(flight.x_m + 1.0, flight.y_m) < 0.02
+    # nothing more comes: after keep_ns the ground track is believed again
+    assert hops.step(19 * 20 * MS + 50 * MS, [], _track(0, 2.0, 0.0)) is not None
+    assert hops.step(19 * 20 * MS + 120 * MS, [], _track(0, 2.0, 0.0)) is None

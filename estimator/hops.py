@@ -16,13 +16,14 @@ either track (a near robot's right estimate that the tracker refused in favour o
 robot's lifted one: a false blob is metres off). The fused position is the 3-D track's, the
 velocity stays the ground tracker's. The ground tracker still decides which estimates
 are the ball and whether there is a track. Where the two disagree by more than ``guard_m``
-(more than a hop lifts an estimate), one of them has gone astray. When the 3-D track took
-an estimate within ``keep_ns``, it is the ground track: having taken a far robot's lifted
-estimate as a kick, it runs on along that kick and refuses the near robot that sees the
-ball, while the 3-D track follows the ball. Otherwise it is the 3-D track (rays crossed
-from poses that disagree give a height, and a flight, that is not there, and it refuses
-the estimates that come): the ground track's position is given and the 3-D track starts
-afresh. Pure and deterministic.
+(more than a hop lifts an estimate), one of them has gone astray. When the 3-D track,
+having been with the ground track, took an estimate within ``keep_ns``, it is the ground
+track: having taken a far robot's lifted estimate as a kick, it runs on along that kick and
+refuses the near robot that sees the ball, while the 3-D track follows the ball. Otherwise
+it is the 3-D track (rays crossed from poses that disagree give a height, and a flight,
+that is not there, and it refuses the estimates that come; or, at the start, it follows a
+box the ground tracker did not confirm): the ground track's position is given and the 3-D
+track starts afresh. Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -49,10 +50,12 @@ class HopFollower:
     guard_m: float = 2.0
     """The 3-D track is given up this far from the ground track [m]..."""
     keep_ns: int = 100_000_000
-    """...unless it took an estimate this recently [ns]."""
+    """...unless, having been within it before, it took an estimate this recently [ns]."""
 
     def __post_init__(self) -> None:
         self._flight = BallisticFusion(self.noise)
+        self._joined = False
+        """The 3-D track has been within ``guard_m`` of the ground track."""
 
     def takes(self, estimate: BallEstimate, accepted: bool, track: TrackState | None) -> bool:
         """Whether the 3-D track takes an estimate: the ground tracker ``accepted`` it, or
@@ -69,17 +72,19 @@ class HopFollower:
              track: TrackState | None) -> FusedEstimate | None:
         """The 3-D track at ``stamp_ns`` after the ``taken`` estimates (each with its
         camera's height), as a 2-D fused estimate; None when it has none, or none within
-        ``guard_m`` of the ground ``track`` with none taken within ``keep_ns`` (then
-        it starts afresh). ``track`` None: the ground tracker has no confirmed track; the 3-D
-        one still takes the estimates."""
+        ``guard_m`` of the ground ``track`` unless, having been with it, the 3-D track
+        took an estimate within ``keep_ns`` (else it starts afresh). ``track`` None: the
+        ground tracker has no confirmed track; the 3-D one still takes the estimates."""
         flight = self._flight.step(stamp_ns, taken)
         if flight is None or track is None:
             return None
         fused = flight.fused
-        if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) > self.guard_m:
+        if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m:
+            self._joined = True
+        else:
             last = self._flight.tracker.last_accepted_ns
-            if last is None or stamp_ns - last > self.keep_ns:
-                self._flight = BallisticFusion(self.noise)
+            if not self._joined or last is None or stamp_ns - last > self.keep_ns:
+                self._flight, self._joined = BallisticFusion(self.noise), False
                 return None
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots)
 

@@ -103,3 +103,14 @@ def test_it_stays_with_the_ball_where_the_ground_track_runs_off() -> None:
     # nothing more comes: after keep_ns the ground track is believed again
     assert hops.step(19 * 20 * MS + 50 * MS, [], _track(0, 2.0, 0.0)) is not None
     assert hops.step(19 * 20 * MS + 120 * MS, [], _track(0, 2.0, 0.0)) is None
+
+
+def test_a_3d_track_that_never_joined_the_ground_track_is_not_kept() -> None:
+    """At the start the 3-D track follows what it is given (a box, say) before the ground
+    tracker confirms a track elsewhere: however recent its estimates, it is not kept."""
+    hops = HopFollower(CalibratedNoise())
+    for k in range(10):
+        e = _seen(("near", "side")[k % 2], 0.0)  # at (-1, 0); no confirmed ground track
+        assert hops.step(k * 20 * MS, [e], None) is None
+    e = _seen("near", 0.0)
+    assert hops.step(200 * MS, [e], _track(200 * MS, 5.0, 0.0)) is None  # 6 m away

@@ -16,13 +16,14 @@ either track (a near robot's right estimate that the tracker refused in favour o
 robot's lifted one: a false blob is metres off). The fused position is the 3-D track's, the
 velocity stays the ground tracker's. The ground tracker still decides which estimates
 are the ball and whether there is a track. Where the two disagree by more than ``guard_m``
-(more than a hop lifts an estimate), one of them has gone astray. When the 3-D track,
-having been with the ground track, took an estimate within ``keep_ns``, it is the ground
-track: having taken a far robot's lifted estimate as a kick, it runs on along that kick and
-refuses the near robot that sees the ball, while the 3-D track follows the ball. Otherwise
-it is the 3-D track (rays crossed from poses that disagree give a height, and a flight,
-that is not there, and it refuses the estimates that come; or, at the start, it follows a
-box the ground tracker did not confirm): the ground track's position is given and the 3-D
+(more than a hop lifts an estimate), one of them has gone astray. It is the ground track
+when the 3-D track, having been with it, took within ``keep_ns`` an estimate the ground
+tracker refused: having taken a far robot's lifted estimate as a kick, the ground tracker
+runs on along that kick and refuses the near robot that sees the ball, whose estimates the
+3-D track takes. Otherwise it is the 3-D track (rays crossed from poses that disagree give
+a height, and a flight, that is not there; a ball lobbed away from a far robot whose lifted
+estimates the 3-D track followed too, as the ground tracker did; or, at the start, a box
+the ground tracker did not confirm): the ground track's position is given and the 3-D
 track starts afresh. Pure and deterministic.
 """
 
@@ -50,12 +51,17 @@ class HopFollower:
     guard_m: float = 2.0
     """The 3-D track is given up this far from the ground track [m]..."""
     keep_ns: int = 100_000_000
-    """...unless, having been within it before, it took an estimate this recently [ns]."""
+    """...unless, having been within it before, it took an estimate the ground tracker
+    refused this recently [ns]."""
 
     def __post_init__(self) -> None:
         self._flight = BallisticFusion(self.noise)
         self._joined = False
         """The 3-D track has been within ``guard_m`` of the ground track."""
+        self._own = False
+        """It takes, at this step, an estimate the ground tracker refused."""
+        self._vouched_ns: int | None = None
+        """The last step at which it took an estimate the ground tracker refused."""
 
     def takes(self, estimate: BallEstimate, accepted: bool, track: TrackState | None) -> bool:
         """Whether the 3-D track takes an estimate: the ground tracker ``accepted`` it, or
@@ -65,26 +71,36 @@ class HopFollower:
         x = self._flight.tracker.x
         if x is not None:
             near.append((float(x[0]), float(x[1])))
-        return accepted or any(math.hypot(px - estimate.x_m, py - estimate.y_m) < self.near_m
-                               for px, py in near)
+        if accepted:
+            return True
+        own = any(math.hypot(px - estimate.x_m, py - estimate.y_m) < self.near_m
+                  for px, py in near)
+        self._own |= own
+        return own
 
     def step(self, stamp_ns: int, taken: Sequence[BallEstimate],
              track: TrackState | None) -> FusedEstimate | None:
         """The 3-D track at ``stamp_ns`` after the ``taken`` estimates (each with its
         camera's height), as a 2-D fused estimate; None when it has none, or none within
         ``guard_m`` of the ground ``track`` unless, having been with it, the 3-D track
-        took an estimate within ``keep_ns`` (else it starts afresh). ``track`` None: the
-        ground tracker has no confirmed track; the 3-D one still takes the estimates."""
+        took an estimate the ground tracker refused within ``keep_ns`` (else it starts
+        afresh). ``taken``: the estimates :meth:`takes` took since the last step.
+        ``track`` None: the ground tracker has no confirmed track; the 3-D one still takes
+        the estimates."""
         flight = self._flight.step(stamp_ns, taken)
+        if self._own and self._flight.tracker.last_accepted_ns == stamp_ns:
+            self._vouched_ns = stamp_ns
+        self._own = False
         if flight is None or track is None:
             return None
         fused = flight.fused
         if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m:
             self._joined = True
         else:
-            last = self._flight.tracker.last_accepted_ns
+            last = self._vouched_ns
             if not self._joined or last is None or stamp_ns - last > self.keep_ns:
                 self._flight, self._joined = BallisticFusion(self.noise), False
+                self._vouched_ns = None
                 return None
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots)
 

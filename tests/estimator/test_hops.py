@@ -114,3 +114,14 @@ def test_a_3d_track_that_never_joined_the_ground_track_is_not_kept() -> None:
         assert hops.step(k * 20 * MS, [e], None) is None
     e = _seen("near", 0.0)
     assert hops.step(200 * MS, [e], _track(200 * MS, 5.0, 0.0)) is None  # 6 m away
+
+
+def test_a_3d_track_fed_only_what_the_ground_tracker_took_is_not_kept() -> None:
+    """Far from the ground track, a 3-D track that took nothing the ground tracker refused
+    has nothing of its own to vouch for it (a lob away from the far robot whose lifted
+    estimates both followed): the ground track is given."""
+    hops = HopFollower(CalibratedNoise())
+    _still_ball(hops, 10)
+    e = _seen("near", 0.0)
+    assert hops.takes(e, True, _track(200 * MS, 2.0, 0.0))  # the ground tracker took it
+    assert hops.step(200 * MS, [e], _track(200 * MS, 2.0, 0.0)) is None

@@ -116,7 +116,9 @@ def test_fusion_one_robot_keeps_the_ground_estimate_and_an_unknown_height() -> N
     e = seen("r1", -4.0, 1.0, 12.0, (1.0, 0.0, 2.0))
     fused = TriangulateFusion().fuse([e])
     assert fused is not None and not fused.triangulated
-    assert (fused.x_m, fused.y_m, fused.z_m) == (e.x_m, e.y_m, R)
+    # one estimate's information-form fusion is itself, to rounding (BLAS-dependent)
+    assert (fused.x_m, fused.y_m) == pytest.approx((e.x_m, e.y_m), abs=1e-12)
+    assert fused.z_m == R
     assert fused.covariance_3d is not None
     c = np.array(fused.covariance_3d)
     # the height's sigma is that of a uniform spread up to 3.5 m: about 1.96 m

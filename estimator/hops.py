@@ -67,12 +67,12 @@ class HopFollower:
         """Whether the 3-D track takes an estimate: the ground tracker ``accepted`` it, or
         it lies within ``near_m`` of the ground ``track`` at its stamp or of the 3-D
         track's last position (the ground track may have gone astray, :meth:`step`)."""
+        if accepted:
+            return True
         near = [(track.x_m, track.y_m)] if track is not None else []
         x = self._flight.tracker.x
         if x is not None:
             near.append((float(x[0]), float(x[1])))
-        if accepted:
-            return True
         own = any(math.hypot(px - estimate.x_m, py - estimate.y_m) < self.near_m
                   for px, py in near)
         self._own |= own
@@ -97,10 +97,9 @@ class HopFollower:
         if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m:
             self._joined = True
         else:
-            last = self._vouched_ns
-            if not self._joined or last is None or stamp_ns - last > self.keep_ns:
+            vouched = self._vouched_ns
+            if not self._joined or vouched is None or stamp_ns - vouched > self.keep_ns:
                 self._flight, self._joined = BallisticFusion(self.noise), False
                 self._vouched_ns = None
                 return None
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots)
-

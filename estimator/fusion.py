@@ -40,7 +40,7 @@ from estimator.estimates import (
     covariance_rows,
 )
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
-from estimator.rays import BallRay, ball_ray, height_unknown_covariance, triangulate
+from estimator.rays import BallRay, Point3, ball_ray, height_unknown_covariance, triangulate
 from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
 from estimator.tracking.ray_pairs import RayPairs, ray_residual
 from estimator.tracking.tracker import TrackFusion
@@ -377,6 +377,15 @@ class BallisticFusion:
             z_m=float(x[2]), covariance_3d=covariance3_rows(P[:3, :3]), triangulated=crossed)
         return BallisticStep(fused, (float(x[3]), float(x[4]), float(x[5])),
                              0.5 * (P[3:5, 3:5] + P[3:5, 3:5].T), tracker.landing())
+
+    def crossing(self, stamp_ns: int, estimate: BallEstimate) -> Point3 | None:
+        """Where ``estimate``'s ray (an image at ``stamp_ns``) crosses another robot's
+        recent ray that this track took, moved with the track
+        (:meth:`~estimator.tracking.ray_pairs.RayPairs.point`); None without a track,
+        such a ray or a crossing."""
+        rays = self._rays([estimate])
+        crossed = None if not rays else self.pairs.point(stamp_ns, rays[0], self.tracker)
+        return None if crossed is None else crossed[0]
 
     def _rays(self, estimates: Sequence[BallEstimate]) -> list[BallRay]:
         rays = []

@@ -14,11 +14,17 @@ through flight, bounces and rolling, each robot's ray at its own stamp) beside t
 tracker, on the estimates the ground tracker accepted and on those within ``near_m`` of
 either track (a near robot's right estimate that the tracker refused in favour of a far
 robot's lifted one: a false blob is metres off). The fused position is the 3-D track's, the
-velocity stays the ground tracker's. The ground tracker still decides which estimates
+velocity stays the ground tracker's. It also takes an estimate whose ray crosses another
+robot's recent ray that it took, within ``near_m`` of the estimate: in a lob the near
+robot sees the ball in the air close to where it places it, and the far robot's ray passes
+through the ball there, while the far robot's estimate, and the tracks that followed it,
+are metres out. The ground tracker still decides which estimates
 are the ball and whether there is a track. Where the two disagree by more than ``guard_m``
 (more than a hop lifts an estimate), one of them has gone astray. It is the ground track
 when the 3-D track, having been with it, took within ``keep_ns`` an estimate the ground
-tracker refused: having taken a far robot's lifted estimate as a kick, the ground tracker
+tracker refused, or took one while flying (its height known from crossed rays: it places
+a far robot's lifted estimate in the air where the ground tracker takes it for a kick):
+having taken a far robot's lifted estimate as a kick, the ground tracker
 runs on along that kick and refuses the near robot that sees the ball, whose estimates the
 3-D track takes. Otherwise it is the 3-D track (rays crossed from poses that disagree give
 a height, and a flight, that is not there; a ball lobbed away from a far robot whose lifted
@@ -52,7 +58,7 @@ class HopFollower:
     """The 3-D track is given up this far from the ground track [m]..."""
     keep_ns: int = 100_000_000
     """...unless, having been within it before, it took an estimate the ground tracker
-    refused this recently [ns]."""
+    refused, or took one while flying, this recently [ns]."""
 
     def __post_init__(self) -> None:
         self._flight = BallisticFusion(self.noise)
@@ -61,12 +67,18 @@ class HopFollower:
         self._own = False
         """It takes, at this step, an estimate the ground tracker refused."""
         self._vouched_ns: int | None = None
-        """The last step at which it took an estimate the ground tracker refused."""
+        """The last step at which it took an estimate the ground tracker refused, or took
+        one while flying."""
 
-    def takes(self, estimate: BallEstimate, accepted: bool, track: TrackState | None) -> bool:
-        """Whether the 3-D track takes an estimate: the ground tracker ``accepted`` it, or
-        it lies within ``near_m`` of the ground ``track`` at its stamp or of the 3-D
-        track's last position (the ground track may have gone astray, :meth:`step`)."""
+    def takes(self, estimate: BallEstimate, accepted: bool, track: TrackState | None,
+              stamp_ns: int) -> bool:
+        """Whether the 3-D track takes an estimate (an image at ``stamp_ns``): the ground
+        tracker ``accepted`` it; or it lies within ``near_m`` of the ground ``track`` at
+        its stamp or of the 3-D track's last position (the ground track may have gone
+        astray, :meth:`step`); or its ray crosses another robot's recent ray that the 3-D
+        track took within ``near_m`` of the estimate (a lob: the near robot sees the ball
+        in the air, close to where it places it, and the far robot's ray passes through it
+        there, while its estimate and both tracks are metres out)."""
         if accepted:
             return True
         near = [(track.x_m, track.y_m)] if track is not None else []
@@ -75,6 +87,10 @@ class HopFollower:
             near.append((float(x[0]), float(x[1])))
         own = any(math.hypot(px - estimate.x_m, py - estimate.y_m) < self.near_m
                   for px, py in near)
+        if not own and x is not None:
+            crossed = self._flight.crossing(stamp_ns, estimate)
+            own = crossed is not None and math.hypot(
+                crossed[0] - estimate.x_m, crossed[1] - estimate.y_m) < self.near_m
         self._own |= own
         return own
 
@@ -83,12 +99,14 @@ class HopFollower:
         """The 3-D track at ``stamp_ns`` after the ``taken`` estimates (each with its
         camera's height), as a 2-D fused estimate; None when it has none, or none within
         ``guard_m`` of the ground ``track`` unless, having been with it, the 3-D track
-        took an estimate the ground tracker refused within ``keep_ns`` (else it starts
+        took an estimate the ground tracker refused, or one while flying, within
+        ``keep_ns`` (else it starts
         afresh). ``taken``: the estimates :meth:`takes` took since the last step.
         ``track`` None: the ground tracker has no confirmed track; the 3-D one still takes
         the estimates."""
         flight = self._flight.step(stamp_ns, taken)
-        if self._own and self._flight.tracker.last_accepted_ns == stamp_ns:
+        tracker = self._flight.tracker
+        if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:
             self._vouched_ns = stamp_ns
         self._own = False
         if flight is None or track is None:

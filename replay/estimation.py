@@ -361,7 +361,8 @@ class FrameEstimator:
             if accepted:
                 self._accepted_ns[f.robot] = f.stamp_ns
             ball = _ball(f.estimate, f.r_px, self._heights.get(f.robot))
-            if hops is not None and hops.takes(ball, accepted, tracker.state_at(f.stamp_ns)):
+            if hops is not None and hops.takes(ball, accepted, tracker.state_at(f.stamp_ns),
+                                               f.stamp_ns):
                 taken.append(ball)
         state = tracker.state_at(stamp_ns)
         confirmed = state if state is not None and state.confirmed else None

@@ -25,8 +25,14 @@ def _ball(t: float) -> tuple[float, float, float]:
 def _seen(robot: str, t: float) -> BallEstimate:
     """Where ``robot`` places the ball: its ray through the ball's centre, met with the
     plane of a ball on the ground (a hop puts it farther out)."""
-    rx, ry = ROBOTS[robot]
-    bx, by, bz = _ball(t)
+    return _sees(robot, ROBOTS[robot], _ball(t))
+
+
+def _sees(robot: str, at: tuple[float, float], ball: tuple[float, float, float]
+          ) -> BallEstimate:
+    """Where a robot at ``at`` places a ball (or a blob) at ``ball`` (x, y, z of its centre)."""
+    rx, ry = at
+    bx, by, bz = ball
     s = (H - BALL_RADIUS_M) / (H - bz)
     x, y = rx + s * (bx - rx), ry + s * (by - ry)
     return BallEstimate(robot, rx, ry, math.hypot(x - rx, y - ry), math.atan2(y - ry, x - rx),
@@ -41,10 +47,10 @@ def _track(t_ns: int, x: float, y: float) -> TrackState:
 def test_it_takes_what_the_tracker_accepted_and_what_lies_near_its_track() -> None:
     hops = HopFollower(CalibratedNoise())
     e = _seen("near", 0.0)  # at (-1, 0)
-    assert hops.takes(e, True, None)
-    assert hops.takes(e, False, _track(0, -1.0, 1.4))
-    assert not hops.takes(e, False, _track(0, -1.0, 1.6))  # beyond near_m (1.5 m)
-    assert not hops.takes(e, False, None)
+    assert hops.takes(e, True, None, 0)
+    assert hops.takes(e, False, _track(0, -1.0, 1.4), 0)
+    assert not hops.takes(e, False, _track(0, -1.0, 1.6), 0)  # beyond near_m (1.5 m)
+    assert not hops.takes(e, False, None, 0)
 
 
 def test_a_hopping_ball_is_placed_where_it_is_not_where_the_far_robots_lift_it() -> None:
@@ -57,7 +63,7 @@ def test_a_hopping_ball_is_placed_where_it_is_not_where_the_far_robots_lift_it()
         accepted = tracker.update(Measurement(t_ns, e.robot, e.x_m, e.y_m,
                                               covariance_rows(noise.covariance(e))))
         track = tracker.state_at(t_ns)
-        flight = hops.step(t_ns, [e] if hops.takes(e, accepted, track) else [], track)
+        flight = hops.step(t_ns, [e] if hops.takes(e, accepted, track, t_ns) else [], track)
         if 0.35 <= t_ns / 1e9 <= 0.75 and track is not None:
             bx, by, _ = _ball(t_ns / 1e9)
             ground.append(math.hypot(track.x_m - bx, track.y_m - by))
@@ -97,7 +103,7 @@ def test_it_stays_with_the_ball_where_the_ground_track_runs_off() -> None:
         stamp = k * 20 * MS
         astray = _track(stamp, 2.0, 0.0)
         e = _seen(("near", "side")[k % 2], 0.0)
-        assert hops.takes(e, False, astray)  # near the 3-D track, not the ground track
+        assert hops.takes(e, False, astray, stamp)  # near the 3-D track, not the ground track
         flight = hops.step(stamp, [e], astray)
         assert flight is not None and math.hypot(flight.x_m + 1.0, flight.y_m) < 0.02
     # nothing more comes: after keep_ns the ground track is believed again
@@ -123,5 +129,80 @@ def test_a_3d_track_fed_only_what_the_ground_tracker_took_is_not_kept() -> None:
     hops = HopFollower(CalibratedNoise())
     _still_ball(hops, 10)
     e = _seen("near", 0.0)
-    assert hops.takes(e, True, _track(200 * MS, 2.0, 0.0))  # the ground tracker took it
+    assert hops.takes(e, True, _track(200 * MS, 2.0, 0.0), 200 * MS)  # the ground tracker took it
     assert hops.step(200 * MS, [e], _track(200 * MS, 2.0, 0.0)) is None
+
+
+def _joined(hops: HopFollower) -> None:
+    """The 3-D track and the ground track on a still ball at (-1, 0) for 200 ms."""
+    _still_ball(hops, 10)
+
+
+LOB = (1.2, -0.6, BALL_RADIUS_M + 0.3)
+"""A lobbed ball 0.3 m up, 0.9 m from the near robot and 7.4 m from the far one."""
+
+
+def test_it_takes_the_near_robot_that_sees_a_lob_where_the_far_robots_ray_passes() -> None:
+    """The far robot places the lob 5 m beyond it, and the ground tracker, taking that for
+    a kick, is on its way there; the near robot places it 0.6 m off, but more than near_m
+    from both tracks: its ray crosses the far robot's there."""
+    hops = HopFollower(CalibratedNoise())
+    _joined(hops)
+    far = _sees("far", ROBOTS["far"], LOB)
+    astray = _track(200 * MS, -0.2, 1.5)  # within guard_m of the 3-D track, still at (-1, 0)
+    assert hops.takes(far, True, astray, 200 * MS)
+    hops.step(200 * MS, [far], astray)
+    near = _sees("near", ROBOTS["near"], LOB)
+    assert math.hypot(near.x_m - LOB[0], near.y_m - LOB[1]) < 0.7
+    x = hops._flight.tracker.x
+    assert x is not None
+    for px, py in ((astray.x_m, astray.y_m), (float(x[0]), float(x[1]))):
+        assert math.hypot(near.x_m - px, near.y_m - py) > hops.near_m
+    assert hops.takes(near, False, astray, 210 * MS)
+
+
+def test_a_ray_that_crosses_the_far_robots_far_from_its_own_estimate_is_not_taken() -> None:
+    """A blob seen on the ground 4 m beyond the point where its ray crosses the far
+    robot's (0.6 m up): the crossing is no ball there, and it is not taken."""
+    hops = HopFollower(CalibratedNoise())
+    _joined(hops)
+    far = _sees("far", ROBOTS["far"], LOB)
+    astray = _track(200 * MS, -0.2, 1.5)
+    hops.step(200 * MS, [far], astray)
+    u = (H - 0.6) / (H - LOB[2])  # the far robot's ray at 0.6 m up
+    fx, fy = ROBOTS["far"]
+    cx, cy = fx + u * (LOB[0] - fx), fy + u * (LOB[1] - fy)
+    blob = _sees("side", (cx - 2.0, cy), (cx, cy, 0.6))  # its ray through that point
+    assert math.hypot(blob.x_m - cx, blob.y_m - cy) > 3.0
+    assert not hops.takes(blob, False, astray, 210 * MS)
+
+
+def _lob(t: float) -> tuple[float, float, float]:
+    """Still at (-1, 0) until 0.2 s, then kicked up: 2 m/s along x, 3 m/s up."""
+    if t <= 0.2:
+        return (-1.0, 0.0, BALL_RADIUS_M)
+    dt = t - 0.2
+    return (-1.0 + 2.0 * dt, 0.0, max(BALL_RADIUS_M, BALL_RADIUS_M + 3.0 * dt - 4.905 * dt * dt))
+
+
+def test_a_flying_3d_track_is_kept_where_the_ground_track_runs_off_with_the_lift() -> None:
+    """Every estimate is one the ground tracker took, but it took the far robot's lifted
+    ones for a kick and ran off along them; the 3-D track, flying (its height known from
+    the crossed rays), places them in the air and is kept through the flight."""
+    hops = HopFollower(CalibratedNoise())
+    kept, errors = 0, []
+    for k in range(60):  # 0.75 s, the robots' images in turn 12.5 ms apart
+        t_ns = k * 12 * MS + k * MS // 2
+        robot = list(ROBOTS)[k % 3]
+        ball = _lob(t_ns / 1e9)
+        e = _sees(robot, ROBOTS[robot], ball)
+        far = _sees("far", ROBOTS["far"], ball)
+        track = _track(t_ns, far.x_m, far.y_m)  # the ground track on the far robot's
+        assert hops.takes(e, True, track, t_ns)
+        flight = hops.step(t_ns, [e], track)
+        if ball[2] > BALL_RADIUS_M + 0.2 and math.hypot(far.x_m - ball[0], far.y_m - ball[1]) > 3:
+            assert flight is not None
+            kept += 1
+            errors.append(math.hypot(flight.x_m - ball[0], flight.y_m - ball[1]))
+    assert kept > 10  # more than keep_ns (100 ms) of it
+    assert max(errors) < 0.5

@@ -18,19 +18,20 @@ velocity stays the ground tracker's. It also takes an estimate whose ray crosses
 robot's recent ray that it took, within ``near_m`` of the estimate: in a lob the near
 robot sees the ball in the air close to where it places it, and the far robot's ray passes
 through the ball there, while the far robot's estimate, and the tracks that followed it,
-are metres out. The ground tracker still decides which estimates
-are the ball and whether there is a track. Where the two disagree by more than ``guard_m``
-(more than a hop lifts an estimate), one of them has gone astray. It is the ground track
-when the 3-D track, having been with it, took within ``keep_ns`` an estimate the ground
-tracker refused, or took one while flying (its height known from crossed rays: it places
-a far robot's lifted estimate in the air where the ground tracker takes it for a kick):
-having taken a far robot's lifted estimate as a kick, the ground tracker
-runs on along that kick and refuses the near robot that sees the ball, whose estimates the
-3-D track takes. Otherwise it is the 3-D track (rays crossed from poses that disagree give
-a height, and a flight, that is not there; a ball lobbed away from a far robot whose lifted
-estimates the 3-D track followed too, as the ground tracker did; or, at the start, a box
-the ground tracker did not confirm): the ground track's position is given and the 3-D
-track starts afresh. Pure and deterministic.
+are metres out. The ground tracker still decides which estimates are the ball and whether
+there is a track. Where the two disagree by more than ``guard_m`` (more than a hop lifts
+an estimate), one of them has gone astray. It is the ground track when the 3-D track,
+having been with it, took within ``keep_ns`` an estimate the ground tracker refused, or
+took one while flying (its height known from crossed rays: it places a far robot's lifted
+estimate in the air where the ground tracker takes it for a kick): having taken a far
+robot's lifted estimate as a kick, the ground tracker runs on along that kick and refuses
+the near robot that sees the ball, whose estimates the 3-D track takes. Otherwise it is
+the 3-D track (rays crossed from poses that disagree give a height, and a flight, that is
+not there; a ball lobbed away from a far robot whose lifted estimates the 3-D track
+followed too, as the ground tracker did; or, at the start, a box the ground tracker did
+not confirm): the ground track's position is given and the 3-D track starts afresh. A
+false flight that keeps taking rays is kept too, so the poses should be good ones (the
+lines' corrections, ``--localise lines``). Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -100,10 +101,9 @@ class HopFollower:
         camera's height), as a 2-D fused estimate; None when it has none, or none within
         ``guard_m`` of the ground ``track`` unless, having been with it, the 3-D track
         took an estimate the ground tracker refused, or one while flying, within
-        ``keep_ns`` (else it starts
-        afresh). ``taken``: the estimates :meth:`takes` took since the last step.
-        ``track`` None: the ground tracker has no confirmed track; the 3-D one still takes
-        the estimates."""
+        ``keep_ns`` (else it starts afresh). ``taken``: the estimates :meth:`takes` took
+        since the last step. ``track`` None: the ground tracker has no confirmed track;
+        the 3-D one still takes the estimates."""
         flight = self._flight.step(stamp_ns, taken)
         tracker = self._flight.tracker
         if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:

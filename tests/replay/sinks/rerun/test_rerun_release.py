@@ -3,6 +3,7 @@ Rerun thread behind and keeps memory flat, and every .rrd it saved is whole."""
 
 from __future__ import annotations
 
+import gc
 import os
 from pathlib import Path
 
@@ -35,13 +36,17 @@ def test_a_hundred_saved_replays_keep_threads_and_memory_flat(tmp_path: Path) ->
                                   force=True))
         assert check_for_rrd_footer(str(rrd))  # closed whole before it was renamed
         counts.append(threads())
+        gc.collect()  # what the replay left for the collector is not a leak
         rss.append(status_kib("VmRSS"))
         size.append(status_kib("VmSize"))
     # no thread per replay (was four: 360 more over these 90); the process may start one or
     # two of its own meanwhile (a pool or runtime another test left idle: seen once, +1)
     assert max(counts[10:]) <= counts[9] + 2, counts
     # the allocator settles over the first replays; after that nothing grows with each one
-    # (each used to keep four threads, one reserving ~2.9 GiB of address space)
+    # (each used to keep four threads, one reserving ~2.9 GiB of address space). Resident
+    # memory swings by tens of MiB from one replay to the next late in a full run (860 to
+    # 950 MiB seen in CI, so two single samples fail by chance): the floor of the last 25
+    # against the floor of 25 before them is what a leak raises (1 MiB a replay: +50 MiB)
     assert size[-1] - size[49] < 256 * 1024, size[::10]
-    assert rss[-1] - rss[49] < 32 * 1024, rss[::10]
+    assert min(rss[75:]) - min(rss[25:50]) < 24 * 1024, rss[::5]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.mcap", "r0.rrd", "r1.rrd"]

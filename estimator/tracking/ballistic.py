@@ -22,7 +22,9 @@ one robot's ground estimate, whose covariance spreads along its ray, moves the t
 across the ray only (a bearing), so its height stays as unknown as it is. Measurements
 farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
 two refusals in a row the track restarts at the second, its velocity from the two (the
-ball hit a robot or a post), and a refused point that fixes all three directions (crossed
+ball hit a robot or a post; a one-robot point counts where its ray passes nearest the
+predicted track, not at its ground point: a far robot sees a hop metres beyond the ball
+along its ray), and a refused point that fixes all three directions (crossed
 rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next measurement
 restarts it. A rolling track that is shown a ball clearly in the air restarts flying at
 once (a kick up), its velocity from the way from the last measurement; so does one that a
@@ -241,6 +243,7 @@ class BallisticTracker:
                 return True  # the rolling ball does not explain it, a flying one may
             if self.params.restart_on_fixed and keep.all():
                 return self._restart_fixed(stamp_ns, z, Rm)
+            z = self._on_the_ray(z, V[:, ~keep])
             if self._refused is not None and self._restarted(stamp_ns, z, Rm):
                 return True
             self._refused = (stamp_ns, z.copy())
@@ -352,6 +355,17 @@ class BallisticTracker:
         if dt <= 0.0:
             return False
         return self._fly_from(rolled_at[1], dt, stamp_ns, z, Rm)
+
+    def _on_the_ray(self, z: Matrix, unknown: Matrix) -> Matrix:
+        """A refused measurement with directions it does not measure (one robot's ray: where
+        along it the ball is), moved along them to the point nearest the predicted track,
+        but not below the ground: the ray's ground point is where a ball on the ground
+        would be, and a far robot's ray meets the ground metres beyond a ball in the air."""
+        assert self.x is not None
+        if not unknown.shape[1]:
+            return z
+        moved = z + unknown @ (unknown.T @ (self.x[:3] - z))
+        return moved if moved[2] >= z[2] else z
 
     def _restarted(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """Two refusals in a row (the ball hit something): restart at the second, its

@@ -160,6 +160,43 @@ def test_a_ray_the_track_misses_is_refused_not_restarted_on() -> None:
     assert tr.x is not None and abs(tr.x[1] - before[1]) < 0.05
 
 
+def _far_robots_point(camera: np.ndarray, ball: tuple[float, float, float]
+                      ) -> tuple[tuple[float, float, float], np.ndarray]:
+    """One robot's ground estimate of ``ball`` (where its ray meets z = R) and its covariance,
+    wide along the ray (the height unknown)."""
+    u = np.array(ball) - camera
+    ground = camera + u * (camera[2] - R) / (camera[2] - ball[2])
+    u /= np.linalg.norm(u)
+    cov = np.outer(u, u) * 50.0 + np.eye(3) * 1e-4
+    return (float(ground[0]), float(ground[1]), float(ground[2])), cov
+
+
+def test_a_hop_seen_by_one_far_robot_restarts_on_its_ray_not_at_its_ground_point() -> None:
+    """A rolling ball lobbed, seen only by a robot 10 m away whose camera is 0.85 m up: its
+    ray passes through the ball, but meets the ground metres beyond it (5 and 8 m here). Two
+    such points in a row restart the track (the ball met what the model does not know)
+    where the ray passes nearest the predicted track, in the air: within 0.25 m of the ball
+    (the prediction, still rolling, lags the lob along the ray), not at the ground point."""
+    rng = np.random.default_rng(10)
+    tr = BallisticTracker()
+    for t in np.arange(0.0, 1.0, 1 / RATE_HZ):  # rolling at 1 m/s, 3-D points
+        p = np.array([t, 0.0, R]) + rng.normal(0.0, [0.01, 0.01, 0.0])
+        tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4)
+    assert not tr.airborne
+    camera = np.array([11.0, 1.0, 0.85])
+    v = (2.0, 0.5, 3.0)
+    answers, ground_off = [], []
+    for t in (0.1, 0.15):
+        ball = arc(t, v, start=(1.0, 0.0))
+        point, cov = _far_robots_point(camera, ball)
+        ground_off.append(math.dist(point[:2], ball[:2]))
+        answers.append(tr.update(round((1.0 + t) * NS_PER_S), point, cov))
+    assert answers == [False, True]  # refused, then restarted on
+    assert tr.x is not None and min(ground_off) > 2.5, ground_off
+    assert math.dist(tr.x[:2], ball[:2]) < 0.25, (tr.x[:3], ball)
+    assert tr.x[2] > R + 0.1  # in the air, as the ray says there
+
+
 def test_a_kick_seen_with_a_wide_height_takes_its_vertical_speed() -> None:
     """Two robots whose rays cross at a shallow angle: each point's height has a sigma of
     0.3 m, so the first point after a kick (0.5 m up) is not clearly in the air and the

@@ -31,7 +31,8 @@ not there; a ball lobbed away from a far robot whose lifted estimates the 3-D tr
 followed too, as the ground tracker did; or, at the start, a box the ground tracker did
 not confirm): the ground track's position is given and the 3-D track starts afresh. A
 false flight that keeps taking rays is kept too, so the poses should be good ones (the
-lines' corrections, ``--localise lines``). Pure and deterministic.
+lines' corrections, ``--localise lines``), or the rays as unsure as the poses
+(``--pose-uncertainty``). Pure and deterministic.
 """
 
 from __future__ import annotations

@@ -92,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hops", action="store_true",
                    help="--fusion track: the ball's position from a 3-D track beside the "
                    "tracker, on the estimates it takes, so a ball that hops is not placed "
-                   "where the far robots' lifted estimates put it (docs/hops.md)")
+                   "where the far robots' lifted estimates put it; with good poses "
+                   "(--localise lines) or with --pose-uncertainty (docs/hops.md)")
     p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "

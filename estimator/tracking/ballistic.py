@@ -22,9 +22,10 @@ one robot's ground estimate, whose covariance spreads along its ray, moves the t
 across the ray only (a bearing), so its height stays as unknown as it is. Measurements
 farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
 two refusals in a row the track restarts at the second, its velocity from the two (the
-ball hit a robot or a post; a one-robot point counts where its ray passes nearest the
-predicted track, not at its ground point: a far robot sees a hop metres beyond the ball
-along its ray), and a refused point that fixes all three directions (crossed
+ball hit a robot or a post; two one-robot points further apart than any ball runs count
+where their rays pass nearest the predicted track, not at their ground points: a far
+robot sees a hop metres beyond the ball along its ray), and a refused point that fixes
+all three directions (crossed
 rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next measurement
 restarts it. A rolling track that is shown a ball clearly in the air restarts flying at
 once (a kick up), its velocity from the way from the last measurement; so does one that a
@@ -90,6 +91,9 @@ class BallisticParams:
     sooner or later than predicted)."""
     initial_speed_sigma_mps: float = 10.0
     launch_sigma_mps: float = 2.0
+    max_speed_mps: float = 12.0
+    """No ball runs faster (the simulator's fastest kick is 10 m/s): two refused points
+    further apart are taken where their rays pass nearest the track (see ``_restarted``)."""
     min_way_s: float = 0.05
     """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
     short_way_vz_sigma_mps: float = 4.0
@@ -123,8 +127,9 @@ class BallisticTracker:
         self._last: tuple[int, Matrix] | None = None
         """The last accepted measurement's stamp and the track's position after it."""
         self._last_airborne = False
-        self._refused: tuple[int, Matrix] | None = None
-        """The last refused measurement, while refusals run in a row."""
+        self._refused: tuple[int, Matrix, Matrix] | None = None
+        """The last refused measurement, while refusals run in a row: its stamp, the point
+        and the point moved along its unmeasured directions (:meth:`_on_the_ray`)."""
         self._ray_misses: dict[str, int] = {}
         """Each robot's rays refused in a row (one robot's taken rays do not vouch for a
         track the others' miss: along its ray it may be anywhere)."""
@@ -243,10 +248,10 @@ class BallisticTracker:
                 return True  # the rolling ball does not explain it, a flying one may
             if self.params.restart_on_fixed and keep.all():
                 return self._restart_fixed(stamp_ns, z, Rm)
-            z = self._on_the_ray(z, V[:, ~keep])
-            if self._refused is not None and self._restarted(stamp_ns, z, Rm):
+            moved = self._on_the_ray(z, V[:, ~keep])
+            if self._refused is not None and self._restarted(stamp_ns, z, moved, Rm):
                 return True
-            self._refused = (stamp_ns, z.copy())
+            self._refused = (stamp_ns, z.copy(), moved)
             self.misses += 1
             return False
         self._correct(H, S, innovation)
@@ -367,14 +372,21 @@ class BallisticTracker:
         moved = z + unknown @ (unknown.T @ (self.x[:3] - z))
         return moved if moved[2] >= z[2] else z
 
-    def _restarted(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+    def _restarted(self, stamp_ns: int, z: Matrix, moved: Matrix, Rm: Matrix) -> bool:
         """Two refusals in a row (the ball hit something): restart at the second, its
-        velocity from the two (a flight between them, when the second is in the air)."""
+        velocity from the two (a flight between them, when the second is in the air). When
+        the way between the two points is faster than ``max_speed_mps`` (over at least
+        ``min_way_s``) no ball ran it: they are far robots' views of a hop, each metres out
+        along its ray, and the restart takes them where their rays pass nearest the track
+        (``moved``; the same points when they fix every direction)."""
         assert self._refused is not None
-        t0, z0 = self._refused
+        t0, z0, moved0 = self._refused
         dt = (stamp_ns - t0) / NS_PER_S
         if not 0.0 < dt < 0.5:
             return False
+        if float(np.linalg.norm(z - z0)) > self.params.max_speed_mps * max(
+                dt, self.params.min_way_s):
+            z, z0 = moved, moved0
         return self._fly_from(z0, dt, stamp_ns, z, Rm)
 
     def _restart_fixed(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:

@@ -197,6 +197,26 @@ def test_a_hop_seen_by_one_far_robot_restarts_on_its_ray_not_at_its_ground_point
     assert tr.x[2] > R + 0.1  # in the air, as the ray says there
 
 
+def test_a_ball_deflected_on_the_ground_restarts_at_a_far_robot_s_ground_point() -> None:
+    """A rolling ball turned back by a robot, seen only by a robot 7 m away: its ground
+    estimates are right, and two in a row 0.2 m apart (a ball's way in 50 ms) restart the
+    track there, on the ground, not in the air where the ray passes the predicted track."""
+    rng = np.random.default_rng(11)
+    tr = BallisticTracker()
+    for t in np.arange(0.0, 1.0, 1 / RATE_HZ):  # rolling at 2 m/s
+        p = np.array([2.0 * t, 0.0, R]) + rng.normal(0.0, [0.01, 0.01, 0.0])
+        tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4)
+    camera = np.array([8.0, 3.0, 0.85])
+    answers = []
+    for t in (0.1, 0.15):  # turned back at 1 s: -2 m/s
+        ball = (2.0 - 2.0 * t, 0.0, R)
+        point, cov = _far_robots_point(camera, ball)
+        answers.append(tr.update(round((1.0 + t) * NS_PER_S), point, cov))
+    assert answers == [False, True]
+    assert tr.x is not None and math.dist(tr.x[:2], ball[:2]) < 0.05, (tr.x[:3], ball)
+    assert not tr.airborne
+
+
 def test_a_kick_seen_with_a_wide_height_takes_its_vertical_speed() -> None:
     """Two robots whose rays cross at a shallow angle: each point's height has a sigma of
     0.3 m, so the first point after a kick (0.5 m up) is not clearly in the air and the

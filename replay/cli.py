@@ -90,10 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="offline: smooth the track over the whole log (RTS smoother) instead "
                    "of the causal estimate a robot would have live (--fusion track)")
     p.add_argument("--hops", action="store_true",
-                   help="--fusion track: the ball's position from a 3-D track beside the "
-                   "tracker, on the estimates it takes, so a ball that hops is not placed "
-                   "where the far robots' lifted estimates put it; with good poses "
-                   "(--localise lines) or with --pose-uncertainty (docs/hops.md)")
+                   help="--fusion track: the position from a 3-D track beside the tracker, so a "
+                   "hop is not placed where far robots' lifted estimates put it; with good "
+                   "poses (--localise lines) or --pose-uncertainty (docs/hops.md)")
     p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "

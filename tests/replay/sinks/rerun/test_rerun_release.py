@@ -45,8 +45,10 @@ def test_a_hundred_saved_replays_keep_threads_and_memory_flat(tmp_path: Path) ->
     # the allocator settles over the first replays; after that nothing grows with each one
     # (each used to keep four threads, one reserving ~2.9 GiB of address space). Resident
     # memory swings by tens of MiB from one replay to the next late in a full run (860 to
-    # 950 MiB seen in CI, so two single samples fail by chance): the floor of the last 25
-    # against the floor of 25 before them is what a leak raises (1 MiB a replay: +50 MiB)
+    # 950 MiB seen in CI), and may step up once by as much (+38 MiB between two floors, seen
+    # in a fresh clone's run): a leak raises the floor of every 25 replays over the 25
+    # before, a step only one of them (1 MiB a replay: +25 MiB each time)
     assert size[-1] - size[49] < 256 * 1024, size[::10]
-    assert min(rss[75:]) - min(rss[25:50]) < 24 * 1024, rss[::5]
+    floors = [min(rss[i:i + 25]) for i in (25, 50, 75)]
+    assert min(floors[1] - floors[0], floors[2] - floors[1]) < 16 * 1024, (floors, rss[::5])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.mcap", "r0.rrd", "r1.rrd"]

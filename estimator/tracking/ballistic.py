@@ -18,20 +18,19 @@ Between measurements the ball moves:
 
 Process noise: white acceleration noise, ``accel_sigma`` horizontally and vertically.
 A measurement's covariance directions wider than ``unknown_variance_m2`` are not measured:
-one robot's ground estimate, whose covariance spreads along its ray, moves the track
-across the ray only (a bearing), so its height stays as unknown as it is. Measurements
-farther than the chi-square gate (99.9 %, of the directions measured) are refused; after
-two refusals in a row the track restarts at the second, its velocity from the two (the
-ball hit a robot or a post; two one-robot points further apart than any ball runs count
-where their rays pass nearest the predicted track, not at their ground points: a far
-robot sees a hop metres beyond the ball along its ray), and a refused point that fixes
-all three directions (crossed
-rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next measurement
-restarts it. A rolling track that is shown a ball clearly in the air restarts flying at
-once (a kick up), its velocity from the way from the last measurement; so does one that a
-3-D point lifts off the ground when the filter takes it (a point whose height is wide, rays
-crossing at a shallow angle: the rolling track, its vertical speed held at 0 with no
-variance, would otherwise fly on at 0 and fall short of the rising ball).
+one robot's ground estimate, whose covariance spreads along its ray, moves the track across
+the ray only (a bearing), so its height stays as unknown as it is. Measurements farther
+than the chi-square gate (99.9 %, of the directions measured) are refused; after two
+refusals in a row the track restarts at the second, its velocity from the two (the ball hit
+a robot or a post; two one-robot points further apart than any ball runs count where their
+rays pass nearest the predicted track, not at their ground points: a far robot sees a hop
+metres beyond the ball along its ray), and a refused point that fixes all three directions
+(crossed rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next
+measurement restarts it. A rolling track that is shown a ball clearly in the air restarts
+flying at once (a kick up), its velocity from the way from the last measurement; so does
+one that a 3-D point lifts off the ground when the filter takes it (a point whose height is
+wide, rays crossing at a shallow angle: the rolling track, its vertical speed held at 0
+with no variance, would otherwise fly on at 0 and fall short of the rising ball).
 
 Free-running cameras give one robot's ray at a time, never two of one instant:
 :meth:`BallisticTracker.update_ray` takes a ray at its own stamp into a flying track (the

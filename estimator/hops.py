@@ -14,7 +14,12 @@ through flight, bounces and rolling, each robot's ray at its own stamp) beside t
 tracker, on the estimates the ground tracker accepted and on those within ``near_m`` of
 either track (a near robot's right estimate that the tracker refused in favour of a far
 robot's lifted one: a false blob is metres off). The fused position is the 3-D track's, the
-velocity stays the ground tracker's. It also takes an estimate whose ray crosses another
+velocity stays the ground tracker's. The 3-D track is slow to see a kick along the
+robots' rays (a one-robot point says nothing along its ray, and rays of different instants
+are crossed with the velocity before the kick): when the ground tracker's velocity, which
+follows a kick at the first estimate that shows it, is more than ``kick_mps`` from the
+rolling 3-D track's, the 3-D track takes a kick of ``kick_sigma_mps`` before the step's
+estimates. It also takes an estimate whose ray crosses another
 robot's recent ray that it took, within ``near_m`` of the estimate: in a lob the near
 robot sees the ball in the air close to where it places it, and the far robot's ray passes
 through the ball there, while the far robot's estimate, and the tracks that followed it,
@@ -62,6 +67,11 @@ class HopFollower:
     """...unless, having been within it before, it took an estimate the ground tracker
     refused, or took one while flying, this recently [ns]."""
 
+    kick_mps: float = 2.0
+    """A rolling 3-D track whose level velocity is this far from the ground track's..."""
+    kick_sigma_mps: float = 3.0
+    """...takes a kick of this sigma each way before this step's estimates [m/s]."""
+
     def __post_init__(self) -> None:
         self._flight = BallisticFusion(self.noise)
         self._joined = False
@@ -105,8 +115,12 @@ class HopFollower:
         ``keep_ns`` (else it starts afresh). ``taken``: the estimates :meth:`takes` took
         since the last step. ``track`` None: the ground tracker has no confirmed track;
         the 3-D one still takes the estimates."""
-        flight = self._flight.step(stamp_ns, taken)
         tracker = self._flight.tracker
+        if track is not None and taken and tracker.x is not None and not tracker.airborne and (
+                math.hypot(track.vx_m_s - float(tracker.x[3]),
+                           track.vy_m_s - float(tracker.x[4])) > self.kick_mps):
+            tracker.kicked(self.kick_sigma_mps)  # the ground tracker saw a kick
+        flight = self._flight.step(stamp_ns, taken)
         if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:
             self._vouched_ns = stamp_ns
         self._own = False

@@ -304,6 +304,12 @@ class BallisticTracker:
         self._remember(stamp_ns)
         return True
 
+    def kicked(self, sigma_mps: float) -> None:
+        """An impulse of unknown size: the level velocity's variance grows by
+        ``sigma_mps``^2 each way."""
+        self.P[3, 3] += sigma_mps ** 2
+        self.P[4, 4] += sigma_mps ** 2
+
     def _correct(self, H: Matrix, S: Matrix, innovation: Matrix) -> None:
         """The Kalman update of a measurement taken (``H``, its innovation and covariance
         ``S``); the ball's centre kept at or above the ground."""

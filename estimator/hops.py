@@ -9,35 +9,35 @@ along the ray by about ``d h / (H - R)`` (``d`` its range, ``H`` the camera's he
 the fused position follows the farthest robots outwards, or a kick it explains by one of
 them; on the recorded realistic matches this was most of the fused error with true poses.
 
-:class:`HopFollower` runs a :class:`~estimator.fusion.BallisticFusion` (a 3-D state
-through flight, bounces and rolling, each robot's ray at its own stamp) beside the ground
-tracker, on the estimates the ground tracker accepted and on those within ``near_m`` of
-either track (a near robot's right estimate that the tracker refused in favour of a far
-robot's lifted one: a false blob is metres off). The fused position is the 3-D track's, the
-velocity stays the ground tracker's. The 3-D track is slow to see a kick along the
-robots' rays (a one-robot point says nothing along its ray, and rays of different instants
-are crossed with the velocity before the kick): when the ground tracker's velocity, which
-follows a kick at the first estimate that shows it, is more than ``kick_mps`` from the
-rolling 3-D track's, the 3-D track takes a kick of ``kick_sigma_mps`` before the step's
-estimates. It also takes an estimate whose ray crosses another
-robot's recent ray that it took, within ``near_m`` of the estimate: in a lob the near
-robot sees the ball in the air close to where it places it, and the far robot's ray passes
+:class:`HopFollower` runs a :class:`~estimator.fusion.BallisticFusion` (a 3-D state through
+flight, bounces and rolling, each robot's ray at its own stamp) beside the ground tracker,
+on the estimates the ground tracker accepted and on those within ``near_m`` of either track
+(a near robot's right estimate that the tracker refused in favour of a far robot's lifted
+one: a false blob is metres off). The fused position is the 3-D track's, the velocity stays
+the ground tracker's. The 3-D track is slow to see a kick along the robots' rays (a
+one-robot point says nothing along its ray, and rays of different instants are crossed with
+the velocity before the kick): when the ground tracker's velocity, which follows a kick at
+the first estimate that shows it, is more than ``kick_mps`` from the rolling 3-D track's,
+the 3-D track takes a kick of ``kick_sigma_mps`` before the step's estimates. It also takes
+an estimate whose ray crosses another robot's recent ray that it took, within ``near_m`` of
+the estimate and more than ``lob_m`` above a ball on the ground: in a lob the near robot
+sees the ball in the air close to where it places it, and the far robot's ray passes
 through the ball there, while the far robot's estimate, and the tracks that followed it,
-are metres out. The ground tracker still decides which estimates are the ball and whether
-there is a track. Where the two disagree by more than ``guard_m`` (more than a hop lifts
-an estimate), one of them has gone astray. It is the ground track when the 3-D track,
-having been with it, took within ``keep_ns`` an estimate the ground tracker refused, or
-took one while flying (its height known from crossed rays: it places a far robot's lifted
-estimate in the air where the ground tracker takes it for a kick): having taken a far
-robot's lifted estimate as a kick, the ground tracker runs on along that kick and refuses
-the near robot that sees the ball, whose estimates the 3-D track takes. Otherwise it is
-the 3-D track (rays crossed from poses that disagree give a height, and a flight, that is
-not there; a ball lobbed away from a far robot whose lifted estimates the 3-D track
-followed too, as the ground tracker did; or, at the start, a box the ground tracker did
-not confirm): the ground track's position is given and the 3-D track starts afresh. A
-false flight that keeps taking rays is kept too, so the poses should be good ones (the
-lines' corrections, ``--localise lines``), or the rays as unsure as the poses
-(``--pose-uncertainty``). Pure and deterministic.
+are metres out (a far robot's false blob whose ray passes the ball low is no lob). The
+ground tracker still decides which estimates are the ball and whether there is a track.
+Where the two disagree by more than ``guard_m`` (more than a hop lifts an estimate), one of
+them has gone astray. It is the ground track when the 3-D track, having been with it, took
+within ``keep_ns`` an estimate the ground tracker refused, or took one while flying (its
+height known from crossed rays: it places a far robot's lifted estimate in the air where
+the ground tracker takes it for a kick): having taken a far robot's lifted estimate as a
+kick, the ground tracker runs on along that kick and refuses the near robot that sees the
+ball, whose estimates the 3-D track takes. Otherwise it is the 3-D track (rays crossed from
+poses that disagree give a height, and a flight, that is not there; a ball lobbed away from
+a far robot whose lifted estimates the 3-D track followed too, as the ground tracker did;
+or, at the start, a box the ground tracker did not confirm): the ground track's position is
+given and the 3-D track starts afresh. A false flight that keeps taking rays is kept too,
+so the poses should be good ones (the lines' corrections, ``--localise lines``), or the
+rays as unsure as the poses (``--pose-uncertainty``). Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from estimator.constants import BALL_RADIUS_M
 from estimator.estimates import BallEstimate, FusedEstimate
 from estimator.fusion import BallisticFusion
 from estimator.noise import Noise
@@ -67,6 +68,9 @@ class HopFollower:
     """...unless, having been within it before, it took an estimate the ground tracker
     refused, or took one while flying, this recently [ns]."""
 
+    lob_m: float = 0.1
+    """A crossing of rays this high above a ball on the ground is a lob's; a lower one (a
+    far robot's false estimate whose ray passes the ball) is not taken [m]."""
     kick_mps: float = 2.0
     """A rolling 3-D track whose level velocity is this far from the ground track's..."""
     kick_sigma_mps: float = 3.0
@@ -88,9 +92,10 @@ class HopFollower:
         tracker ``accepted`` it; or it lies within ``near_m`` of the ground ``track`` at
         its stamp or of the 3-D track's last position (the ground track may have gone
         astray, :meth:`step`); or its ray crosses another robot's recent ray that the 3-D
-        track took within ``near_m`` of the estimate (a lob: the near robot sees the ball
-        in the air, close to where it places it, and the far robot's ray passes through it
-        there, while its estimate and both tracks are metres out)."""
+        track took within ``near_m`` of the estimate and ``lob_m`` above the ground (a lob:
+        the near robot sees the ball in the air, close to where it places it, and the far
+        robot's ray passes through it there, while its estimate and both tracks are metres
+        out)."""
         if accepted:
             return True
         near = [(track.x_m, track.y_m)] if track is not None else []
@@ -101,8 +106,8 @@ class HopFollower:
                   for px, py in near)
         if not own and x is not None:
             crossed = self._flight.crossing(stamp_ns, estimate)
-            own = crossed is not None and math.hypot(
-                crossed[0] - estimate.x_m, crossed[1] - estimate.y_m) < self.near_m
+            own = crossed is not None and crossed[2] - BALL_RADIUS_M > self.lob_m and (
+                math.hypot(crossed[0] - estimate.x_m, crossed[1] - estimate.y_m) < self.near_m)
         self._own |= own
         return own
 

@@ -177,6 +177,27 @@ def test_a_ray_that_crosses_the_far_robots_far_from_its_own_estimate_is_not_take
     assert not hops.takes(blob, False, astray, 210 * MS)
 
 
+def test_a_far_robots_false_blob_whose_ray_passes_the_ball_low_is_not_taken() -> None:
+    """The ball still on the ground; a robot 10 m away reports a blob 2.1 m from it whose
+    ray crosses the far robot's ray 0.9 m from the ball, 8 cm up, 1.2 m from the blob: no
+    lob is that low, and the blob is not taken (taken, the 3-D track restarted on the
+    crossing, 0.9 m off a ball both tracks had)."""
+    for lob_m, taken in ((HopFollower.lob_m, False), (-math.inf, True)):
+        hops = HopFollower(CalibratedNoise(), lob_m=lob_m)
+        _joined(hops)
+        track = _track(200 * MS, -1.0, 0.0)
+        far = _sees("far", ROBOTS["far"], (-1.0, 0.0, BALL_RADIUS_M))
+        hops.step(200 * MS, [far] if hops.takes(far, True, track, 200 * MS) else [], track)
+        fx, fy = ROBOTS["far"]
+        d = math.hypot(fx + 1.0, fy)
+        low = (-1.0 + 0.9 * (fx + 1.0) / d, 0.9 * fy / d,
+               BALL_RADIUS_M + 0.9 * (H - BALL_RADIUS_M) / d)  # the far ray 0.9 m out
+        blob = _sees("fourth", (low[0] - 3.51, low[1] + 9.36), low)  # its ray through there
+        assert math.hypot(blob.x_m + 1.0, blob.y_m) > 2.0
+        assert math.hypot(blob.x_m - low[0], blob.y_m - low[1]) < 1.3
+        assert hops.takes(blob, False, track, 210 * MS) is taken
+
+
 def _lob(t: float) -> tuple[float, float, float]:
     """Still at (-1, 0) until 0.2 s, then kicked up: 2 m/s along x, 3 m/s up."""
     if t <= 0.2:

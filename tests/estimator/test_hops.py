@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from estimator.constants import BALL_RADIUS_M
-from estimator.estimates import BallEstimate, covariance_rows
+from estimator.estimates import BallEstimate, FusedEstimate, covariance_rows
 from estimator.hops import HopFollower
 from estimator.noise import CalibratedNoise
 from estimator.tracking import BallTracker, Measurement, TrackState
@@ -53,17 +53,22 @@ def test_it_takes_what_the_tracker_accepted_and_what_lies_near_its_track() -> No
     assert not hops.takes(e, False, None, 0)
 
 
+def _fed(tracker: BallTracker, hops: HopFollower, e: BallEstimate, t_ns: int
+         ) -> tuple[TrackState | None, FusedEstimate | None]:
+    """One image's estimate into the ground tracker, then the 3-D track if it takes it:
+    the ground track and the 3-D track's position at its stamp."""
+    accepted = tracker.update(Measurement(t_ns, e.robot, e.x_m, e.y_m,
+                                          covariance_rows(hops.noise.covariance(e))))
+    track = tracker.state_at(t_ns)
+    return track, hops.step(t_ns, [e] if hops.takes(e, accepted, track, t_ns) else [], track)
+
+
 def test_a_hopping_ball_is_placed_where_it_is_not_where_the_far_robots_lift_it() -> None:
-    noise = CalibratedNoise()
-    tracker, hops = BallTracker(), HopFollower(noise)
+    tracker, hops = BallTracker(), HopFollower(CalibratedNoise())
     ground, hopped = [], []
     for k in range(90):  # the robots' images in turn, 12.5 ms apart (27 Hz each)
         t_ns = k * 12 * MS + k * MS // 2
-        e = _seen(list(ROBOTS)[k % 3], t_ns / 1e9)
-        accepted = tracker.update(Measurement(t_ns, e.robot, e.x_m, e.y_m,
-                                              covariance_rows(noise.covariance(e))))
-        track = tracker.state_at(t_ns)
-        flight = hops.step(t_ns, [e] if hops.takes(e, accepted, track, t_ns) else [], track)
+        track, flight = _fed(tracker, hops, _seen(list(ROBOTS)[k % 3], t_ns / 1e9), t_ns)
         if 0.35 <= t_ns / 1e9 <= 0.75 and track is not None:
             bx, by, _ = _ball(t_ns / 1e9)
             ground.append(math.hypot(track.x_m - bx, track.y_m - by))
@@ -234,18 +239,13 @@ def _kicked_along_the_rays(hops: HopFollower) -> list[float]:
     turn (every 25 ms) by two robots at either end of the field whose rays run along its
     way: the 3-D track's errors from the second image after the kick on."""
     at = {"east": (9.0, 0.6), "west": (-9.0, -0.6)}
-    noise, tracker = CalibratedNoise(), BallTracker()
-    errors = []
+    tracker, errors = BallTracker(), []
     for k in range(32):
         t_ns = k * 25 * MS + 3 * MS
         t = t_ns / 1e9
         ball = (-1.0 + t if t < 0.5 else -0.5 + 8.0 * (t - 0.5), 0.0, BALL_RADIUS_M)
         robot = ("east", "west")[k % 2]
-        e = _sees(robot, at[robot], ball)
-        accepted = tracker.update(Measurement(t_ns, robot, e.x_m, e.y_m,
-                                              covariance_rows(noise.covariance(e))))
-        track = tracker.state_at(t_ns)
-        flight = hops.step(t_ns, [e] if hops.takes(e, accepted, track, t_ns) else [], track)
+        _, flight = _fed(tracker, hops, _sees(robot, at[robot], ball), t_ns)
         if t > 0.525:
             assert flight is not None
             errors.append(math.hypot(flight.x_m - ball[0], flight.y_m - ball[1]))

@@ -18,7 +18,8 @@ deterministic. The penalty lam (how far the venue may move from the shared check
 chosen by two-fold cross-validation over the venue's frames (even / odd by name) from
 ``LAMBDAS``: the value with the least held-out log-loss; the largest (close to no change)
 wins ties, so a venue the shared check already suits keeps it. A blob far smaller than a
-ball at its row (r < ``SMALLEST_R``) gets ``NO_BALL_LOGIT`` whatever the head says.
+ball at its row (r < ``SMALLEST_R``) gets ``NO_BALL_LOGIT`` whatever the head says, and the
+head reads r no larger than ``LARGEST_R``: above it the shared check alone weighs the size.
 
 A venue with a head reports its best candidate from z >= 1 (``HEAD_THRESHOLD``, P 0.731),
 not 0: the positives' up-weighting lifts every logit by up to ln 8, and at 0 a look-alike
@@ -42,8 +43,9 @@ from estimator.detection.real.model import HEAD_SIZE, BallModel
 Box = tuple[float, float, float, float]
 MARGIN_PX = 2.0
 
-__all__ = ["HEAD_THRESHOLD", "LAMBDAS", "NO_BALL_LOGIT", "SMALLEST_R", "HeadSamples",
-           "blob_features", "context", "fit_head", "head_samples", "inside", "venue_logits"]
+__all__ = ["HEAD_THRESHOLD", "LAMBDAS", "LARGEST_R", "NO_BALL_LOGIT", "SMALLEST_R",
+           "HeadSamples", "blob_features", "context", "fit_head", "head_inputs", "head_samples",
+           "inside", "venue_logits"]
 
 LAMBDAS = (1.0, 4.0, 16.0, 64.0, 256.0)
 NEWTON_STEPS = 25
@@ -64,6 +66,14 @@ frames 31-40: 11 such false hits of 20). Chosen on the four MSL folders fitted o
 choices of ten frames each (docs/detection.md): floors from -1.25 to -2.0 did the same;
 a floor on blobs too large (r > 1.5) lost more balls than look-alikes."""
 NO_BALL_LOGIT = -20.0
+LARGEST_R = 1.0
+"""The largest size ratio r a venue head reads (larger ones read as this). On a venue's
+ten frames nearly every ball is within a factor e of the size line (|r| <= 1), and the
+candidates above it are lamps, shirts and robot covers, so a head fitted there learns that
+a large blob is no ball, and rejects a ball in the air, well above the line (Bordeaux: four
+lobs in front of the ceiling at r = 3, P(ball) over 0.99 by the shared check, 0.006-0.06 with
+the head). Chosen on the four MSL folders fitted on four choices of ten frames each
+(docs/detection.md), among 0.5, 0.75, 1.0, 1.5 and none."""
 JITTER_SCALE = 0.15
 JITTER_SHIFT = 0.08
 
@@ -83,6 +93,13 @@ def context(boxes: FloatArray, field: FloatArray, model: BallModel) -> FloatArra
     return np.stack([r, r * r, field], axis=1)
 
 
+def head_inputs(feat: FloatArray, ctx: FloatArray, blobs: FloatArray) -> FloatArray:
+    """What a venue head reads of its candidates: the check's features, the context with r
+    (and r^2) capped at :data:`LARGEST_R`, and the blob's features."""
+    r = np.minimum(ctx[:, 0], LARGEST_R)
+    return np.hstack([feat, r[:, None], (r * r)[:, None], ctx[:, 2:], blobs])
+
+
 def venue_logits(z0: FloatArray, feat: FloatArray, ctx: FloatArray, blobs: FloatArray,
                  head: tuple[float, ...] | None) -> FloatArray:
     """The venue's logits (the shared ones when it has no head), :data:`NO_BALL_LOGIT` for
@@ -90,7 +107,7 @@ def venue_logits(z0: FloatArray, feat: FloatArray, ctx: FloatArray, blobs: Float
     z = z0
     if head is not None:
         w = np.asarray(head, np.float64)
-        z = z0 + np.hstack([feat, ctx, blobs]) @ w[:-1] + w[-1]
+        z = z0 + head_inputs(feat, ctx, blobs) @ w[:-1] + w[-1]
     return np.asarray(np.where(ctx[:, 0] < SMALLEST_R, NO_BALL_LOGIT, z), np.float64)
 
 
@@ -231,7 +248,7 @@ def head_samples(samples: Sequence[tuple[npt.NDArray[np.uint8], Sequence[Box]]],
         raw, f = check.raw(batch, ctx)
         z0.append(raw[:, 0])
         blobs = blob_features(coarse)[list(range(len(coarse))) + owner]
-        feat.append(np.hstack([f, ctx, blobs]))
+        feat.append(head_inputs(f, ctx, blobs))
         y += [float(v) for v in labels] + [1.0] * len(extra)
         frame += [index] * (len(coarse) + len(extra))
         w += [1.0 / (1 + copies) if v else 1.0 for v in labels] + [1.0 / (1 + copies)] * len(extra)

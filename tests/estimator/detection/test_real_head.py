@@ -1,6 +1,6 @@
 """The venue's logits: a blob far smaller than a ball at its row (r < SMALLEST_R) is no
 ball whatever the head's slope in r says, on arrays and in the detector on the committed
-real subset (tests/data/msl-images)."""
+real subset (tests/data/msl-images); the head reads r capped at LARGEST_R, as it is fitted."""
 
 from __future__ import annotations
 
@@ -14,7 +14,15 @@ import pytest
 
 from dsp.labelled import find_labelled
 from estimator.detection.real import BallCheck, RealBallDetector, adapt, fit_ball_model
-from estimator.detection.real.head import NO_BALL_LOGIT, SMALLEST_R, inside, venue_logits
+from estimator.detection.real.head import (
+    LARGEST_R,
+    NO_BALL_LOGIT,
+    SMALLEST_R,
+    head_inputs,
+    head_samples,
+    inside,
+    venue_logits,
+)
 from estimator.detection.real.model import HEAD_SIZE
 
 SUBSET = Path(__file__).resolve().parents[2] / "data" / "msl-images" / "20220715" / "r7"
@@ -31,6 +39,39 @@ def test_a_blob_far_under_the_size_line_gets_no_ball_whatever_the_head() -> None
     head[R] = -5.0  # a slope that lifts small blobs: +8 at r = -1.6
     np.testing.assert_allclose(venue_logits(z0, feat, ctx, blobs, tuple(head)),
                                [NO_BALL_LOGIT, NO_BALL_LOGIT, 10.0, 3.0])
+
+
+def test_the_head_reads_r_no_larger_than_the_cap() -> None:
+    """A head that learnt "larger than a ball at its row: no ball" (a steep negative slope
+    in r and r^2) lowers a blob at r = 3 (a ball in the air) no more than one at the cap;
+    below the cap it reads r as it is, and the shared logit alone is not capped."""
+    z0 = np.full(4, 6.0)
+    rs = np.array([0.5, LARGEST_R, 2.0, 3.0])
+    ctx = np.stack([rs, rs * rs, np.full(4, 0.9)], axis=1)
+    feat, blobs = np.zeros((4, 32)), np.zeros((4, 4))
+    head = [0.0] * HEAD_SIZE
+    head[R], head[R + 1] = -1.0, -1.0
+    z = venue_logits(z0, feat, ctx, blobs, tuple(head))
+    capped = 6.0 - LARGEST_R - LARGEST_R**2
+    np.testing.assert_allclose(z, [6.0 - 0.5 - 0.25, capped, capped, capped])
+    np.testing.assert_array_equal(venue_logits(z0, feat, ctx, blobs, None), z0)
+    x = head_inputs(feat, ctx, blobs)
+    assert x.shape == (4, HEAD_SIZE - 1)
+    np.testing.assert_array_equal(x[:, R], [0.5, LARGEST_R, LARGEST_R, LARGEST_R])
+    np.testing.assert_array_equal(x[:, R + 2], ctx[:, 2])
+
+
+def test_the_head_is_fitted_on_what_it_reads() -> None:
+    """The head's samples carry r capped as the detector's logits read it: no sample of
+    the subset's fit is over the cap, though some of its candidates are."""
+    check = BallCheck(files("estimator.detection.real").joinpath("ball_check.onnx").read_bytes())
+    frames = [it.read(0) for it in find_labelled(SUBSET)][:10]
+    model = fit_ball_model(frames)
+    samples = head_samples(frames, model, check)
+    assert samples.feat.shape[1] == HEAD_SIZE - 1
+    r = samples.feat[:, R]
+    assert r.max() == LARGEST_R
+    np.testing.assert_array_equal(samples.feat[:, R + 1], r * r)
 
 
 def test_the_detector_gives_no_ball_to_blobs_far_under_the_size_line() -> None:

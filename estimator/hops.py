@@ -18,7 +18,11 @@ the ground tracker's. The 3-D track is slow to see a kick along the robots' rays
 one-robot point says nothing along its ray, and rays of different instants are crossed with
 the velocity before the kick): when the ground tracker's velocity, which follows a kick at
 the first estimate that shows it, is more than ``kick_mps`` from the rolling 3-D track's,
-the 3-D track takes a kick of ``kick_sigma_mps`` before the step's estimates. It also takes
+the 3-D track takes a kick of ``kick_sigma_mps`` before the step's estimates; and at the
+first such step, a ray crossed with another robot's from before the kick (moved with the
+velocity before it) that puts the ball more than ``lob_m`` up is not taken for a lob: the
+rays kept are forgotten (two rays a few degrees apart cross metres along them when one
+moved 0.2 m across, in the air in front of the robots). It also takes
 an estimate whose ray crosses another robot's recent ray that it took, within ``near_m`` of
 the estimate and more than ``lob_m`` above a ball on the ground: in a lob the near robot
 sees the ball in the air close to where it places it, and the far robot's ray passes
@@ -82,6 +86,8 @@ class HopFollower:
         """The 3-D track has been within ``guard_m`` of the ground track."""
         self._own = False
         """It takes, at this step, an estimate the ground tracker refused."""
+        self._kicking = False
+        """At the last step the ground track's velocity was ``kick_mps`` from this one's."""
         self._vouched_ns: int | None = None
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
@@ -121,10 +127,18 @@ class HopFollower:
         since the last step. ``track`` None: the ground tracker has no confirmed track;
         the 3-D one still takes the estimates."""
         tracker = self._flight.tracker
-        if track is not None and taken and tracker.x is not None and not tracker.airborne and (
-                math.hypot(track.vx_m_s - float(tracker.x[3]),
-                           track.vy_m_s - float(tracker.x[4])) > self.kick_mps):
+        kick = track is not None and tracker.x is not None and not tracker.airborne and (
+            math.hypot(track.vx_m_s - float(tracker.x[3]),
+                       track.vy_m_s - float(tracker.x[4])) > self.kick_mps)
+        if kick and taken:
             tracker.kicked(self.kick_sigma_mps)  # the ground tracker saw a kick
+        if kick and not self._kicking and len(taken) == 1:
+            # the rays kept are from before the kick, moved with the velocity before it: a
+            # crossing with one in the air is where the ball is not, no lob
+            crossed = self._flight.crossing(stamp_ns, taken[0])
+            if crossed is not None and crossed[2] - BALL_RADIUS_M > self.lob_m:
+                self._flight.pairs.forget()
+        self._kicking = kick
         flight = self._flight.step(stamp_ns, taken)
         if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:
             self._vouched_ns = stamp_ns

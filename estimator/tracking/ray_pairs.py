@@ -48,6 +48,11 @@ class RayPairs:
     def remember(self, stamp_ns: int, ray: BallRay) -> None:
         self._last[ray.robot] = (stamp_ns, ray)
 
+    def forget(self) -> None:
+        """Drop every ray kept (a kick: moved with the velocity before it, they would
+        cross a new ray where the ball is not)."""
+        self._last.clear()
+
     def point(self, stamp_ns: int, ray: BallRay, tracker: BallisticTracker
               ) -> tuple[tuple[float, float, float], Matrix] | None:
         """The point ``ray`` crosses the latest other robot's recent ray at (moved with the

@@ -55,7 +55,7 @@ from estimator.estimates import (
 )
 from estimator.geometry import RobotPose
 from estimator.hops import HopFollower
-from estimator.noise import CalibratedNoise, Noise
+from estimator.noise import CalibratedNoise, Noise, localisation_covariance
 from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
 from replay import plugins
@@ -353,9 +353,12 @@ class FrameEstimator:
             if f.estimate is None:
                 continue
             prior = self._bias_prior(tracker, f)
-            sigma = self.noise.covariance(_ball(f.estimate, f.r_px))
+            ball_estimate = _ball(f.estimate, f.r_px)
+            sigma = self.noise.covariance(ball_estimate)
+            shared = (None if f.estimate.pose_covariance is None
+                      else covariance_rows(localisation_covariance(ball_estimate)))
             accepted = tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m,
-                                                  f.estimate.y_m, covariance_rows(sigma)))
+                                                  f.estimate.y_m, covariance_rows(sigma), shared))
             if prior is not None and accepted:
                 self._learn_bias(f, prior)
             if accepted:

@@ -61,6 +61,8 @@ class Candidate:
     r: Matrix
     """covariance [m^2] (2, 2)"""
     accepted: bool
+    shared: Matrix | None = None
+    """the part of r its robot's estimates share (its pose's) [m^2] (2, 2), or None"""
 
 
 def chi_square_tail(x: float, dof: int) -> float:
@@ -116,19 +118,29 @@ def travelled(state: Gaussian, origin: Gaussian, *, gate: float) -> bool:
                 and float(dz @ np.linalg.solve(r0 + p[:2, :2], dz)) > gate)
 
 
-def _moving(first: Candidate, last: Candidate, v: tuple[float, float]) -> bool:
+def _moving(first: Candidate, last: Candidate, v: tuple[float, float], *,
+            own_noise: bool = False) -> bool:
     """Moving: the fitted speed exceeds MOVING_M_S and the estimates moved by more than 3
     sigma of their noise (two estimates 13 ms apart give a speed of metres per second from
-    centimetres of noise alone)."""
+    centimetres of noise alone). ``own_noise``: two estimates of one robot leave out the
+    noise they share (its pose's bias is in both, so it moves neither from the other)."""
     dz = last.z - first.z
-    return math.hypot(*v) > MOVING_M_S and float(dz @ np.linalg.solve(first.r + last.r, dz)) > 9.0
+    s = first.r + last.r
+    if own_noise and first.robot == last.robot and first.shared is not None and (
+            last.shared is not None):
+        s = s - first.shared - last.shared
+    return math.hypot(*v) > MOVING_M_S and float(dz @ np.linalg.solve(s, dz)) > 9.0
 
 
 def reacquire_from(history: Sequence[Candidate], *, track_speed_m_s: float, window_ns: int,
-                   count: int, max_speed_m_s: float, gate: float) -> int | None:
+                   count: int, max_speed_m_s: float, gate: float,
+                   tentative: bool = False) -> int | None:
     """The index in ``history`` (the track's estimates in stamp order, ending with a rejected
     one) of the first estimate the track should restart from; None to keep the track.
-    ``track_speed_m_s``: the track's speed before the last estimate."""
+    ``track_speed_m_s``: the track's speed before the last estimate. ``tentative``: the
+    track is not confirmed, and one robot's estimates that moved by more than the noise
+    they do not share (their pose's) are moving; a confirmed track needs them to move by
+    more than all of it (a far robot's false blob, its pose unsure, does not take it)."""
     newest = history[-1]
     agree, v = [len(history) - 1], (0.0, 0.0)
     for i in range(len(history) - 2, -1, -1):
@@ -147,7 +159,8 @@ def reacquire_from(history: Sequence[Candidate], *, track_speed_m_s: float, wind
              if x.accepted and x.stamp_ns >= min(first, newest.stamp_ns - window_ns)]
     support = len({history[j].robot for j in agree}) - len({x.robot for x in heard})
     silent = not any(x.stamp_ns >= first for x in heard)
-    still, moving = track_speed_m_s < STILL_M_S, _moving(history[agree[0]], newest, v)
+    still = track_speed_m_s < STILL_M_S
+    moving = _moving(history[agree[0]], newest, v, own_noise=tentative)
     if len(agree) < count or not (still or moving) or not (
             silent or support > 0 or (still and moving)):
         return None

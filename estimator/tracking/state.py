@@ -21,6 +21,10 @@ class Measurement:
     y_m: float
     covariance: Covariance
     """R [m^2], 2 x 2, symmetric positive definite."""
+    shared_covariance: Covariance | None = None
+    """The part of R that this robot's estimates share (its pose's: a bias drifts over
+    seconds), None when unknown: two of its estimates moved apart by more than the rest of
+    R says, as the bias is in both."""
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,9 @@ class _Entry:
 
 
 def _candidate(e: _Entry) -> Candidate:
-    return Candidate(e.m.stamp_ns, e.m.robot, e.z, e.r, e.accepted)
+    shared = e.m.shared_covariance
+    return Candidate(e.m.stamp_ns, e.m.robot, e.z, e.r, e.accepted,
+                     None if shared is None else np.asarray(shared, np.float64))
 
 
 @dataclass
@@ -301,7 +303,7 @@ class BallTracker:
             [_candidate(x) for x in track.entries[:i + 1]],
             track_speed_m_s=speed,
             window_ns=prm.reacquire_ns, count=prm.reacquire_count,
-            max_speed_m_s=prm.max_speed_m_s, gate=prm.gate)
+            max_speed_m_s=prm.max_speed_m_s, gate=prm.gate, tentative=not track.confirmed)
         if first is not None:
             self._restart_at(track, track.entries[first]).confirmed = True
 

@@ -49,6 +49,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeGuard
 
 from estimator.constants import BALL_RADIUS_M
 from estimator.estimates import BallEstimate, FusedEstimate
@@ -92,6 +93,11 @@ class HopFollower:
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
 
+    def _lob(self, crossed: tuple[float, float, float] | None
+             ) -> TypeGuard[tuple[float, float, float]]:
+        """Whether a crossing of rays lies more than ``lob_m`` above a ball on the ground."""
+        return crossed is not None and crossed[2] - BALL_RADIUS_M > self.lob_m
+
     def takes(self, estimate: BallEstimate, accepted: bool, track: TrackState | None,
               stamp_ns: int) -> bool:
         """Whether the 3-D track takes an estimate (an image at ``stamp_ns``): the ground
@@ -112,7 +118,7 @@ class HopFollower:
                   for px, py in near)
         if not own and x is not None:
             crossed = self._flight.crossing(stamp_ns, estimate)
-            own = crossed is not None and crossed[2] - BALL_RADIUS_M > self.lob_m and (
+            own = self._lob(crossed) and (
                 math.hypot(crossed[0] - estimate.x_m, crossed[1] - estimate.y_m) < self.near_m)
         self._own |= own
         return own
@@ -135,8 +141,7 @@ class HopFollower:
         if kick and not self._kicking and len(taken) == 1:
             # the rays kept are from before the kick, moved with the velocity before it: a
             # crossing with one in the air is where the ball is not, no lob
-            crossed = self._flight.crossing(stamp_ns, taken[0])
-            if crossed is not None and crossed[2] - BALL_RADIUS_M > self.lob_m:
+            if self._lob(self._flight.crossing(stamp_ns, taken[0])):
                 self._flight.pairs.forget()
         self._kicking = kick
         flight = self._flight.step(stamp_ns, taken)

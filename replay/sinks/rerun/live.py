@@ -15,13 +15,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import socket
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import TracebackType
 from urllib.parse import quote, urlsplit
@@ -119,6 +121,28 @@ def _free_port(bind: str) -> int:
         return int(s.getsockname()[1])
 
 
+@contextlib.contextmanager
+def _signals_as_flag(asked: list[int]) -> Iterator[None]:
+    """Within the block, SIGINT and SIGTERM append their number to ``asked`` instead of
+    raising (in the main thread, and unless ignored; elsewhere signals are left alone)."""
+    def note(signum: int, _frame: object) -> None:
+        asked.append(signum)
+
+    previous = []
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            if signal.getsignal(sig) is not signal.SIG_IGN:  # nohup'd: stays ignored
+                previous.append((sig, signal.signal(sig, note)))
+    except ValueError:  # not the main thread
+        pass
+    try:
+        yield
+    finally:
+        for sig, handler in previous:
+            if handler is not None:  # None: set outside Python, cannot be put back
+                signal.signal(sig, handler)
+
+
 class ViewerServer:
     """The Rerun web viewer and gRPC server as a child process (see the module docstring).
 
@@ -165,17 +189,24 @@ class ViewerServer:
                                           stderr=subprocess.STDOUT)
         except OSError as err:
             raise ViewerUnavailableError(f"--serve: cannot run {cmd[0]}: {err}") from err
+        try:
+            self._wait_until_listening()
+        except BaseException:  # Ctrl-C while it starts: it must not outlive us
+            self.stop()
+            raise
+        return self
+
+    def _wait_until_listening(self) -> None:
+        assert self._proc is not None
         deadline = time.monotonic() + self.start_s
         host = self.host.strip("[]")
         while not (reachable(host, self.grpc_port, 0.5) and reachable(host, self.web_port, 0.5)):
             if self._proc.poll() is not None or time.monotonic() > deadline:
                 detail = self._last_log_line()
-                self.stop()
                 raise ViewerUnavailableError(
                     f"--serve: the Rerun server did not start on {self.bind}"
                     + (f": {detail}" if detail else ""))
             time.sleep(0.1)
-        return self
 
     def _last_log_line(self) -> str:
         self._log.seek(0)
@@ -186,28 +217,35 @@ class ViewerServer:
     def alive(self) -> bool:
         return self._proc is not None and self._proc.poll() is None
 
-    def serve_forever(self, poll_s: float = 0.5) -> bool:
-        """Block until Ctrl-C (or the server ends); then stop it. Ctrl-C here is the normal
-        way to end serving, so it returns (True) instead of raising; False: the server
-        ended by itself."""
-        try:
-            while self.alive():
-                time.sleep(poll_s)
-        except KeyboardInterrupt:
-            return True
-        finally:
-            self.stop()
-        return False
+    def serve_forever(self, poll_s: float = 0.25) -> bool:
+        """Block until Ctrl-C or SIGTERM (or the server ends); then stop it. Ctrl-C here is
+        the normal way to end serving, so it returns (True) instead of raising; False: the
+        server ended by itself.
 
-    def stop(self) -> None:
+        While serving and stopping, the two signals only set a flag: an interrupt raised
+        inside ``Popen.poll`` between its lock's acquire and its ``try`` leaves that lock
+        taken, and the ``wait`` that reaps the server then blocks for good."""
+        asked: list[int] = []
+        with _signals_as_flag(asked):
+            try:
+                while self.alive() and not asked:
+                    time.sleep(poll_s)
+            finally:
+                self.stop()
+        return bool(asked)
+
+    def stop(self, wait_s: float = 5.0) -> None:
+        """Terminate the server; kill it if it has not ended after ``wait_s``. Never blocks
+        for longer than twice that."""
         proc, self._proc = self._proc, None
         if proc is not None and proc.poll() is None:
             proc.terminate()
             try:
-                proc.wait(timeout=5)
+                proc.wait(timeout=wait_s)
             except subprocess.TimeoutExpired:
                 proc.kill()
-                proc.wait()
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    proc.wait(timeout=wait_s)  # killed: the system reaps it if we cannot
         self._log.close()
 
     def __enter__(self) -> ViewerServer:

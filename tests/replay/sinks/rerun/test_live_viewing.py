@@ -152,6 +152,69 @@ def test_sigterm_while_serving_stops_the_rerun_server_too() -> None:
             proc.stderr.close()
 
 
+_CTRL_C_STORM = """
+import os, signal, sys, threading, time
+from replay.sinks.rerun.live import ViewerServer, reachable
+
+late = []
+signal.signal(signal.SIGINT, lambda *_: late.append(1))  # what serving hands back
+server = ViewerServer(web_port=0, grpc_port=0).start()
+
+def storm():
+    time.sleep(0.3)
+    for _ in range(200):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.001)
+
+sender = threading.Thread(target=storm)
+sender.start()
+stopped = server.serve_forever(poll_s=0.0005)  # most of the time inside Popen.poll
+sender.join()
+print(stopped, reachable("127.0.0.1", server.grpc_port, 0.5),
+      reachable("127.0.0.1", server.web_port, 0.5))
+"""
+
+
+@pytest.mark.skipif(sys.platform.startswith("win"), reason="sends SIGINT to itself")
+def test_ctrl_c_storm_while_serving_stops_the_server_once_and_never_hangs() -> None:
+    """Ctrl-C landing inside ``Popen.poll`` (between its lock's acquire and its try) left the
+    lock taken; the wait that reaps the server then blocked until a second Ctrl-C."""
+    proc = subprocess.run([sys.executable, "-c", _CTRL_C_STORM], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["True", "False", "False"], proc.stdout + proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+_CTRL_C_AT_START = """
+import os, signal, threading, time
+from replay.sinks.rerun.live import ViewerServer
+
+threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+try:
+    ViewerServer(web_port=0, grpc_port=0, start_s=30).start()
+except KeyboardInterrupt:
+    try:
+        os.waitpid(-1, os.WNOHANG)
+        print("a child is left")
+    except ChildProcessError:
+        print("no child left")
+"""
+
+
+@pytest.mark.skipif(sys.platform.startswith("win"), reason="a shell script as the server")
+def test_ctrl_c_while_the_server_starts_stops_it(tmp_path: Path) -> None:
+    never_listens = tmp_path / "rerun"
+    never_listens.write_text("#!/bin/sh\nexec sleep 30\n")
+    never_listens.chmod(0o755)
+    env = {**os.environ, "RERUN_CLI_PATH": str(never_listens)}
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-c", _CTRL_C_AT_START], capture_output=True,
+                          text=True, timeout=60, env=env)
+    assert proc.stdout.strip() == "no child left", proc.stdout + proc.stderr
+    assert time.monotonic() - t0 < 20  # not the 30 s the fake server sleeps
+
+
 class _StopViewer(SinkBase):
     """Stops the viewer after the first frame, then lets the liveness check come due."""
 

@@ -407,12 +407,14 @@ class BallisticTracker:
     def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a
         flight under gravity when ``z`` is in the air (vz now = dz / dt - g dt / 2). A way
-        shorter than ``min_way_s`` (two free-running cameras' images) tells no speed: the
-        track's level velocity is kept, its sigma ``initial_speed_sigma_mps``, and vz is 0
-        with ``short_way_vz_sigma_mps`` (the height stays known over a camera's period)."""
+        shorter than ``min_way_s`` (two free-running cameras' images) tells no speed, nor does
+        one faster than ``max_speed_mps`` (no ball ran it: one of the points is off, e.g.
+        far robots' rays crossed at a shallow angle): the track's level velocity is kept,
+        its sigma ``initial_speed_sigma_mps``, and vz is 0 with ``short_way_vz_sigma_mps``
+        (the height stays known over a camera's period)."""
         p = self.params
         sigma = np.full(3, p.launch_sigma_mps)
-        if dt < p.min_way_s:
+        if dt < p.min_way_s or float(np.linalg.norm(z - z0)) > p.max_speed_mps * dt:
             v = np.zeros(3) if self.x is None else np.array([self.x[3], self.x[4], 0.0])
             sigma = np.array([p.initial_speed_sigma_mps, p.initial_speed_sigma_mps,
                               p.short_way_vz_sigma_mps])

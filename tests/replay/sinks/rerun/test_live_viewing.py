@@ -194,9 +194,8 @@ threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
 try:
     ViewerServer(web_port=0, grpc_port=0, start_s=30).start()
 except KeyboardInterrupt:
-    try:
-        os.waitpid(-1, os.WNOHANG)
-        print("a child is left")
+    try:  # 0: a child still runs; a pid: one that had ended, reaped now
+        print("a child is left" if os.waitpid(-1, os.WNOHANG)[0] == 0 else "no child left")
     except ChildProcessError:
         print("no child left")
 """

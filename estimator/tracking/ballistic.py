@@ -16,21 +16,21 @@ Between measurements the ball moves:
   covariance of vz grows by (``bounce_sigma`` vz)^2;
 - **on the ground**: z = R, vz = 0, constant velocity (the rolling ball).
 
-Process noise: white acceleration noise, ``accel_sigma`` horizontally and vertically.
-A measurement's covariance directions wider than ``unknown_variance_m2`` are not measured:
-one robot's ground estimate, whose covariance spreads along its ray, moves the track across
-the ray only (a bearing), so its height stays as unknown as it is. Measurements farther
-than the chi-square gate (99.9 %, of the directions measured) are refused; after two
-refusals in a row the track restarts at the second, its velocity from the two (the ball hit
-a robot or a post; two one-robot points further apart than any ball runs count where their
-rays pass nearest the predicted track, not at their ground points: a far robot sees a hop
-metres beyond the ball along its ray), and a refused point that fixes all three directions
-(crossed rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next
-measurement restarts it. A rolling track that is shown a ball clearly in the air restarts
-flying at once (a kick up), its velocity from the way from the last measurement; so does
-one that a 3-D point lifts off the ground when the filter takes it (a point whose height is
-wide, rays crossing at a shallow angle: the rolling track, its vertical speed held at 0
-with no variance, would otherwise fly on at 0 and fall short of the rising ball).
+Process noise: white acceleration noise, ``accel_sigma`` horizontally and vertically. A
+measurement's covariance directions wider than ``unknown_variance_m2`` are not measured: one
+robot's ground estimate, whose covariance spreads along its ray, moves the track across the
+ray only (a bearing), so its height stays as unknown as it is. Measurements farther than the
+chi-square gate (99.9 %, of the directions measured) are refused; after two refusals in a
+row the track restarts at the second, its velocity from the two (the ball hit a robot or a
+post; two one-robot points further apart than any ball runs count where their rays pass
+nearest the predicted track, not at their ground points: a far robot sees a hop metres
+beyond the ball along its ray), and a refused point that fixes all three directions (crossed
+rays, ``restart_on_fixed``) restarts it at once; after ``max_misses`` the next measurement
+restarts it. A rolling track that is shown a ball clearly in the air restarts flying at once
+(a kick up), its velocity from the way from the last measurement; so does one that a 3-D
+point lifts off the ground when the filter takes it (a point whose height is wide, rays
+crossing at a shallow angle: the rolling track, its vertical speed held at 0 with no
+variance, would otherwise fly on at 0 and fall short of the rising ball).
 
 Free-running cameras give one robot's ray at a time, never two of one instant:
 :meth:`BallisticTracker.update_ray` takes a ray at its own stamp into a flying track (the
@@ -86,23 +86,23 @@ class BallisticParams:
     restart_on_fixed: bool = True
     """A refused measurement that fixes all three directions (crossed rays) restarts the
     track at once, from the way since the last accepted one: rays that meet are seldom a
-    false blob, so the track met what its model does not know (a robot, a post, a bounce
-    sooner or later than predicted)."""
+    false blob (the track met a robot, a post, a bounce sooner or later than predicted)."""
     initial_speed_sigma_mps: float = 10.0
     launch_sigma_mps: float = 2.0
     max_speed_mps: float = 12.0
     """No ball runs faster (the simulator's fastest kick is 10 m/s): two refused points
-    further apart are taken where their rays pass nearest the track (see ``_restarted``)."""
+    further apart are taken where their rays pass nearest the track (``_restarted``), and a
+    restart's way faster than this tells no speed (``_fly_from``)."""
     min_way_s: float = 0.05
     """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
     short_way_vz_sigma_mps: float = 4.0
     """The sigma of vz at a restart from a way shorter than ``min_way_s``."""
     top_m: float = 3.5
-    """No ball flies higher (a lob's apex is at most 3 m): a flight the rays take above it
-    is given up, its height unknown again."""
+    """No ball flies higher (a lob's apex is at most 3 m): a flight above it is given up."""
     lost_sigma_m: float = 0.5
     """A flying track that refused ``max_misses`` rays in a row: its position's sigma is
-    widened by this, its velocity made unknown, and it takes the next ray."""
+    widened by this, its velocity made unknown, and it takes the next ray; a restart's
+    point after a way faster than ``max_speed_mps`` is widened by this too."""
 
 
 @dataclass(frozen=True)
@@ -332,15 +332,13 @@ class BallisticTracker:
         spread up to ``top_m``), and it rolls until rays of two robots lift it."""
         assert self.x is not None
         self.x[2], self.x[5] = BALL_RADIUS_M, 0.0
-        self.P[2, :] = self.P[:, 2] = 0.0
-        self.P[5, :] = self.P[:, 5] = 0.0
+        self.P[[2, 5], :] = self.P[:, [2, 5]] = 0.0
         self.P[2, 2] = (self.params.top_m - BALL_RADIUS_M) ** 2 / 3.0
 
     def _loosen(self, sigma_m: float) -> None:
         """The velocity unknown (``initial_speed_sigma_mps``, uncorrelated), the position's
         covariance widened by ``sigma_m`` each way."""
-        self.P[3:, :] = 0.0
-        self.P[:, 3:] = 0.0
+        self.P[3:, :] = self.P[:, 3:] = 0.0
         self.P[3:, 3:] = np.eye(3) * self.params.initial_speed_sigma_mps ** 2
         self.P[:3, :3] += np.eye(3) * sigma_m ** 2
 
@@ -405,16 +403,16 @@ class BallisticTracker:
         return True
 
     def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
-        """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago: a
-        flight under gravity when ``z`` is in the air (vz now = dz / dt - g dt / 2). A way
-        shorter than ``min_way_s`` (two free-running cameras' images) tells no speed, nor does
-        one faster than ``max_speed_mps`` (no ball ran it: one of the points is off, e.g.
-        far robots' rays crossed at a shallow angle): the track's level velocity is kept,
-        its sigma ``initial_speed_sigma_mps``, and vz is 0 with ``short_way_vz_sigma_mps``
-        (the height stays known over a camera's period)."""
+        """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago (a flight
+        under gravity when ``z`` is in the air: vz now = dz / dt - g dt / 2). A way shorter
+        than ``min_way_s`` tells no speed, nor does one faster than ``max_speed_mps`` (a point
+        is off: far rays crossed at a shallow angle): the level velocity is kept, sigma
+        ``initial_speed_sigma_mps``, vz 0 with ``short_way_vz_sigma_mps``; after a way too
+        fast the new point's level position is loosened by ``lost_sigma_m`` (it may be off)."""
         p = self.params
         sigma = np.full(3, p.launch_sigma_mps)
-        if dt < p.min_way_s or float(np.linalg.norm(z - z0)) > p.max_speed_mps * dt:
+        too_fast = dt >= p.min_way_s and float(np.linalg.norm(z - z0)) > p.max_speed_mps * dt
+        if dt < p.min_way_s or too_fast:
             v = np.zeros(3) if self.x is None else np.array([self.x[3], self.x[4], 0.0])
             sigma = np.array([p.initial_speed_sigma_mps, p.initial_speed_sigma_mps,
                               p.short_way_vz_sigma_mps])
@@ -426,6 +424,8 @@ class BallisticTracker:
         assert self.x is not None
         self.x[3:] = v
         self.P[3:, 3:] = np.diag(sigma ** 2)
+        if too_fast:
+            self.P[:2, :2] += np.eye(2) * p.lost_sigma_m ** 2
         self._remember(stamp_ns)
         return True
 

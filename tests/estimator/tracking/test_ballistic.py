@@ -311,17 +311,25 @@ def test_a_flight_the_rays_take_above_3_5_m_is_given_up() -> None:
 def test_a_crossing_no_ball_could_have_reached_restarts_without_its_speed() -> None:
     """A 3-D point the track refuses restarts it there, with the velocity of the way from the
     last accepted point; a way faster than ``max_speed_mps`` (far robots' rays crossed at a
-    shallow angle, a metre out) tells no speed: the level velocity is kept, loosely."""
+    shallow angle, a metre out) tells no speed: the level velocity is kept, loosely, and the
+    point's position is loosened too, so a near robot's ray brings the track back."""
     tr = BallisticTracker()
     for t in np.arange(0.0, 0.5, 1 / RATE_HZ):
         tr.update(round(t * NS_PER_S), (2.0 * t, 0.0, R), np.eye(3) * 1e-4)
     assert tr.x is not None and tr.x[3] == pytest.approx(2.0, abs=0.1)
-    last = tr.x[:2].copy()
     dt = 1 / RATE_HZ
-    off = (float(last[0]) + 2.0 * dt + 0.8, float(last[1]) + 0.5, R + 0.05)  # 19 m/s away
-    assert tr.update(round((0.45 + dt) * NS_PER_S), off, np.eye(3) * 1e-4)
+    t_off = 0.45 + dt
+    off = (2.0 * t_off + 0.8, 0.5, R + 0.05)  # 19 m/s from the last point
+    assert tr.update(round(t_off * NS_PER_S), off, np.eye(3) * 1e-4)
     assert tr.x is not None
     assert tr.x[:2] == pytest.approx(off[:2], abs=0.01)  # restarted there
     assert math.hypot(tr.x[3], tr.x[4]) < tr.params.max_speed_mps
     assert tr.x[3] == pytest.approx(2.0, abs=0.3) and abs(tr.x[4]) < 0.3
     assert tr.P[3, 3] >= tr.params.initial_speed_sigma_mps ** 2 - 1e-9
+    t = t_off + 0.5 * dt  # a robot 0.6 m from the ball, rolling on where it was, sees it
+    camera = np.array([2.0 * t - 0.5, -0.3, 0.85])
+    u = np.array([2.0 * t, 0.0, R]) - camera
+    assert tr.update_ray(round(t * NS_PER_S), BallRay(
+        "near", tuple(camera), tuple(u / np.linalg.norm(u)), 0.005, 0.005))
+    assert tr.x is not None
+    assert math.hypot(tr.x[0] - 2.0 * t, tr.x[1]) < 0.15  # brought back, not refused

@@ -3,8 +3,9 @@
 - :class:`ViewerServer` (``dsp-replay --serve``): the Rerun web viewer and its gRPC server,
   run as the ``rerun`` program that rerun-sdk ships, bound to ``--bind`` (127.0.0.1 unless
   asked: the data is not published to the network by default) on ``--port`` (the page to
-  open) and ``--grpc-port``; it serves until Ctrl-C. (The SDK's own ``serve_grpc`` binds
-  every interface and offers no address.)
+  open) and ``--grpc-port``; it serves until Ctrl-C, and ends with the command (on Linux
+  also when that is killed outright). (The SDK's own ``serve_grpc`` binds every interface
+  and offers no address.)
 - :func:`check_reachable` (``--connect``): a viewer must be listening at the URL, checked
   in about a second, before anything is logged.
 - :func:`check_display` (``--rerun``): a viewer window needs a display; without one the
@@ -121,6 +122,17 @@ def _free_port(bind: str) -> int:
         return int(s.getsockname()[1])
 
 
+_ENDS_WITH_PARENT = """\
+import ctypes, os, signal, sys
+ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+if os.getppid() != int(sys.argv[1]):
+    sys.exit(0)  # the parent ended before the line above
+os.execv(sys.argv[2], sys.argv[2:])
+"""
+"""Linux: the server is started through this, so that it is sent SIGTERM when the thread that
+started it ends, however it ends (SIGKILL, a crash), and does not go on listening alone."""
+
+
 @contextlib.contextmanager
 def _signals_as_flag(asked: list[int]) -> Iterator[None]:
     """Within the block, SIGINT and SIGTERM append their number to ``asked`` instead of
@@ -181,9 +193,13 @@ class ViewerServer:
             if not _port_free(self.bind, port):
                 raise UsageError(f"{flag} {port}: already in use on {self.bind}; choose "
                                  f"another ({flag} 0 picks a free one)")
-        cmd = [str(rerun_executable()), "--serve-web", "--bind", self.bind,
-               "--port", str(self.grpc_port), "--web-viewer-port", str(self.web_port),
-               *self.extra_args]
+        exe = rerun_executable()
+        if not (exe.is_file() and os.access(exe, os.X_OK)):
+            raise ViewerUnavailableError(f"--serve: cannot run {exe}: not an executable file")
+        cmd = [str(exe), "--serve-web", "--bind", self.bind, "--port", str(self.grpc_port),
+               "--web-viewer-port", str(self.web_port), *self.extra_args]
+        if sys.platform.startswith("linux"):  # ends with us, even when we are killed outright
+            cmd = [sys.executable, "-c", _ENDS_WITH_PARENT, str(os.getpid()), *cmd]
         try:
             self._proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self._log,
                                           stderr=subprocess.STDOUT)

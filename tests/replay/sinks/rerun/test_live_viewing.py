@@ -152,6 +152,45 @@ def test_sigterm_while_serving_stops_the_rerun_server_too() -> None:
             proc.stderr.close()
 
 
+def _running(pid: int) -> bool:
+    stat = Path(f"/proc/{pid}/stat")
+    try:
+        return stat.read_text().split()[2] != "Z"
+    except OSError:  # gone
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux's parent-death signal")
+def test_sigkill_while_serving_does_not_leave_the_rerun_server_listening() -> None:
+    """SIGKILL cannot be caught: the server is started so that the system ends it with us."""
+    web, grpc = _free_port(), _free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "replay.cli", str(ROLLING), "--serve", "--port", str(web),
+         "--grpc-port", str(grpc), "-q"],
+        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        assert proc.stderr is not None
+        assert "serving the Rerun web viewer" in proc.stderr.readline()
+        children = _children(proc.pid)
+        assert children and reachable("127.0.0.1", grpc, 0.5)
+        proc.kill()
+        proc.wait(timeout=30)
+        def ended() -> bool:  # a zombie leader's other threads may still hold its sockets
+            return not any(_running(c) for c in children) and not reachable(
+                "127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
+
+        deadline = time.monotonic() + 20
+        while not ended() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert ended(), "the server outlived a SIGKILL"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if proc.stderr is not None:
+            proc.stderr.close()
+
+
 _CTRL_C_STORM = """
 import os, signal, sys, threading, time
 from replay.sinks.rerun.live import ViewerServer, reachable

@@ -5,6 +5,7 @@ the results are still written."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -12,6 +13,7 @@ import subprocess
 import sys
 import time
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -125,8 +127,10 @@ def _children(pid: int) -> list[int]:
     return [int(c) for c in path.read_text().split()] if path.exists() else []
 
 
-@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="lists children in /proc")
-def test_sigterm_while_serving_stops_the_rerun_server_too() -> None:
+@contextlib.contextmanager
+def _serving() -> Iterator[tuple[subprocess.Popen[str], int, int, list[int]]]:
+    """``dsp-replay --serve`` in a child, once it serves: (it, web port, gRPC port, its
+    children); killed at the end if it still runs."""
     web, grpc = _free_port(), _free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "replay.cli", str(ROLLING), "--serve", "--port", str(web),
@@ -137,13 +141,7 @@ def test_sigterm_while_serving_stops_the_rerun_server_too() -> None:
         assert "serving the Rerun web viewer" in proc.stderr.readline()
         children = _children(proc.pid)
         assert children, "the Rerun server runs as a child"
-        proc.send_signal(signal.SIGTERM)
-        assert proc.wait(timeout=60) == 130
-        assert "Traceback" not in proc.stderr.read()
-        for child in children:
-            assert not Path(f"/proc/{child}").exists() or \
-                Path(f"/proc/{child}/stat").read_text().split()[2] == "Z", "outlived"
-        assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
+        yield proc, web, grpc, children
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -160,21 +158,23 @@ def _running(pid: int) -> bool:
         return False
 
 
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="lists children in /proc")
+def test_sigterm_while_serving_stops_the_rerun_server_too() -> None:
+    with _serving() as (proc, web, grpc, children):
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=60) == 130
+        assert proc.stderr is not None and "Traceback" not in proc.stderr.read()
+        assert not any(_running(c) for c in children), "outlived"
+        assert not reachable("127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux's parent-death signal")
 def test_sigkill_while_serving_does_not_leave_the_rerun_server_listening() -> None:
     """SIGKILL cannot be caught: the server is started so that the system ends it with us."""
-    web, grpc = _free_port(), _free_port()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "replay.cli", str(ROLLING), "--serve", "--port", str(web),
-         "--grpc-port", str(grpc), "-q"],
-        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-    try:
-        assert proc.stderr is not None
-        assert "serving the Rerun web viewer" in proc.stderr.readline()
-        children = _children(proc.pid)
-        assert children and reachable("127.0.0.1", grpc, 0.5)
+    with _serving() as (proc, web, grpc, children):
         proc.kill()
         proc.wait(timeout=30)
+
         def ended() -> bool:  # a zombie leader's other threads may still hold its sockets
             return not any(_running(c) for c in children) and not reachable(
                 "127.0.0.1", web, 0.5) and not reachable("127.0.0.1", grpc, 0.5)
@@ -183,12 +183,6 @@ def test_sigkill_while_serving_does_not_leave_the_rerun_server_listening() -> No
         while not ended() and time.monotonic() < deadline:
             time.sleep(0.1)
         assert ended(), "the server outlived a SIGKILL"
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        if proc.stderr is not None:
-            proc.stderr.close()
 
 
 _CTRL_C_STORM = """

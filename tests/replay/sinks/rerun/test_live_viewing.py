@@ -81,6 +81,12 @@ def _listening_address(port: int) -> str | None:
     return None
 
 
+CTRL_C_IGNORED = pytest.mark.skipif(
+    signal.getsignal(signal.SIGINT) is signal.SIG_IGN,
+    reason="SIGINT is ignored here (started as a background job), and so in the children")
+
+
+@CTRL_C_IGNORED
 @pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's socket table")
 def test_serve_binds_localhost_prints_the_url_and_stops_on_sigint(tmp_path: Path) -> None:
     web, grpc = _free_port(), _free_port()
@@ -234,6 +240,7 @@ except KeyboardInterrupt:
 """
 
 
+@CTRL_C_IGNORED
 @pytest.mark.skipif(sys.platform.startswith("win"), reason="a shell script as the server")
 def test_ctrl_c_while_the_server_starts_stops_it(tmp_path: Path) -> None:
     never_listens = tmp_path / "rerun"

@@ -204,7 +204,7 @@ class ViewerServer:
             self._proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self._log,
                                           stderr=subprocess.STDOUT)
         except OSError as err:
-            raise ViewerUnavailableError(f"--serve: cannot run {cmd[0]}: {err}") from err
+            raise ViewerUnavailableError(f"--serve: cannot run {exe}: {err}") from err
         try:
             self._wait_until_listening()
         except BaseException:  # Ctrl-C while it starts: it must not outlive us

@@ -27,6 +27,7 @@ from dsp.plotting import FIGURE_SUFFIXES
 from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
 from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
+from replay.log.catalogue import check_mcap_file
 from replay.memory import keep_image_buffers
 from replay.options import (
     DEFAULT_POSE_SIGMA,
@@ -301,7 +302,9 @@ def _serve(args: argparse.Namespace) -> int:
     """``--serve``: start the server, say where to look, replay into it, serve until Ctrl-C."""
     from replay.sinks.rerun.live import ViewerServer
 
-    options_from_args(args)  # bad options are refused before a server starts
+    # bad options, and a path that is no log, are refused before a server starts
+    options_from_args(args)
+    check_mcap_file(Path(args.log))
     server = ViewerServer(
         bind=args.bind or DEFAULT_BIND,
         web_port=DEFAULT_WEB_PORT if args.port is None else args.port,

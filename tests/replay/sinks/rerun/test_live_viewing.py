@@ -254,6 +254,23 @@ def test_ctrl_c_while_the_server_starts_stops_it(tmp_path: Path) -> None:
     assert time.monotonic() - t0 < 20  # not the 30 s the fake server sleeps
 
 
+@pytest.mark.skipif(sys.platform.startswith("win"), reason="a shell script as the server")
+@pytest.mark.parametrize("log", ["missing.mcap", ".", "notmcap.mcap"])
+def test_serve_refuses_a_path_that_is_no_log_before_any_server_starts(tmp_path: Path,
+                                                                      log: str) -> None:
+    started = tmp_path / "started"
+    server = tmp_path / "rerun"
+    server.write_text(f"#!/bin/sh\ntouch {started}\nexec sleep 30\n")
+    server.chmod(0o755)
+    (tmp_path / "notmcap.mcap").write_text("not a log\n")
+    proc = subprocess.run([sys.executable, "-m", "replay.cli", log, "--serve", "--port", "0",
+                           "--grpc-port", "0"], capture_output=True, text=True, timeout=60,
+                          cwd=tmp_path, env={**os.environ, "RERUN_CLI_PATH": str(server)})
+    assert proc.returncode == 1
+    assert proc.stderr.startswith(f"dsp-replay: error: {log}: ") and proc.stderr.count("\n") == 1
+    assert "serving" not in proc.stderr and not started.exists()
+
+
 class _StopViewer(SinkBase):
     """Stops the viewer after the first frame, then lets the liveness check come due."""
 

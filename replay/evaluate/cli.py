@@ -242,6 +242,7 @@ def _run_suite(args: argparse.Namespace,
         return _stem(args), lobs_markdown(lobs), lobs.to_dict()
     record = SimRecorder(args.camera, args.renderer, args.realism)
     stem = _stem(args)
+    _log_dir(args).mkdir(parents=True, exist_ok=True)
     scenes = len(PAPER_SCENARIOS) if args.suite == "paper" else args.count
     with progress_bar(scenes, PROG, progress_enabled(args), unit="scene") as bar:
         map_scenes = _scene_mapper(workers, bar)

@@ -125,3 +125,20 @@ def test_dsp_eval_names_its_logs_and_tables_after_the_preset(tmp_path: Path) -> 
     args = eval_cli.build_parser().parse_args(["--out-dir", str(tmp_path)])
     assert (eval_cli._stem(args), eval_cli._log_dir(args)) == ("paper-ideal", tmp_path)
     assert isinstance(args, argparse.Namespace) and json.dumps(args.realism) == '"none"'
+
+
+@pytest.mark.parametrize("suite", ["paper", "random"])
+def test_dsp_eval_makes_the_presets_log_folder(tmp_path: Path, suite: str,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fresh --out-dir with --realism field: the suite's logs go to a folder of it that
+    must be made, not refused as missing."""
+    seen: list[Path] = []
+
+    def record_nothing(record: object, workdir: Path, **kwargs: object) -> None:
+        seen.append(workdir)
+        raise SystemExit(0 if workdir.is_dir() else 9)
+
+    monkeypatch.setattr(eval_cli, f"run_{suite}_suite", record_nothing)
+    out = tmp_path / "fresh" / "eval"
+    code = eval_cli.main(["--suite", suite, "--realism", "field", "--out-dir", str(out), "-q"])
+    assert seen == [out / "realism-field"] and code == 0

@@ -63,7 +63,9 @@ def test_corrected_pose_adds_the_bias() -> None:
     est = BiasEstimator()
     pose, cov = est.corrected("a", 1.0, 2.0, math.pi - 0.001)
     assert pose == (1.0, 2.0, math.pi - 0.001)  # nothing learned: the believed pose
-    assert cov[0][0] == 0.05**2 and cov[2][2] == math.radians(1.0) ** 2
+    # the prior's, plus the yaw's own frame-to-frame noise
+    assert cov[0][0] == 0.05**2
+    assert cov[2][2] == math.radians(1.0) ** 2 + math.radians(0.3) ** 2
     tight = ((1e-6, 0.0), (0.0, 1e-6))
     for k in range(5):  # robot a puts the ball 5 cm off the track across its bearing
         est.update("a", k, (0.0, 0.05), (3.0, 0.0), tight, tuple(est.bias("a")[0]))
@@ -75,6 +77,23 @@ def test_corrected_pose_adds_the_bias() -> None:
     assert b[1] > 0.01 and b[2] > math.radians(0.2)  # a shift and a turn towards it
     # the shift the two robots share is held at zero
     assert abs(b[:2] + est.bias("b")[0][:2]).max() < 1e-12
+
+
+def test_a_learnt_bias_leaves_the_yaws_frame_noise_in_its_covariance() -> None:
+    """b can be learnt to a millimetre and a hundredth of a degree; the heading it corrects
+    still has its own noise, which the fusion must weigh (else that noise goes into the
+    track's velocity)."""
+    est = BiasEstimator(BiasParams(tau_s=1e6))
+    tight = ((1e-8, 0.0), (0.0, 1e-8))
+    for k in range(200):  # the ball rolls round, so yaw and position are told apart
+        for name, phase in (("a", 0.0), ("b", 2.0), ("c", 4.0)):
+            d = (3.0 * math.cos(k / 20 + phase), 3.0 * math.sin(k / 20 + phase))
+            est.update(name, k, (0.0, 0.0), d, tight, tuple(est.bias(name)[0]))
+    _, p = est.bias("a")
+    assert p[0, 0] < 1e-6 and p[2, 2] < math.radians(0.05) ** 2  # b is known
+    _, cov = est.corrected("a", 0.0, 0.0, 0.0)
+    assert cov[0][0] < 1e-6  # the position's own noise is the camera's estimate's
+    assert math.radians(0.3) ** 2 <= cov[2][2] < math.radians(0.31) ** 2
 
 
 def test_a_lone_robots_shift_is_not_seen() -> None:

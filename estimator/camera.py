@@ -251,6 +251,18 @@ def ground_range_m(camera: CameraModel, r_px: ArrayLike) -> FloatArray:
     return np.where(n < math.pi / 2, out, np.inf)
 
 
+_UNIT_CIRCLE: dict[int, tuple[FloatArray, FloatArray]] = {}
+"""cos and sin of ``points`` angles evenly around the circle, a column each, by ``points``."""
+
+
+def _unit_circle(points: int) -> tuple[FloatArray, FloatArray]:
+    circle = _UNIT_CIRCLE.get(points)
+    if circle is None:
+        phi = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
+        circle = _UNIT_CIRCLE[points] = (np.cos(phi), np.sin(phi))
+    return circle
+
+
 def ball_image_area_px(
     camera: CameraModel, range_m: float, ball_radius_m: float = BALL_RADIUS_M, *, points: int = 90
 ) -> float:
@@ -259,24 +271,29 @@ def ball_image_area_px(
     tangent to the sphere, mapped through the model. NaN where the model cannot see it.
 
     Every model is radially symmetric, so the direction does not matter: the ball is put
-    straight ahead.
+    straight ahead. (Called for every estimate: the cross products are written out, the
+    same float operations as ``np.cross`` without its overhead, and the circle's angles
+    are kept; the bits are those of the plain numpy form.)
     """
-    centre = np.array([range_m, 0.0, ball_radius_m - camera.height_m])
+    centre = np.array([range_m, 0.0, ball_radius_m - camera.height_m], dtype=np.float64)
     dist = float(np.linalg.norm(centre))
     if dist <= ball_radius_m:
         return math.nan
     axis = centre / dist
-    e1 = np.cross(axis, [0.0, 1.0, 0.0])
+    x, y, z = axis.tolist()
+    e1 = np.array([y * 0.0 - z * 1.0, z * 0.0 - x * 0.0, x * 1.0 - y * 0.0])  # axis x (0, 1, 0)
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
+    p, q, r = e1.tolist()
+    e2 = np.array([y * r - z * q, z * p - x * r, x * q - y * p])  # axis x e1
     alpha = math.asin(ball_radius_m / dist)  # half-angle of the tangent cone
-    phi = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
-    rays = math.cos(alpha) * axis + math.sin(alpha) * (np.cos(phi) * e1 + np.sin(phi) * e2)
+    cos_phi, sin_phi = _unit_circle(points)
+    rays = math.cos(alpha) * axis + math.sin(alpha) * (cos_phi * e1 + sin_phi * e2)
     uv = np.asarray(camera.ray_to_pixel(rays), dtype=np.float64)
     if not np.all(np.isfinite(uv)):
         return math.nan
     u, v = uv[:, 0], uv[:, 1]
-    return float(0.5 * abs(np.dot(u, np.roll(v, 1)) - np.dot(v, np.roll(u, 1))))  # shoelace
+    u_prev, v_prev = np.concatenate((u[-1:], u[:-1])), np.concatenate((v[-1:], v[:-1]))
+    return float(0.5 * abs(np.dot(u, v_prev) - np.dot(v, u_prev)))  # shoelace
 
 
 def ball_outline_px(camera: CameraModel, centre_m: ArrayLike,

@@ -36,6 +36,43 @@ def test_expected_area_follows_each_model() -> None:
     assert math.isnan(ball_image_area_px(ideal, 0.05, ball_radius_m=12.5))
 
 
+def _area_plain(camera: object, range_m: float, ball_radius_m: float, points: int = 90
+                ) -> float:
+    """The expected area in plain numpy (np.cross, np.roll, a fresh linspace), the form
+    ball_image_area_px writes out for speed."""
+    centre = np.array([range_m, 0.0, ball_radius_m - camera.height_m])  # type: ignore[attr-defined]
+    dist = float(np.linalg.norm(centre))
+    if dist <= ball_radius_m:
+        return math.nan
+    axis = centre / dist
+    e1 = np.cross(axis, [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    alpha = math.asin(ball_radius_m / dist)
+    phi = np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)[:, None]
+    rays = math.cos(alpha) * axis + math.sin(alpha) * (np.cos(phi) * e1 + np.sin(phi) * e2)
+    uv = np.asarray(camera.ray_to_pixel(rays), dtype=np.float64)  # type: ignore[attr-defined]
+    if not np.all(np.isfinite(uv)):
+        return math.nan
+    u, v = uv[:, 0], uv[:, 1]
+    return float(0.5 * abs(np.dot(u, np.roll(v, 1)) - np.dot(v, np.roll(u, 1))))
+
+
+@pytest.mark.parametrize("camera", CAMERA_MODELS)
+def test_expected_area_has_the_bits_of_the_plain_numpy_form(camera: str) -> None:
+    """Results files carry each estimate's visibility: the written-out cross products and
+    the kept circle must not move a bit."""
+    cam = make_camera(camera)
+    ranges = np.concatenate([np.random.default_rng(3).uniform(0.0, 14.0, 400),
+                             [0.0, 0.05, 0.11, 1.0, 8.4, 9.07, 12.0, 30.0]])
+    for radius in (0.11, 0.2, 12.5):
+        for points in (90, 64):
+            for d in ranges.tolist():
+                got = ball_image_area_px(cam, d, radius, points=points)
+                want = _area_plain(cam, d, radius, points)
+                assert got == want or (math.isnan(got) and math.isnan(want)), (d, radius)
+
+
 @pytest.mark.parametrize("camera", CAMERA_MODELS)
 def test_expected_area_matches_a_rendered_ball(camera: str) -> None:
     from recorder.omni import OmniRenderer

@@ -140,6 +140,22 @@ def failed(report: dict[str, Any]) -> bool:
                 or t["peak_rss"] > GIB)
 
 
+def _report(path: Path) -> dict[str, Any]:
+    """A campaign's report (--report), read bounded; a file that is none is one line."""
+    from dsp.errors import InputError
+    from dsp.textfile import read_text_file
+
+    try:
+        report = json.loads(read_text_file(path, 64 << 20, what="a report --report wrote"))
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: not JSON ({err.msg}, line {err.lineno})") from None
+    if not (isinstance(report, dict) and isinstance(report.get("findings"), list)
+            and isinstance(report.get("by_kind"), dict)
+            and all(k in report for k in ("seed", "cases", "seconds"))):
+        raise InputError(f"{path}: not a report of this script (--report writes one)")
+    return report
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     p.add_argument("--cases", type=int, default=1000)
@@ -151,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="print one table from reports of campaigns run side by side")
     args = p.parse_args(argv)
     if args.merge:
-        merged = merge([json.loads(r.read_text()) for r in args.merge])
+        merged = merge([_report(r) for r in args.merge])
         print(format_report(merged))
         return 1 if failed(merged) else 0
     kinds = args.kinds.split(",") if args.kinds else None
@@ -167,4 +183,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.path.insert(0, str(ROOT))
+    from dsp.cli import run_main
+
+    sys.exit(run_main("fuzz_replay.py", main))

@@ -254,9 +254,15 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     sys.path.insert(0, str(ROOT))
     args = build_parser().parse_args(argv)
+    from replay.log.catalogue import check_mcap_file
+
+    check_mcap_file(Path(args.source))  # a missing file, a folder, not MCAP: one line
     (convert if args.command == "convert" else measure)(args)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.path.insert(0, str(ROOT))
+    from dsp.cli import run_main
+
+    sys.exit(run_main("team_example.py", main))

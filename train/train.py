@@ -12,6 +12,8 @@ venue-day; a folder's venue is its first path part under ROOT. Splits (which sam
   infolder:F      every image except folder F's test images (those after its first 10)
   invenue:VENUE   every image except the test images of VENUE's folders (the other venues
                   whole, and the first 10 of each of VENUE's folders: what a team labels)
+  venues:A+B      every image of the named venues only (how the check's reach grows
+                  with the venues it learns from)
 
 Determinism: one thread, ``torch.use_deterministic_algorithms``, the seed for torch and for
 the NumPy generator that shuffles and augments: the same images, split and seed give the
@@ -88,9 +90,9 @@ def venue_of(folder: str) -> str:
 def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
     """x, y, offset, context of the samples of the folders under root the split allows."""
     kind, _, name = split.partition(":")
-    if kind not in ("all", "lovo", "infolder", "invenue"):
-        raise SystemExit(f"unknown split {split!r}: all, lovo:VENUE, infolder:FOLDER or "
-                         "invenue:VENUE")
+    if kind not in ("all", "lovo", "infolder", "invenue", "venues"):
+        raise SystemExit(f"unknown split {split!r}: all, lovo:VENUE, infolder:FOLDER, "
+                         "invenue:VENUE or venues:A+B")
     xs, ys, offs, ctxs = [], [], [], []
     for path in labelled_folders(root):
         folder = path.relative_to(root).as_posix()
@@ -99,6 +101,8 @@ def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
             keep = np.ones(len(s.y), bool)
         elif kind == "lovo":
             keep = np.full(len(s.y), venue_of(folder) != name)
+        elif kind == "venues":
+            keep = np.full(len(s.y), venue_of(folder) in name.split("+"))
         elif kind == "invenue":
             keep = (np.ones(len(s.y), bool) if venue_of(folder) != name
                     else s.image < TRAIN_COUNT)

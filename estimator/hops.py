@@ -46,6 +46,7 @@ rays as unsure as the poses (``--pose-uncertainty``). Pure and deterministic.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -92,6 +93,15 @@ class HopFollower:
         self._vouched_ns: int | None = None
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
+
+    def peek(self, stamp_ns: int, track: TrackState | None) -> FusedEstimate | None:
+        """What :meth:`step` would give at ``stamp_ns`` with no estimates, changing
+        nothing: a clock's tick (``dsp-replay --clock``) reads the track, as it reads the
+        ground tracker's, and leaves what it does at the images as it is without one."""
+        twin = copy.copy(self)
+        twin._flight = copy.copy(self._flight)  # a step without estimates keeps its rays
+        twin._flight.tracker = copy.deepcopy(self._flight.tracker)  # ...and moves this
+        return twin.step(stamp_ns, [], track)
 
     def _lob(self, crossed: tuple[float, float, float] | None
              ) -> TypeGuard[tuple[float, float, float]]:

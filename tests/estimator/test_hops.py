@@ -304,3 +304,29 @@ def test_after_a_kick_a_ray_is_not_crossed_with_one_from_before_it(
     monkeypatch.setattr(RayPairs, "forget", lambda self: None)
     error, z = _kicked_across_shallow_rays(HopFollower(CalibratedNoise()))
     assert error > 1.0 and z > 0.2
+
+
+
+def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None:
+    """A clock's tick reads the 3-D track (peek); the next images' steps are those of a
+    track never peeked at, though stepping it there (step with no estimates) moves them."""
+    def run(between: str) -> list[tuple[float, float]]:
+        tracker, hops = BallTracker(), HopFollower(CalibratedNoise())
+        out = []
+        for k in range(70):  # the hopping ball again; a read 5 ms after every image
+            t_ns = k * 12 * MS + k * MS // 2
+            _, flight = _fed(tracker, hops, _seen(list(ROBOTS)[k % 3], t_ns / 1e9), t_ns)
+            if flight is not None:
+                out.append((flight.x_m, flight.y_m))
+            tick = t_ns + 5 * MS
+            if between == "peek":
+                read = hops.peek(tick, tracker.state_at(tick))
+                assert (read is None) == (flight is None)
+            elif between == "step":
+                hops.step(tick, [], tracker.state_at(tick))
+        return out
+
+    plain = run("none")
+    assert len(plain) > 30
+    assert run("peek") == plain
+    assert run("step") != plain

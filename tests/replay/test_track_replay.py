@@ -212,6 +212,24 @@ def test_clock_ticks_add_steps_without_images_and_leave_the_image_steps_alone(
         ReplayOptions(clock_hz=0.0)
 
 
+def test_hops_give_the_same_track_at_the_images_with_a_clock_or_without(tmp_path: Path
+                                                                         ) -> None:
+    # a clock's tick reads the 3-D track and moves nothing (ticks that stepped it moved 10
+    # of the golden match's 12 rows at the images)
+    log = Path(__file__).resolve().parents[2] / "logs" / "golden" / "match.mcap"
+    rows = {}
+    for clock in (None, 100.0):
+        out = tmp_path / f"clock-{clock}.json"
+        replay(log, ReplayOptions(fusion="track", hops=True, clock_hz=clock, out=out,
+                                  progress=False))
+        fused = _results(out)["fused"]
+        rows[clock] = [{k: v for k, v in s.items() if k != "step"} for s in fused
+                       if not s.get("tick")]
+        assert len(rows[clock]) < len(fused) if clock else len(rows[clock]) == len(fused)
+    assert rows[None] == rows[100.0]
+    assert sum(s.get("error_m") is not None for s in rows[None]) >= 10
+
+
 def test_hops_give_a_lofted_ball_s_position_from_the_3d_track(tmp_path: Path) -> None:
     # the golden lob: a ball in the air, which each robot places farther out along its ray;
     # the tracker alone follows those estimates out, --hops places it in 3-D

@@ -369,8 +369,10 @@ class FrameEstimator:
                 taken.append(ball)
         state = tracker.state_at(stamp_ns)
         confirmed = state if state is not None and state.confirmed else None
-        flight = (None if hops is None else hops.step(stamp_ns, taken, confirmed) if frames
-                  else hops.peek(stamp_ns, confirmed))  # no frames: a clock's tick
+        flight = None
+        if hops is not None:  # a step without frames is a clock's tick: it only reads
+            flight = (hops.step(stamp_ns, taken, confirmed) if frames
+                      else hops.peek(stamp_ns, confirmed))
         if confirmed is None:  # a tentative track may be a false blob
             return None, None, None
         x, y, cov = ((confirmed.x_m, confirmed.y_m, confirmed.position_covariance)

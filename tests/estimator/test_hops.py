@@ -306,7 +306,6 @@ def test_after_a_kick_a_ray_is_not_crossed_with_one_from_before_it(
     assert error > 1.0 and z > 0.2
 
 
-
 def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None:
     """A clock's tick reads the 3-D track (peek); the next images' steps are those of a
     track never peeked at, though stepping it there (step with no estimates) moves them."""

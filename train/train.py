@@ -112,6 +112,8 @@ def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
         ys.append(s.y[keep])
         offs.append(s.offset[keep])
         ctxs.append(s.ctx[keep])
+    if not any(len(y) for y in ys):
+        raise SystemExit(f"split {split!r} selects no image under {root}")
     return (np.concatenate(xs), np.concatenate(ys), np.concatenate(offs),
             np.concatenate(ctxs))
 

@@ -95,6 +95,12 @@ class BallisticParams:
     restart's way faster than this tells no speed (``_fly_from``)."""
     min_way_s: float = 0.05
     """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
+    restart_way_s: tuple[float, float] = (0.02, 0.1)
+    """A restart at crossed rays shortly after another (its way this many seconds, [min,
+    max)) takes the speed of the way from that one's point when the last accepted
+    measurement is nearer than ``min_way_s``: both are after the manoeuvre that refused
+    them, and each is a few centimetres off, where a far robot's ground point taken
+    between them may be a metre out along its ray."""
     short_way_vz_sigma_mps: float = 4.0
     """The sigma of vz at a restart from a way shorter than ``min_way_s``."""
     top_m: float = 3.5
@@ -126,6 +132,9 @@ class BallisticTracker:
         self._last: tuple[int, Matrix] | None = None
         """The last accepted measurement's stamp and the track's position after it."""
         self._last_airborne = False
+        self._restart: tuple[int, Matrix] | None = None
+        """The last restart at crossed rays (``_restart_fixed``), while no other crossed rays
+        have been taken since: its stamp and point."""
         self._refused: tuple[int, Matrix, Matrix] | None = None
         """The last refused measurement, while refusals run in a row: its stamp, the point
         and the point moved along its unmeasured directions (:meth:`_on_the_ray`)."""
@@ -254,6 +263,8 @@ class BallisticTracker:
             self.misses += 1
             return False
         self._correct(H, S, innovation)
+        if keep.all():
+            self._restart = None  # the track's velocity is the crossed points' since
         if rolling and self.airborne:
             if keep.all() and self._launched(stamp_ns, z, Rm):
                 return True
@@ -394,15 +405,27 @@ class BallisticTracker:
 
     def _restart_fixed(self, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
         """A refused measurement that fixes a point: restart there, the velocity from the
-        way since the last accepted measurement (when within 0.5 s, else unknown)."""
-        last = self._last
-        if last is not None and 0.0 < (dt := (stamp_ns - last[0]) / NS_PER_S) < 0.5:
-            return self._fly_from(last[1], dt, stamp_ns, z, Rm)
-        self._start(stamp_ns, z, Rm)
-        self._remember(stamp_ns)
+        way since the last accepted measurement (when within 0.5 s, else unknown), or since
+        the last restart at crossed rays (``restart_way_s``)."""
+        p = self.params
+        last, before = self._last, self._restart
+        if before is not None and last is not None and (
+                stamp_ns - last[0] < p.min_way_s * NS_PER_S) and (
+                p.restart_way_s[0] <= (dt := (stamp_ns - before[0]) / NS_PER_S)
+                < p.restart_way_s[1]) and float(np.linalg.norm(z - before[1])) <= (
+                p.max_speed_mps * dt):
+            self._fly_from(before[1], dt, stamp_ns, z, Rm, min_way_s=p.restart_way_s[0])
+        elif last is not None and 0.0 < (dt := (stamp_ns - last[0]) / NS_PER_S) < 0.5:
+            self._fly_from(last[1], dt, stamp_ns, z, Rm)
+        else:
+            self._start(stamp_ns, z, Rm)
+            self._remember(stamp_ns)
+        assert self.x is not None
+        self._restart = (stamp_ns, self.x[:3].copy())
         return True
 
-    def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix) -> bool:
+    def _fly_from(self, z0: Matrix, dt: float, stamp_ns: int, z: Matrix, Rm: Matrix,
+                  min_way_s: float | None = None) -> bool:
         """Restart at ``z`` with the velocity of the way from ``z0`` dt seconds ago (a flight
         under gravity when ``z`` is in the air: vz now = dz / dt - g dt / 2). A way shorter
         than ``min_way_s`` tells no speed, nor does one faster than ``max_speed_mps`` (a point
@@ -410,9 +433,10 @@ class BallisticTracker:
         ``initial_speed_sigma_mps``, vz 0 with ``short_way_vz_sigma_mps``; after a way too
         fast the new point's level position is loosened by ``lost_sigma_m`` (it may be off)."""
         p = self.params
+        shortest = p.min_way_s if min_way_s is None else min_way_s
         sigma = np.full(3, p.launch_sigma_mps)
-        too_fast = dt >= p.min_way_s and float(np.linalg.norm(z - z0)) > p.max_speed_mps * dt
-        if dt < p.min_way_s or too_fast:
+        too_fast = dt >= shortest and float(np.linalg.norm(z - z0)) > p.max_speed_mps * dt
+        if dt < shortest or too_fast:
             v = np.zeros(3) if self.x is None else np.array([self.x[3], self.x[4], 0.0])
             sigma = np.array([p.initial_speed_sigma_mps, p.initial_speed_sigma_mps,
                               p.short_way_vz_sigma_mps])
@@ -438,6 +462,7 @@ class BallisticTracker:
         self.stamp_ns = stamp_ns
         self.misses = 0
         self._refused = None
+        self._restart = None
 
     def landing(self) -> Landing | None:
         """Where and when the ball next meets the ground, if it is flying."""

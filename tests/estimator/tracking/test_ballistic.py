@@ -333,3 +333,36 @@ def test_a_crossing_no_ball_could_have_reached_restarts_without_its_speed() -> N
         "near", tuple(camera), tuple(u / np.linalg.norm(u)), 0.005, 0.005))
     assert tr.x is not None
     assert math.hypot(tr.x[0] - 2.0 * t, tr.x[1]) < 0.15  # brought back, not refused
+
+
+def test_a_kick_up_restarts_with_the_way_between_crossed_points() -> None:
+    """A rolling ball kicked up: the first crossed point after the kick (8 ms after the last
+    point) restarts the track with no speed, a far robot's ground point, 0.8 m out along
+    its ray under the rising ball, is then taken and drags the track at 14 m/s, and the
+    next crossed point, 4 ms later, is refused. Its restart takes the speed of the way
+    from the crossed point 42 ms before (a few centimetres each, as the first robot's
+    sighting of the kick), not from the far robot's 4 ms before: within 1 m/s of the kick's,
+    where the old rule kept the dragged 14 m/s."""
+    rng = np.random.default_rng(15)
+    tr = BallisticTracker()
+    roll = np.array([-1.7, 1.8])
+    for t in np.arange(0.0, 1.0, 1 / 60):  # rolling, three robots' crossed points
+        p = np.concatenate([roll * t, [R]]) + rng.normal(0.0, [0.005, 0.005, 0.0])
+        tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4)
+    kick_at, v = 1.0, (2.8, -6.2, 1.5)
+
+    def ball(t: float) -> tuple[float, float, float]:
+        x, y, z = arc(t - kick_at, v, start=(float(roll[0]), float(roll[1])))
+        return x, y, z
+
+    assert tr.update(round(1.0083 * NS_PER_S), ball(1.0083), np.eye(3) * 1e-4)
+    assert tr.x is not None and tr.P[3, 3] >= tr.params.initial_speed_sigma_mps ** 2 - 1e-9
+    camera = np.array([-11.0, -1.0, 0.85])
+    point, cov = _far_robots_point(camera, ball(1.046))
+    assert math.dist(point[:2], ball(1.046)[:2]) > 0.5  # the far robot's lifted estimate
+    tr.update(round(1.046 * NS_PER_S), point, cov)
+    assert tr.x is not None and math.hypot(tr.x[3], tr.x[4]) > 12.0  # dragged along its ray
+    assert tr.update(round(1.05 * NS_PER_S), ball(1.05), np.eye(3) * 1e-4)
+    assert tr.x is not None and tr.x[:3] == pytest.approx(ball(1.05), abs=0.01)
+    assert math.hypot(tr.x[3] - v[0], tr.x[4] - v[1]) < 1.0, tr.x[3:]
+    assert tr.P[3, 3] == pytest.approx(tr.params.launch_sigma_mps ** 2)

@@ -1,4 +1,5 @@
-"""The tracker's parameters (:mod:`estimator.tracking.tracker`), units in the names."""
+"""The trackers' parameters (:mod:`estimator.tracking.tracker`, and the 3-D track's of
+:mod:`estimator.tracking.ballistic`), units in the names."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from dataclasses import dataclass
 from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
 
-__all__ = ["GATE_CHI2_999", "TrackerParams"]
+__all__ = ["GATE_CHI2_999", "BallisticParams", "TrackerParams"]
 
 GATE_CHI2_999 = 13.815510557964274
 """chi-square quantile, 2 degrees of freedom, 0.999: -2 ln(0.001)."""
@@ -62,3 +63,48 @@ class TrackerParams:
                 "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2, "
                 "lone_kick_ns >= 0, confirm_ns >= 0"
             )
+
+
+@dataclass(frozen=True)
+class BallisticParams:
+    accel_sigma_mps2: float = 3.0
+    """White acceleration noise [m/s^2] (the ball's unmodelled manoeuvres: kicks, drag)."""
+    restitution: float = 0.6
+    """A bounce keeps this much of the normal speed (a football on turf)."""
+    bounce_sigma: float = 0.15
+    """The spread of the kept share at a bounce."""
+    bounce_level_sigma: float = 0.2
+    """The spread of the level speed kept at a bounce (friction)."""
+    rest_mps: float = 0.5
+    """A bounce slower than this leaves the ball rolling."""
+    airborne_m: float = 0.02
+    unknown_variance_m2: float = 0.5
+    """A measurement's covariance direction wider than this is not measured (one robot's
+    ray: the spread along it says the height is unknown; the track keeps its own there)."""
+    max_misses: int = 3
+    restart_on_fixed: bool = True
+    """A refused measurement that fixes all three directions (crossed rays) restarts the
+    track at once, from the way since the last accepted one: rays that meet are seldom a
+    false blob (the track met a robot, a post, a bounce sooner or later than predicted)."""
+    initial_speed_sigma_mps: float = 10.0
+    launch_sigma_mps: float = 2.0
+    max_speed_mps: float = 12.0
+    """No ball runs faster (the simulator's fastest kick is 10 m/s): two refused points
+    further apart are taken where their rays pass nearest the track (``_restarted``), and a
+    restart's way faster than this tells no speed (``_fly_from``)."""
+    min_way_s: float = 0.05
+    """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
+    restart_way_s: tuple[float, float] = (0.02, 0.1)
+    """A restart at crossed rays shortly after another (its way this many seconds, [min,
+    max)) takes the speed of the way from that one's point when the last accepted
+    measurement is nearer than ``min_way_s``: both are after the manoeuvre that refused
+    them, and each is a few centimetres off, where a far robot's ground point taken
+    between them may be a metre out along its ray."""
+    short_way_vz_sigma_mps: float = 4.0
+    """The sigma of vz at a restart from a way shorter than ``min_way_s``."""
+    top_m: float = 3.5
+    """No ball flies higher (a lob's apex is at most 3 m): a flight above it is given up."""
+    lost_sigma_m: float = 0.5
+    """A flying track that refused ``max_misses`` rays in a row: its position's sigma is
+    widened by this, its velocity made unknown, and it takes the next ray; a restart's
+    point after a way faster than ``max_speed_mps`` is widened by this too."""

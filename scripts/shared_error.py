@@ -1,0 +1,175 @@
+"""How much of a replay's error its robots' poses share: the floor of what the ball can show.
+
+    python scripts/shared_error.py RESULTS.json TRUE.json [RESULTS.json TRUE.json ...]
+
+RESULTS is a ``dsp-replay --out`` of a log (any ``--localise``); TRUE the same log replayed
+with its true poses (``--pose-topic '/ground_truth/{robot}/pose'``), which gives each frame's
+true pose. A robot whose believed pose is off by (dx, dy) and dpsi reports a ball at b from
+its true pose p at b + d, d = (dx, dy) + (R(dpsi) - I)(b - p): the yaw's part grows with the
+range. At each fused step, over the robots whose estimates the track took in the last
+``--window`` seconds (each robot's latest), the mean of their d weighted by the localisation
+prior (``--sigma-m`` and ``--sigma-deg``, the realism preset's drifting bias, by default:
+1 / (sigma_m^2 + (range sigma_yaw)^2)) is the error they share. Comparing the robots' views
+of one ball shows how their errors differ, never what they share: a fusion that corrects
+the poses from the ball alone (``--localise ball``) is left with that part at best.
+
+One Markdown row per pair (and one of them all pooled): the fused steps scored, the replay's
+fused RMSE, the RMSE of each taken frame's own d (per robot) and of each step's shared part
+(the floor), from the believed poses and, when the replay corrected them (``--localise``),
+from the corrected ones.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+
+Key = tuple[str, int]
+"""(robot, stamp [ns]) of a frame."""
+
+
+@dataclass(frozen=True)
+class Offset:
+    """What a frame's pose error does to its ball: the offset d [m] and the ball's range."""
+
+    dx: float
+    dy: float
+    range_m: float
+
+
+def offset(pose: dict[str, Any], true_pose: dict[str, Any], ball: dict[str, Any]) -> Offset:
+    """The ball's offset from a pose error (module docstring)."""
+    dpsi = math.remainder(float(pose["yaw_rad"]) - float(true_pose["yaw_rad"]), math.tau)
+    bx = float(ball["x_m"]) - float(true_pose["x_m"])
+    by = float(ball["y_m"]) - float(true_pose["y_m"])
+    c, s = math.cos(dpsi), math.sin(dpsi)
+    return Offset(float(pose["x_m"]) - float(true_pose["x_m"]) + (c - 1.0) * bx - s * by,
+                  float(pose["y_m"]) - float(true_pose["y_m"]) + s * bx + (c - 1.0) * by,
+                  math.hypot(bx, by))
+
+
+def _read(path: Path) -> dict[str, Any]:
+    from dsp.errors import InputError
+
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable results file ({exc})") from None
+    if not (isinstance(doc, dict) and doc.get("format") == "dsp-replay-results"
+            and isinstance(doc.get("frames"), list) and isinstance(doc.get("fused"), list)):
+        raise InputError(f"{path}: not a dsp-replay results file")
+    return doc
+
+
+def _rms(values: Iterable[float]) -> float:
+    v = list(values)
+    return math.sqrt(sum(x * x for x in v) / len(v)) if v else math.nan
+
+
+@dataclass(frozen=True)
+class Shares:
+    """One replay's errors [m], each step's or taken frame's."""
+
+    fused: list[float]
+    own: dict[str, list[float]]
+    """Per pose kind ("believed", "corrected"): each taken frame's |d|."""
+    shared: dict[str, list[float]]
+    """Per pose kind: each fused step's shared part."""
+
+    def row(self, name: str) -> str:
+        cells = []
+        for kind in ("believed", "corrected"):
+            own, shared = self.own[kind], self.shared[kind]
+            cells.append(f"{_rms(own):.4f} / {_rms(shared):.4f}" if own else "-")
+        return (f"| {name} | {len(self.fused)} | {_rms(self.fused):.4f} | "
+                + " | ".join(cells) + " |")
+
+    def __add__(self, other: Shares) -> Shares:
+        return Shares(self.fused + other.fused,
+                      {k: v + other.own[k] for k, v in self.own.items()},
+                      {k: v + other.shared[k] for k, v in self.shared.items()})
+
+
+def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
+           sigma_m: float, sigma_rad: float) -> Shares:
+    """The module docstring's figures for one replay and its true-pose twin."""
+    true_poses = {(f["robot"], int(f["stamp_ns"])): f["pose"] for f in truth["frames"]
+                  if f.get("pose")}
+    kinds: dict[str, dict[Key, Offset]] = {"believed": {}, "corrected": {}}
+    by_stamp: dict[int, list[dict[str, Any]]] = {}
+    for f in results["frames"]:
+        key = (f["robot"], int(f["stamp_ns"]))
+        by_stamp.setdefault(key[1], []).append(f)
+        true_pose, ball = true_poses.get(key), f.get("truth")
+        if true_pose is None or ball is None or not f.get("pose"):
+            continue
+        kinds["believed"][key] = offset(f["pose"], true_pose, ball)
+        loc = f.get("localisation")
+        if loc and loc.get("x_m") is not None:
+            kinds["corrected"][key] = offset(loc, true_pose, ball)
+    out = Shares([], {k: [] for k in kinds}, {k: [] for k in kinds})
+    latest: dict[str, dict[str, tuple[int, Offset]]] = {k: {} for k in kinds}
+    for step in results["fused"]:
+        if step.get("tick") or step.get("error_m") is None:
+            continue
+        stamp = int(step["stamp_ns"])
+        taken = step.get("fused_robots") or ()
+        out.fused.append(float(step["error_m"]))
+        for kind, offsets in kinds.items():
+            for f in by_stamp.get(stamp, ()):
+                d = offsets.get((f["robot"], stamp))
+                if f["robot"] in taken and d is not None:
+                    latest[kind][f["robot"]] = (stamp, d)
+                    out.own[kind].append(math.hypot(d.dx, d.dy))
+            now = [d for t, d in latest[kind].values() if stamp - t <= window_ns]
+            if now:
+                w = [1.0 / (sigma_m ** 2 + (d.range_m * sigma_rad) ** 2) for d in now]
+                total = sum(w)
+                out.shared[kind].append(math.hypot(
+                    sum(wi * d.dx for wi, d in zip(w, now, strict=True)) / total,
+                    sum(wi * d.dy for wi, d in zip(w, now, strict=True)) / total))
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0], allow_abbrev=False)
+    p.add_argument("pairs", nargs="+", metavar="RESULTS TRUE")
+    p.add_argument("--window", type=float, default=0.15, metavar="S",
+                   help="a robot's last taken estimate counts this long [s] (0.15)")
+    p.add_argument("--sigma-m", type=float, default=0.05, metavar="M",
+                   help="the prior's position sigma [m] (0.05)")
+    p.add_argument("--sigma-deg", type=float, default=1.0, metavar="DEG",
+                   help="the prior's yaw sigma [deg] (1.0)")
+    args = p.parse_args(argv)
+    if len(args.pairs) % 2:
+        p.error("give each results file with its true-pose replay after it")
+    if not (args.window >= 0 and args.sigma_m > 0 and args.sigma_deg > 0):
+        p.error("--window must be >= 0, --sigma-m and --sigma-deg > 0")
+    print("| results | steps | fused RMSE [m] | believed poses: per robot / shared [m] | "
+          "corrected poses: per robot / shared [m] |")
+    print("|---|---|---|---|---|")
+    pooled = None
+    for results, truth in zip(args.pairs[::2], args.pairs[1::2], strict=True):
+        one = shares(_read(Path(results)), _read(Path(truth)),
+                     window_ns=round(args.window * 1e9), sigma_m=args.sigma_m,
+                     sigma_rad=math.radians(args.sigma_deg))
+        print(one.row(results))
+        pooled = one if pooled is None else pooled + one
+    if pooled is not None and len(args.pairs) > 2:
+        print(pooled.row("all, pooled"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(ROOT))
+    from dsp.cli import run_main
+
+    sys.exit(run_main("shared_error.py", main))

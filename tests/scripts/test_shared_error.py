@@ -1,0 +1,117 @@
+"""scripts/shared_error.py: the part of the robots' pose errors they share, which the ball
+cannot show."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "scripts" / "shared_error.py"
+_spec = importlib.util.spec_from_file_location("shared_error", SCRIPT)
+assert _spec is not None and _spec.loader is not None
+shared_error = importlib.util.module_from_spec(_spec)
+sys.modules["shared_error"] = shared_error  # dataclasses look their module up by name
+_spec.loader.exec_module(shared_error)
+
+MS = 1_000_000
+BALL = {"x_m": 0.0, "y_m": 0.0}
+TRUE = {"robot1": (-4.0, 0.0, 0.0), "robot2": (4.0, 0.0, math.pi), "robot3": (0.0, -8.0, 1.0)}
+
+
+def _pose(x: float, y: float, yaw: float) -> dict[str, float]:
+    return {"x_m": x, "y_m": y, "yaw_rad": yaw}
+
+
+def _docs(believed: dict[str, tuple[float, float, float]],
+          corrected: dict[str, tuple[float, float, float]] | None = None
+          ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Each robot's image in turn every 10 ms for 0.3 s, each a fused step that took it."""
+    frames, truth_frames, fused = [], [], []
+    robots = sorted(believed)
+    for k in range(30):
+        robot, stamp = robots[k % len(robots)], k * 10 * MS
+        frame: dict[str, Any] = {"robot": robot, "stamp_ns": stamp,
+                                 "pose": _pose(*believed[robot]), "truth": BALL}
+        if corrected is not None:
+            frame["localisation"] = {"source": "lines", **_pose(*corrected[robot])}
+        frames.append(frame)
+        truth_frames.append({"robot": robot, "stamp_ns": stamp, "pose": _pose(*TRUE[robot]),
+                             "truth": BALL})
+        fused.append({"stamp_ns": stamp, "error_m": 0.02, "fused_robots": [robot]})
+    doc = {"format": "dsp-replay-results", "frames": frames, "fused": fused}
+    return doc, {"format": "dsp-replay-results", "frames": truth_frames, "fused": fused}
+
+
+def _shares(believed: dict[str, tuple[float, float, float]],
+            corrected: dict[str, tuple[float, float, float]] | None = None) -> Any:
+    doc, truth = _docs(believed, corrected)
+    return shared_error.shares(doc, truth, window_ns=150 * MS, sigma_m=0.05,
+                               sigma_rad=math.radians(1.0))
+
+
+def _rms(values: list[float]) -> float:
+    return math.sqrt(sum(v * v for v in values) / len(values))
+
+
+def test_a_yaw_error_moves_the_ball_by_its_range() -> None:
+    # 1 deg of yaw at 4 m: 4 sin(1 deg) across, 4 (1 - cos(1 deg)) along
+    d = shared_error.offset(_pose(-4.0, 0.0, math.radians(1.0)), _pose(-4.0, 0.0, 0.0), BALL)
+    assert (d.dx, d.dy) == pytest.approx((4.0 * (math.cos(math.radians(1)) - 1),
+                                          4.0 * math.sin(math.radians(1.0))))
+    assert d.range_m == pytest.approx(4.0)
+    moved = shared_error.offset(_pose(-3.9, 0.05, 0.0), _pose(-4.0, 0.0, 0.0), BALL)
+    assert (moved.dx, moved.dy) == pytest.approx((0.1, 0.05))
+
+
+def test_what_every_robot_gets_wrong_is_shared_what_differs_is_not() -> None:
+    same = {r: (x + 0.05, y, yaw) for r, (x, y, yaw) in TRUE.items()}
+    s = _shares(same)
+    assert _rms(s.own["believed"]) == pytest.approx(0.05)
+    assert _rms(s.shared["believed"]) == pytest.approx(0.05)
+    # two robots opposite each other off by +-0.05 m: each 0.05 m, shared nothing
+    apart = {"robot1": (-3.95, 0.0, 0.0), "robot2": (3.95, 0.0, math.pi)}
+    s = _shares(apart)
+    assert _rms(s.own["believed"]) == pytest.approx(0.05)
+    assert max(s.shared["believed"][1:]) == pytest.approx(0.0, abs=1e-12)
+    assert s.own["corrected"] == [] and s.shared["corrected"] == []
+
+
+def test_the_shared_part_is_weighted_by_the_prior_and_the_corrected_poses_are_scored() -> None:
+    # robot3 8 m away is off by 1 deg (0.14 m of ball), the two at 4 m are right: its share
+    # is its weight, 1 / (0.05^2 + (8 sigma_yaw)^2) against 1 / (0.05^2 + (4 sigma_yaw)^2)
+    believed = dict(TRUE)
+    believed["robot3"] = (0.0, -8.0, 1.0 + math.radians(1.0))
+    corrected = dict(TRUE)
+    s = _shares(believed, corrected)
+    w3 = 1.0 / (0.05 ** 2 + (8 * math.radians(1.0)) ** 2)
+    w1 = 1.0 / (0.05 ** 2 + (4 * math.radians(1.0)) ** 2)
+    off = 8.0 * 2.0 * math.sin(math.radians(0.5))  # the chord of 1 deg at 8 m
+    assert s.shared["believed"][-1] == pytest.approx(off * w3 / (w3 + 2 * w1))
+    assert max(s.own["corrected"]) == pytest.approx(0.0, abs=1e-12)
+    assert s.row("x").startswith("| x | 30 | 0.0200 | ")
+
+
+def test_bad_input_is_one_line(tmp_path: Path) -> None:
+    doc, truth = _docs(dict(TRUE))
+    good, other = tmp_path / "r.json", tmp_path / "t.json"
+    good.write_text(json.dumps(doc), encoding="utf-8")
+    other.write_text(json.dumps(truth), encoding="utf-8")
+    ok = subprocess.run([sys.executable, str(SCRIPT), str(good), str(other)],
+                        capture_output=True, text=True, check=False)
+    assert ok.returncode == 0 and ok.stdout.count("\n") == 3, ok.stderr
+    (tmp_path / "bad.json").write_text("{}", encoding="utf-8")
+    for args, says in (([str(tmp_path / "missing.json"), str(other)], "missing.json"),
+                       ([str(tmp_path / "bad.json"), str(other)], "not a dsp-replay results"),
+                       ([str(good)], "give each results file")):
+        run = subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True,
+                             text=True, check=False)
+        assert run.returncode in (1, 2) and "Traceback" not in run.stderr
+        assert says in run.stderr and run.stderr.count("\n") <= 3, run.stderr

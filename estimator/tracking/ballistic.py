@@ -19,7 +19,9 @@ Between measurements the ball moves:
 Process noise: white acceleration noise, ``accel_sigma`` horizontally and vertically. A
 measurement's covariance directions wider than ``unknown_variance_m2`` are not measured: one
 robot's ground estimate, whose covariance spreads along its ray, moves the track across the
-ray only (a bearing), so its height stays as unknown as it is. Measurements farther than the
+ray only (a bearing), so its height stays as unknown as it is; one that would set a rolling
+track rolling faster than ``max_speed_mps`` is refused (a far robot's view of a ball kicked
+up, out along its ray, met while the speed is unknown). Measurements farther than the
 chi-square gate (99.9 %, of the directions measured) are refused; after two refusals in a
 row the track restarts at the second, its velocity from the two (the ball hit a robot or a
 post; two one-robot points further apart than any ball runs count where their rays pass
@@ -218,7 +220,13 @@ class BallisticTracker:
             self._refused = (stamp_ns, z.copy(), moved)
             self.misses += 1
             return False
+        before = (self.x.copy(), self.P.copy())
         self._correct(H, S, innovation)
+        if rolling and not keep.all() and math.hypot(self.x[3], self.x[4]) > (
+                self.params.max_speed_mps):
+            self.x, self.P = before  # one robot's point that no ball could roll to
+            self.misses += 1
+            return False
         if keep.all():
             self._restart = None  # the track's velocity is the crossed points' since
         if rolling and self.airborne:

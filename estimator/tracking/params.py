@@ -90,8 +90,9 @@ class BallisticParams:
     launch_sigma_mps: float = 2.0
     max_speed_mps: float = 12.0
     """No ball runs faster (the simulator's fastest kick is 10 m/s): two refused points
-    further apart are taken where their rays pass nearest the track (``_restarted``), and a
-    restart's way faster than this tells no speed (``_fly_from``)."""
+    further apart are taken where their rays pass nearest the track (``_restarted``), a
+    restart's way faster than this tells no speed (``_fly_from``), and one robot's point
+    that would roll the track faster is refused (``update``)."""
     min_way_s: float = 0.05
     """A restart's velocity is taken from a way at least this long (see ``_fly_from``)."""
     restart_way_s: tuple[float, float] = (0.02, 0.1)

@@ -3,7 +3,9 @@ rolling, and one robot's view leaving the height unknown in the covariance."""
 
 from __future__ import annotations
 
+import copy
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -335,34 +337,56 @@ def test_a_crossing_no_ball_could_have_reached_restarts_without_its_speed() -> N
     assert math.hypot(tr.x[0] - 2.0 * t, tr.x[1]) < 0.15  # brought back, not refused
 
 
-def test_a_kick_up_restarts_with_the_way_between_crossed_points() -> None:
-    """A rolling ball kicked up: the first crossed point after the kick (8 ms after the last
-    point) restarts the track with no speed, a far robot's ground point, 0.8 m out along
-    its ray under the rising ball, is then taken and drags the track at 14 m/s, and the
-    next crossed point, 4 ms later, is refused. Its restart takes the speed of the way
-    from the crossed point 42 ms before (a few centimetres each, as the first robot's
-    sighting of the kick), not from the far robot's 4 ms before: within 1 m/s of the kick's,
-    where the old rule kept the dragged 14 m/s."""
+KICK = (2.8, -6.2, 1.5)
+"""A rolling ball kicked up at 1 s: its level and vertical speed [m/s]."""
+ROLL = np.array([-1.7, 1.8])
+
+
+def _kicked_up(t: float) -> tuple[float, float, float]:
+    x, y, z = arc(t - 1.0, KICK, start=(float(ROLL[0]), float(ROLL[1])))
+    return x, y, z
+
+
+def _restarted_by_a_kick_up() -> BallisticTracker:
+    """Rolling at 2.5 m/s on three robots' crossed points, then kicked up: the first crossed
+    point after the kick, 8 ms after the last, restarts the track with no speed."""
     rng = np.random.default_rng(15)
     tr = BallisticTracker()
-    roll = np.array([-1.7, 1.8])
-    for t in np.arange(0.0, 1.0, 1 / 60):  # rolling, three robots' crossed points
-        p = np.concatenate([roll * t, [R]]) + rng.normal(0.0, [0.005, 0.005, 0.0])
+    for t in np.arange(0.0, 1.0, 1 / 60):
+        p = np.concatenate([ROLL * t, [R]]) + rng.normal(0.0, [0.005, 0.005, 0.0])
         tr.update(round(t * NS_PER_S), tuple(p), np.eye(3) * 1e-4)
-    kick_at, v = 1.0, (2.8, -6.2, 1.5)
-
-    def ball(t: float) -> tuple[float, float, float]:
-        x, y, z = arc(t - kick_at, v, start=(float(roll[0]), float(roll[1])))
-        return x, y, z
-
-    assert tr.update(round(1.0083 * NS_PER_S), ball(1.0083), np.eye(3) * 1e-4)
+    assert tr.update(round(1.0083 * NS_PER_S), _kicked_up(1.0083), np.eye(3) * 1e-4)
     assert tr.x is not None and tr.P[3, 3] >= tr.params.initial_speed_sigma_mps ** 2 - 1e-9
+    return tr
+
+
+def test_one_robot_s_point_no_ball_could_roll_to_is_refused() -> None:
+    """Just restarted, its speed unknown, the rolling track is shown a far robot's ground
+    point 0.8 m out along its ray under the rising ball: taken, it would roll the track at
+    14 m/s, faster than any ball runs. It is refused, and the track is as it was."""
+    tr = _restarted_by_a_kick_up()
     camera = np.array([-11.0, -1.0, 0.85])
-    point, cov = _far_robots_point(camera, ball(1.046))
-    assert math.dist(point[:2], ball(1.046)[:2]) > 0.5  # the far robot's lifted estimate
-    tr.update(round(1.046 * NS_PER_S), point, cov)
-    assert tr.x is not None and math.hypot(tr.x[3], tr.x[4]) > 12.0  # dragged along its ray
-    assert tr.update(round(1.05 * NS_PER_S), ball(1.05), np.eye(3) * 1e-4)
-    assert tr.x is not None and tr.x[:3] == pytest.approx(ball(1.05), abs=0.01)
-    assert math.hypot(tr.x[3] - v[0], tr.x[4] - v[1]) < 1.0, tr.x[3:]
+    point, cov = _far_robots_point(camera, _kicked_up(1.046))
+    assert math.dist(point[:2], _kicked_up(1.046)[:2]) > 0.5  # the far robot's lifted view
+    # a twin for which no speed is too fast takes it, and rolls at 14 m/s
+    twin = copy.deepcopy(tr)
+    twin.params = replace(tr.params, max_speed_mps=1e9)
+    assert twin.update(round(1.046 * NS_PER_S), point, cov)
+    assert twin.x is not None and math.hypot(twin.x[3], twin.x[4]) > 12.0
+    assert tr.x is not None
+    v = tr.x[3:5].copy()
+    assert not tr.update(round(1.046 * NS_PER_S), point, cov)
+    assert tr.x[3:5] == pytest.approx(v)
+
+
+def test_a_kick_up_restarts_with_the_way_between_crossed_points() -> None:
+    """A ball kicked up: the first crossed point after the kick restarts the track with no
+    speed (the last point 8 ms before), and the next, 42 ms later, is refused too. Its
+    restart takes the speed of the way from the first (both after the kick, each a few
+    centimetres off), within 1 m/s of the kick's, where the old rule had no speed to go on
+    (the last accepted point under 50 ms before) and kept the track's."""
+    tr = _restarted_by_a_kick_up()
+    assert tr.update(round(1.05 * NS_PER_S), _kicked_up(1.05), np.eye(3) * 1e-4)
+    assert tr.x is not None and tr.x[:3] == pytest.approx(_kicked_up(1.05), abs=0.01)
+    assert math.hypot(tr.x[3] - KICK[0], tr.x[4] - KICK[1]) < 1.0, tr.x[3:]
     assert tr.P[3, 3] == pytest.approx(tr.params.launch_sigma_mps ** 2)

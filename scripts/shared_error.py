@@ -153,18 +153,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error("give each results file with its true-pose replay after it")
     if not (args.window >= 0 and args.sigma_m > 0 and args.sigma_deg > 0):
         p.error("--window must be >= 0, --sigma-m and --sigma-deg > 0")
-    print("| results | steps | fused RMSE [m] | believed poses: per robot / shared [m] | "
-          "corrected poses: per robot / shared [m] |")
-    print("|---|---|---|---|---|")
-    pooled = None
+    rows, pooled = [], None
     for results, truth in zip(args.pairs[::2], args.pairs[1::2], strict=True):
         one = shares(_read(Path(results)), _read(Path(truth)),
                      window_ns=round(args.window * 1e9), sigma_m=args.sigma_m,
                      sigma_rad=math.radians(args.sigma_deg))
-        print(one.row(results))
+        rows.append(one.row(results))
         pooled = one if pooled is None else pooled + one
-    if pooled is not None and len(args.pairs) > 2:
-        print(pooled.row("all, pooled"))
+    if pooled is not None and len(rows) > 1:
+        rows.append(pooled.row("all, pooled"))
+    print("| results | steps | fused RMSE [m] | believed poses: per robot / shared [m] | "
+          "corrected poses: per robot / shared [m] |")
+    print("|---|---|---|---|---|")
+    print("\n".join(rows))
     return 0
 
 

@@ -115,3 +115,4 @@ def test_bad_input_is_one_line(tmp_path: Path) -> None:
                              text=True, check=False)
         assert run.returncode in (1, 2) and "Traceback" not in run.stderr
         assert says in run.stderr and run.stderr.count("\n") <= 3, run.stderr
+        assert run.stdout == ""  # no table begun before the error

@@ -57,13 +57,17 @@ def offset(pose: dict[str, Any], true_pose: dict[str, Any], ball: dict[str, Any]
 
 
 def _read(path: Path) -> dict[str, Any]:
+    """A results file, read bounded as ``dsp-compare`` reads one."""
     from dsp.errors import InputError
+    from dsp.textfile import read_text_file
+    from replay.compare.load import MAX_RESULTS_BYTES, RESULTS_FORMAT
 
+    text = read_text_file(path, MAX_RESULTS_BYTES, what="a results file")
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"{path}: not a readable results file ({exc})") from None
-    if not (isinstance(doc, dict) and doc.get("format") == "dsp-replay-results"
+        doc = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise InputError(f"{path}: not JSON ({str(exc).splitlines()[0]})") from None
+    if not (isinstance(doc, dict) and doc.get("format") == RESULTS_FORMAT
             and isinstance(doc.get("frames"), list) and isinstance(doc.get("fused"), list)):
         raise InputError(f"{path}: not a dsp-replay results file")
     return doc
@@ -155,9 +159,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error("--window must be >= 0, --sigma-m and --sigma-deg > 0")
     rows, pooled = [], None
     for results, truth in zip(args.pairs[::2], args.pairs[1::2], strict=True):
-        one = shares(_read(Path(results)), _read(Path(truth)),
-                     window_ns=round(args.window * 1e9), sigma_m=args.sigma_m,
-                     sigma_rad=math.radians(args.sigma_deg))
+        try:
+            one = shares(_read(Path(results)), _read(Path(truth)),
+                         window_ns=round(args.window * 1e9), sigma_m=args.sigma_m,
+                         sigma_rad=math.radians(args.sigma_deg))
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            from dsp.errors import InputError
+
+            raise InputError(f"{results} or {truth}: a frame or step lacks a field, or it is "
+                             f"not a number ({exc!r})") from None
         rows.append(one.row(results))
         pooled = one if pooled is None else pooled + one
     if pooled is not None and len(rows) > 1:

@@ -220,10 +220,9 @@ class BallisticTracker:
             self._refused = (stamp_ns, z.copy(), moved)
             self.misses += 1
             return False
-        before = (self.x.copy(), self.P.copy())
+        before = (self.x.copy(), self.P.copy()) if rolling and not keep.all() else None
         self._correct(H, S, innovation)
-        if rolling and not keep.all() and math.hypot(self.x[3], self.x[4]) > (
-                self.params.max_speed_mps):
+        if before is not None and math.hypot(self.x[3], self.x[4]) > self.params.max_speed_mps:
             self.x, self.P = before  # one robot's point that no ball could roll to
             self.misses += 1
             return False

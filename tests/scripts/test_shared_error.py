@@ -108,8 +108,14 @@ def test_bad_input_is_one_line(tmp_path: Path) -> None:
                         capture_output=True, text=True, check=False)
     assert ok.returncode == 0 and ok.stdout.count("\n") == 3, ok.stderr
     (tmp_path / "bad.json").write_text("{}", encoding="utf-8")
+    (tmp_path / "text.json").write_text("not json", encoding="utf-8")
+    broken = dict(doc, frames=[{"robot": "robot1", "stamp_ns": "soon", "pose": {}}])
+    (tmp_path / "broken.json").write_text(json.dumps(broken), encoding="utf-8")
     for args, says in (([str(tmp_path / "missing.json"), str(other)], "missing.json"),
                        ([str(tmp_path / "bad.json"), str(other)], "not a dsp-replay results"),
+                       ([str(tmp_path / "text.json"), str(other)], "not JSON"),
+                       ([str(tmp_path / "broken.json"), str(other)], "lacks a field"),
+                       ([str(tmp_path), str(other)], "is a folder"),
                        ([str(good)], "give each results file")):
         run = subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True,
                              text=True, check=False)

@@ -68,6 +68,14 @@ class BallEstimate:
     was located from, None when unknown: the noise models then add the ball's share of it
     (:func:`estimator.noise.localisation_covariance`), so a robot that is unsure where it
     stands, or which way it faces at a long range, weighs less."""
+    range_sigma_m: float | None = None
+    """The sigma of ``range_m`` [m] when a second measure gave it in place of the
+    calibration's (``--width-range``, :mod:`estimator.width`), None otherwise: the
+    calibrated noise model then takes it along the bearing."""
+    ray_range_m: float | None = None
+    """Where the blob's ray meets the ground-plane (z = R) [m], when the estimate is not
+    there (a ball in the air placed under itself, :mod:`estimator.width`); None: at
+    ``range_m``. Rays (:func:`estimator.rays.ball_ray`) are drawn through it."""
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,7 @@ from estimator.estimates import (
     covariance_rows,
 )
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
-from estimator.rays import BallRay, Point3, ball_ray, height_unknown_covariance, triangulate
+from estimator.rays import BallRay, Point3, aloft, ball_ray, height_unknown_covariance, triangulate
 from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
 from estimator.tracking.ray_pairs import RayPairs, ray_residual
 from estimator.tracking.tracker import TrackFusion
@@ -297,6 +297,9 @@ class TriangulateFusion:
         cov2 = np.array(ground.covariance)
         nearest = {e.robot: e.range_m for e in estimates}
         used = [r for r in rays if r.robot in ground.robots]
+        lifted = [e for e in estimates if e.robot in ground.robots and e.ray_range_m is not None]
+        if len(ground.robots) == 1 and len(used) == 1 and lifted:  # in the air, by its width
+            return aloft(ground, used[0], lifted[0])
         if used:
             ray = min(used, key=lambda r: (nearest[r.robot], r.robot))
             cov3 = height_unknown_covariance(cov2, ray, self.top_m)

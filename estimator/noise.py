@@ -180,7 +180,10 @@ class CalibratedNoise:
         Sigma_i   = R(phi) diag(sigma_r^2, sigma_t^2) R(phi)^T / max(visibility, v_min)^2
 
     The range growth comes from the calibration: on an omni camera d'(r) grows with r (the
-    far field is compressed near the rim), and the tangential sigma grows as d. Robots
+    far field is compressed near the rim), and the tangential sigma grows as d. An estimate
+    whose range a second measure gave (``range_sigma_m``: a ball in the air placed by its
+    blob's width, :mod:`estimator.width`) has that sigma in place of the first two terms
+    of sigma_r. Robots
     missing from ``calibrations`` use ``default``; an estimate without ``r_px`` gets r by
     inverting its calibration.
     """
@@ -204,6 +207,13 @@ class CalibratedNoise:
                 f"and min_sigma_m = {self.min_sigma_m}; pass sigmas >= 0 and min_sigma_m > 0"
             )
 
+    def calibrated_range_sigma_m(self, robot: str, r_px: float) -> float:
+        """The calibrated range's own sigma at pixel radius ``r_px`` [m]: the fit's residual
+        and the centroid's noise through the calibration's slope (no pose's share)."""
+        calibration = self.calibrations.get(robot, self.default)
+        slope = _slope_m_per_px(calibration, r_px)
+        return math.sqrt(self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2)
+
     def covariance(self, estimate: BallEstimate) -> Matrix:
         """Sigma_i of one estimate in the field frame [m^2]; an estimate that carries its
         pose's covariance has the pose's share from it instead of the fixed sigmas."""
@@ -214,7 +224,9 @@ class CalibratedNoise:
         known = estimate.pose_covariance is not None
         loc2 = 0.0 if known else self.position_sigma_m**2
         yaw2 = 0.0 if known else self.yaw_sigma_rad**2
-        sigma_r = math.sqrt(self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2 + loc2)
+        sigma_r = (math.sqrt(self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2 + loc2)
+                   if estimate.range_sigma_m is None
+                   else math.sqrt(estimate.range_sigma_m**2 + loc2))
         bearing2 = (self.centroid_sigma_px / max(r, 1.0)) ** 2 + yaw2
         sigma_t = math.sqrt(d * d * bearing2 + loc2)
         sigma = _oriented(estimate, sigma_r, sigma_t, self.min_sigma_m, self.min_visibility)

@@ -33,20 +33,28 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from estimator.constants import BALL_RADIUS_M
 from estimator.errors import EstimatorError
-from estimator.estimates import BallEstimate, Matrix
+from estimator.estimates import (
+    BallEstimate,
+    FusedEstimate,
+    Matrix,
+    covariance3_rows,
+    covariance_rows,
+)
 
 __all__ = [
     "MIN_RAY_ANGLE_RAD",
     "BallRay",
     "Point3",
+    "aloft",
     "ball_ray",
     "height_unknown_covariance",
+    "on_the_ray",
     "triangulate",
 ]
 
@@ -101,6 +109,8 @@ def ball_ray(estimate: BallEstimate, camera_height_m: float, covariance: Matrix,
     dx, dy = estimate.x_m - estimate.robot_x_m, estimate.y_m - estimate.robot_y_m
     d = math.hypot(dx, dy)
     phi = math.atan2(dy, dx) if d > 0.0 else 0.0
+    if estimate.ray_range_m is not None:  # placed under a ball in the air: the ray's own
+        d = estimate.ray_range_m
     n = math.atan2(d, drop)
     direction = (math.sin(n) * math.cos(phi), math.sin(n) * math.sin(phi), -math.cos(n))
     cov = np.asarray(covariance, dtype=np.float64)[:2, :2]
@@ -184,3 +194,27 @@ def height_unknown_covariance(ground_covariance: Matrix, ray: BallRay, top_m: fl
         segment = -u * (top - g[2]) / -u[2]  # from the ground point up the ray to top
         cov += np.outer(segment, segment) / 3.0
     return cov
+
+
+def on_the_ray(ray: BallRay, range_m: float, range_sigma_m: float) -> tuple[Point3, Matrix]:
+    """The point of ``ray`` ``range_m`` from its camera's axis (a ball whose horizontal
+    range a second measure gives, :mod:`estimator.width`) and its 3 x 3 covariance: the
+    range's sigma along the ray, the ray's angular sigmas across it at that distance."""
+    o, u = np.array(ray.origin), np.array(ray.direction)
+    level = max(math.hypot(u[0], u[1]), 1e-9)
+    t = range_m / level
+    p = o + t * u
+    e_az, e_el = ray.across()
+    cov = ((range_sigma_m / level) ** 2 * np.outer(u, u)
+           + (t * ray.sigma_azimuth_rad) ** 2 * np.outer(e_az, e_az)
+           + (t * ray.sigma_elevation_rad) ** 2 * np.outer(e_el, e_el))
+    return (float(p[0]), float(p[1]), float(p[2])), 0.5 * (cov + cov.T)
+
+
+def aloft(ground: FusedEstimate, ray: BallRay, estimate: BallEstimate) -> FusedEstimate:
+    """One robot's ``ground`` estimate, its blob's width showing the ball in the air
+    (``estimate.ray_range_m`` set: :mod:`estimator.width`): the ball on its ``ray`` at the
+    width's range (:func:`on_the_ray`), with its height and 3-D covariance."""
+    point, cov = on_the_ray(ray, estimate.range_m, estimate.range_sigma_m or 0.0)
+    return replace(ground, x_m=point[0], y_m=point[1], z_m=point[2],
+                   covariance=covariance_rows(cov[:2, :2]), covariance_3d=covariance3_rows(cov))

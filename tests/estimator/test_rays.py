@@ -4,6 +4,7 @@ covariance it claims, one robot or near-parallel rays give no height (and say so
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from estimator.constants import BALL_RADIUS_M
 from estimator.estimates import BallEstimate
 from estimator.fusion import TriangulateFusion, get_fusion
 from estimator.noise import NoiseModel
-from estimator.rays import ball_ray, height_unknown_covariance, triangulate
+from estimator.rays import ball_ray, height_unknown_covariance, on_the_ray, triangulate
 
 R = BALL_RADIUS_M
 
@@ -170,3 +171,42 @@ def test_the_height_unknown_spread_stops_at_the_camera() -> None:
     ray = ball_ray(e, 0.85, np.eye(2) * 1e-4)
     c = height_unknown_covariance(np.eye(2) * 1e-4, ray, 3.5)
     assert c[2, 2] == pytest.approx((0.85 - R) ** 2 / 3.0)
+
+
+def _under_the_ball(e: BallEstimate, ball: tuple[float, float, float],
+                    sigma_m: float) -> BallEstimate:
+    """``e`` as ``--width-range`` makes it when the blob's width shows the ball in the air:
+    placed under the ball, its ray's ground range kept."""
+    rho = math.hypot(ball[0] - e.robot_x_m, ball[1] - e.robot_y_m)
+    return replace(e, x_m=ball[0], y_m=ball[1], range_m=rho, range_sigma_m=sigma_m,
+                   ray_range_m=e.range_m)
+
+
+def test_a_ball_placed_under_itself_keeps_its_ray() -> None:
+    ball = (4.0, -1.0, 0.6)
+    e = seen("r1", 1.0, 2.0, 0.85, ball)
+    moved = _under_the_ball(e, ball, 0.1)
+    ray = ball_ray(moved, 0.85, np.eye(2) * 1e-4)
+    assert np.allclose(ray.ground_point, (e.x_m, e.y_m, R))
+    without = ball_ray(replace(moved, ray_range_m=None), 0.85, np.eye(2) * 1e-4)
+    assert not np.allclose(without.ground_point, (e.x_m, e.y_m, R), atol=0.5)
+
+
+def test_one_robot_whose_width_lifts_the_ball_places_it_on_its_ray_in_3d() -> None:
+    """One robot alone: the ground-plane estimate says z = R with the height unknown; the
+    same estimate placed under the ball by its width gives the ball's height, and a
+    covariance along the ray of the width's sigma."""
+    ball = (1.0, 0.0, 2.0)
+    e = seen("r1", -4.0, 1.0, 12.0, ball)
+    moved = _under_the_ball(e, ball, 0.1)
+    fused = TriangulateFusion().fuse([moved])
+    assert fused is not None and fused.z_m is not None and fused.covariance_3d is not None
+    assert (fused.x_m, fused.y_m, fused.z_m) == pytest.approx(ball, abs=1e-9)
+    c = np.array(fused.covariance_3d)
+    w, v = np.linalg.eigh(c)
+    ray = ball_ray(moved, 12.0, NoiseModel().covariance(moved))
+    level = math.hypot(ray.direction[0], ray.direction[1])
+    assert math.sqrt(w[-1]) == pytest.approx(0.1 / level, rel=1e-6)
+    assert abs(float(v[:, -1] @ np.array(ray.direction))) == pytest.approx(1.0, abs=1e-9)
+    point, cov = on_the_ray(ray, math.hypot(ball[0] + 4.0, ball[1] - 1.0), 0.1)
+    assert point == pytest.approx(ball, abs=1e-9) and np.allclose(cov, c)

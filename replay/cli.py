@@ -87,17 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the window fusions' covariance per estimate: cambada (a fixed range "
                    "law, default) or calibrated (from the calibration, as track uses; makes "
                    "robust reject outliers weighted averages in)")
-    p.add_argument("--smooth", action="store_true",
-                   help="offline: smooth the track over the whole log (RTS smoother) instead "
-                   "of the causal estimate a robot would have live (--fusion track)")
-    p.add_argument("--hops", action="store_true",
-                   help="--fusion track: the position from a 3-D track beside the tracker, so a "
-                   "hop is not placed where far robots' lifted estimates put it; with good "
-                   "poses (--localise lines) or --pose-uncertainty (docs/hops.md)")
-    p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
-                   help="also a step at every tick of a HZ clock, with no image: the "
-                   "tracker's estimate then (as a robot's control loop reads it), scored "
-                   "against the truth at the tick")
+    _add_track_arguments(p)
     _add_input_arguments(p)
     _add_localise_arguments(p)
     p.add_argument("--pose-tolerance", type=float, default=0.1, metavar="S",
@@ -126,6 +116,26 @@ def build_parser() -> argparse.ArgumentParser:
     add_batch_arguments(p)
     add_common_arguments(p, force=True)
     return p
+
+
+def _add_track_arguments(p: argparse.ArgumentParser) -> None:
+    """``--smooth``, ``--hops``, ``--width-range`` and ``--clock``."""
+    p.add_argument("--smooth", action="store_true",
+                   help="offline: smooth the track over the whole log (RTS smoother) instead "
+                   "of the causal estimate a robot would have live (--fusion track)")
+    p.add_argument("--hops", action="store_true",
+                   help="--fusion track: the position from a 3-D track beside the tracker, so a "
+                   "hop is not placed where far robots' lifted estimates put it; with good "
+                   "poses (--localise lines) or --pose-uncertainty (docs/hops.md)")
+    p.add_argument("--width-range", action="store_true",
+                   help="also range each blob by its width across the bearing, which a ball "
+                   "in the air does not change: a blob wider than a ball on the ground at its "
+                   "range is a ball in the air, placed under itself (its ray kept for the 3-D "
+                   "fusions); the corrected method (docs/hops.md)")
+    p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
+                   help="also a step at every tick of a HZ clock, with no image: the "
+                   "tracker's estimate then (as a robot's control loop reads it), scored "
+                   "against the truth at the tick")
 
 
 def _add_localise_arguments(p: argparse.ArgumentParser) -> None:
@@ -243,7 +253,7 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         fusion=args.fusion, calibration=_input(args.calibration),
         calibration_model=args.calibration_model,
         cameras=_input(args.cameras), smooth=args.smooth, hops=args.hops, noise=args.noise,
-        clock_hz=args.clock_hz, localise=args.localise,
+        width_range=args.width_range, clock_hz=args.clock_hz, localise=args.localise,
         pose_sigma_m=args.pose_sigma[0], pose_sigma_deg=args.pose_sigma[1],
         pose_uncertainty=args.pose_uncertainty,
         image_topic=args.image_topic, pose_topic=args.pose_topic,

@@ -58,6 +58,7 @@ from estimator.hops import HopFollower
 from estimator.noise import CalibratedNoise, Noise, localisation_covariance
 from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
+from estimator.width import combine_ranges, width_range
 from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.plugins import Detector
@@ -143,17 +144,35 @@ class PaperLocator:
 
 @dataclass(frozen=True)
 class CorrectedLocator:
-    """The corrected estimator: calibration on the range, yaw from the full quaternion."""
+    """The corrected estimator: calibration on the range, yaw from the full quaternion;
+    with ``noise`` (``--width-range``) a blob whose width shows a ball in the air is placed
+    under it, its ray kept (:mod:`estimator.width`)."""
 
     cameras: Cameras
+    noise: CalibratedNoise | None = None
 
     def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
+        centre = self.cameras.centres[robot]
         e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
                                     self.cameras.calibrations[robot],
-                                    centre_px=self.cameras.centres[robot], robot=robot,
+                                    centre_px=centre, robot=robot,
                                     mount_yaw_rad=self.cameras.mount_yaw_rad(robot))
-        return RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m, pose.y_m,
-                             pose.yaw_rad, self.cameras.visibility(robot, det, e.range_m))
+        estimate = RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m,
+                                 pose.y_m, pose.yaw_rad,
+                                 self.cameras.visibility(robot, det, e.range_m))
+        if self.noise is None or e.r_px is None:
+            return estimate
+        width = width_range(det.outline_px, centre, (float(det.cx_px), float(det.cy_px)))
+        if width is None:
+            return estimate
+        sigma = self.noise.calibrated_range_sigma_m(robot, e.r_px)
+        choice = combine_ranges(e.range_m, sigma, width)
+        if not choice.lifted:  # on the ground: the estimate as without the width
+            return estimate
+        phi = pose.yaw_rad + e.bearing_rad
+        return replace(estimate, x_m=pose.x_m + choice.range_m * math.cos(phi),
+                       y_m=pose.y_m + choice.range_m * math.sin(phi), range_m=choice.range_m,
+                       range_sigma_m=choice.sigma_m, ray_range_m=e.range_m)
 
 
 BIAS_SUPPORT_NS = 500_000_000
@@ -169,7 +188,7 @@ class FrameEstimator:
                  finder: BallFinder | None = None,
                  detector: Detector | None = None,
                  pose_covariance: np.ndarray | None = None, hops: bool = False,
-                 bias: BiasEstimator | None = None) -> None:
+                 bias: BiasEstimator | None = None, width_range: bool = False) -> None:
         self.cameras = cameras
         self.bias = bias
         """``--localise ball``: each robot's pose bias, estimated from the tracker's residuals
@@ -184,10 +203,12 @@ class FrameEstimator:
         self.finder = finder
         self._centres = dict(cameras.centres)
         self._heights = {r: m.height_m for r, m in cameras.models.items()}
-        self.locator: Locator = (PaperLocator(self.cameras) if method == "paper"
-                                 else CorrectedLocator(self.cameras))
-        self.noise: Noise = CalibratedNoise(
+        calibrated_noise = CalibratedNoise(
             calibrations=dict(self.cameras.calibrations), fit_rms_m=self.cameras.fit_rms_m)
+        self.noise: Noise = calibrated_noise
+        self.locator: Locator = (
+            PaperLocator(self.cameras) if method == "paper"
+            else CorrectedLocator(self.cameras, calibrated_noise if width_range else None))
         self.tracker: BallTracker | None = None
         self.hops: HopFollower | None = None
         """``--hops``: the 3-D track beside the tracker, whose position it gives."""
@@ -412,4 +433,5 @@ def _ball(e: RobotEstimate, r_px: float | None = None,
     return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
                         range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
                         visibility=e.visibility, r_px=r_px, camera_height_m=camera_height_m,
-                        pose_covariance=e.pose_covariance)
+                        pose_covariance=e.pose_covariance, range_sigma_m=e.range_sigma_m,
+                        ray_range_m=e.ray_range_m)

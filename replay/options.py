@@ -145,6 +145,9 @@ class ReplayOptions:
     hops: bool = False
     """The tracker's position from a 3-D track beside it while the ball hops
     (:mod:`estimator.hops`; ``track`` fusion only, not with ``smooth``)."""
+    width_range: bool = False
+    """Each blob's range also from its width across the bearing, which a ball in the air
+    does not change (:mod:`estimator.width`; the corrected method only)."""
     clock_hz: float | None = None
     """Also a step at every tick k / clock_hz s of a clock (no image in it): the fused
     estimate the fusion gives then (the tracker's prediction from the estimates so far; none
@@ -235,6 +238,10 @@ class ReplayOptions:
         if self.hops and self.smooth:
             raise UsageError("--hops gives the causal track's position; it does not go "
                              "with --smooth")
+        if self.width_range and self.method == "paper":
+            raise UsageError("--width-range ranges each blob by its width as well, beside "
+                             "the corrected estimator's calibration; the paper's equations "
+                             "(--method paper) have none")
         if self.localise not in LOCALISE_MODES:
             raise UsageError(f"--localise {self.localise!r}; choose one of "
                              f"{', '.join(LOCALISE_MODES)}")
@@ -345,6 +352,7 @@ class ReplayOptions:
                if self.detector is not None and self.detector not in DETECTORS else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"hops": True} if self.hops else {}),
+            **({"width_range": True} if self.width_range else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
             **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
             **({"start_absolute": True} if self.start_absolute else {}),
@@ -397,6 +405,8 @@ class ReplayOptions:
             d.pop("pose_uncertainty")
         if not self.hops:
             d.pop("hops")
+        if not self.width_range:
+            d.pop("width_range")
         if not (self.localising or self.pose_uncertainty):
             d.pop("pose_sigma_m")
             d.pop("pose_sigma_deg")

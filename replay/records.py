@@ -62,6 +62,12 @@ class RobotEstimate:
     pose_covariance: PoseCovariance | None = None
     """With ``--pose-uncertainty``: the covariance over (x, y, yaw) of the pose the estimate
     was located from, which the fusion adds the ball's share of (:mod:`estimator.noise`)."""
+    range_sigma_m: float | None = None
+    """With ``--width-range``, for a ball the width shows in the air: the sigma of
+    ``range_m`` [m], the width's (:mod:`estimator.width`); None otherwise."""
+    ray_range_m: float | None = None
+    """With ``--width-range``, for a ball the width shows in the air: where its ray meets
+    the ground-plane [m] (the estimate itself is placed under the ball); None otherwise."""
 
 
 Covariance3 = tuple[tuple[float, float, float], ...]

@@ -111,6 +111,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
             smooth=options.smooth, hops=options.hops, noise=options.noise, finder=finder,
+            width_range=options.width_range,
             detector=options.detector_part(),
             pose_covariance=prior_covariance(options.pose_sigma_m, options.pose_sigma_deg)
             if options.pose_uncertainty else None,

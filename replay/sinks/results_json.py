@@ -13,7 +13,8 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                  "detection": {"cx_px", "cy_px", "r_px", "area_px", "bbox_px",
                                "circularity"} | null,
                  "pose": {"x_m", "y_m", "yaw_rad", "gap_s", "interpolated"} | null,
-                 "estimate": {"x_m", "y_m", "range_m", "bearing_rad", "visibility"} | null,
+                 "estimate": {"x_m", "y_m", "range_m", "bearing_rad", "visibility",
+                              "range_sigma_m", "ray_range_m"} | null,
                  "truth": {"x_m", "y_m"} | null, "error_m": float | null,
                  "localisation": {"x_m", "y_m", "yaw_rad", "covariance": 3 x 3,
                                   "status", "source", "points", "inliers"}}, ...],
@@ -51,7 +52,10 @@ centre [m], the 3 x 3 covariance of (x, y, z) [m^2], whether rays crossed (else 
 is assumed, z = R, and the covariance spreads along a ray), and against the truth's height
 when the log has one: z - z_true and the 3-D error [m]. ``vz_m_s`` and ``landing`` only
 from the ballistic tracker (``ballistic``): its vertical velocity [m/s] and where and when
-it predicts the ball next meets the ground (null while the ball is not flying).
+it predicts the ball next meets the ground (null while the ball is not flying). The
+estimate's ``range_sigma_m`` and ``ray_range_m`` only with ``--width-range``, on the
+estimates whose blob's width placed a ball in the air under itself: the range's sigma
+(the width's) and where the blob's ray meets the ground-plane.
 """
 
 from __future__ import annotations
@@ -120,6 +124,9 @@ def frame_to_dict(f: FrameResult) -> dict[str, Json]:
         "estimate": None if est is None else {
             "x_m": est.x_m, "y_m": est.y_m, "range_m": est.range_m,
             "bearing_rad": est.bearing_rad, "visibility": est.visibility,
+            # only with --width-range: files made without it stay as they were
+            **({} if est.range_sigma_m is None else {
+                "range_sigma_m": est.range_sigma_m, "ray_range_m": est.ray_range_m}),
         },
         "truth": None if f.truth is None else {"x_m": f.truth[0], "y_m": f.truth[1]},
         "error_m": f.error_m,

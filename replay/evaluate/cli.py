@@ -128,6 +128,10 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--hops", action="store_true",
                    help="match suite: replay the tracker's rows with dsp-replay --hops (its "
                    "position from a 3-D track beside it while the ball hops after kicks)")
+    p.add_argument("--width-range", action="store_true",
+                   help="lobs suite: every replay with dsp-replay --width-range (a blob wider "
+                   "than a ball on the ground at its range is a ball in the air, placed under "
+                   "itself); the tables are named after it")
     p.add_argument("--pose-uncertainty", action="store_true",
                    help="every replay weighs each robot by its own pose's covariance "
                    "(dsp-replay --pose-uncertainty); the tables are named after it")
@@ -197,10 +201,14 @@ def _check(args: argparse.Namespace) -> None:
 
 
 def _check_poses(args: argparse.Namespace) -> None:
-    """--localise and --pose-uncertainty replay logs: the lobs and images suites refuse them."""
+    """--localise and --pose-uncertainty replay logs: the lobs and images suites refuse them;
+    --hops goes with the match suite, --width-range with the lobs suite."""
     if (args.localise != "none" or args.pose_uncertainty) and args.suite in ("lobs", "images"):
         raise UsageError(f"--localise and --pose-uncertainty go with the paper, random and "
                          f"match suites; --suite {args.suite} does not take them")
+    if args.width_range and args.suite != "lobs":
+        raise UsageError(f"--width-range goes with --suite lobs, not {args.suite} (in play, "
+                         f"boxes of the ball's colour become balls in the air: docs/hops.md)")
     if args.hops and args.suite != "match":
         raise UsageError(f"--hops follows the ball's hops after kicks in play: it goes with "
                          f"--suite match, not {args.suite}")
@@ -237,7 +245,8 @@ def _run_suite(args: argparse.Namespace,
         options = LobsOptions(camera=args.camera, duration_s=args.duration,
                               rate_hz=10.0 if args.rate is None else args.rate,
                               renderer=args.renderer, calibration=args.calibration,
-                              camera_phase=args.camera_phase or "sync")
+                              camera_phase=args.camera_phase or "sync",
+                              width_range=args.width_range)
         lobs = run_lobs_suite(args.out_dir, options, count=args.count, seed=args.seed)
         return _stem(args), lobs_markdown(lobs), lobs.to_dict()
     record = SimRecorder(args.camera, args.renderer, args.realism)
@@ -270,6 +279,8 @@ def _stem(args: argparse.Namespace) -> str:
         stem += "-posecov"
     if args.hops:
         stem += "-hops"
+    if args.width_range:
+        stem += "-width"
     if args.camera_phase not in (None, "sync"):
         stem += f"-{args.camera_phase}"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"

@@ -105,3 +105,31 @@ def test_camera_phase_goes_with_the_lobs_suite_only(
     assert evaluate_cli.main(["--suite", "match", "--camera-phase", "random"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--camera-phase goes with --suite lobs" in err
+
+
+def test_width_range_reaches_every_replay_and_names_the_tables(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same log (its name says no width), every replay asked for the width, the
+    tables named and noted after it."""
+    asked: list[tuple[str, bool]] = []
+    real_replay = lobs.replay
+
+    def spy(log: Path, options: Any, **kwargs: Any) -> Any:
+        asked.append((options.fusion_method, options.width_range))
+        return real_replay(log, options, **kwargs)
+
+    monkeypatch.setattr(lobs, "replay", spy)
+    stand_in = _run(tmp_path, monkeypatch, "--width-range")
+    [(name, _, options)] = stand_in.calls
+    assert name == "lobs-5-sync-ideal-4s-r10.mcap" and options.width_range
+    assert sorted(asked) == [("ballistic", True), ("robust", True), ("triangulate", True)]
+    doc = json.loads((tmp_path / "lobs-ideal-width-1-seed5.json").read_text())
+    assert doc["width_range"] is True
+    assert "`--width-range`" in (tmp_path / "lobs-ideal-width-1-seed5.md").read_text()
+
+
+def test_width_range_goes_with_the_lobs_suite_only(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert evaluate_cli.main(["--suite", "match", "--width-range"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--width-range goes with --suite lobs" in err

@@ -40,7 +40,7 @@ from estimator.estimates import (
     covariance_rows,
 )
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
-from estimator.rays import BallRay, Point3, aloft, ball_ray, height_unknown_covariance, triangulate
+from estimator.rays import BallRay, Point3, aloft, height_unknown_covariance, ray_of, triangulate
 from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
 from estimator.tracking.ray_pairs import RayPairs, ray_residual
 from estimator.tracking.tracker import TrackFusion
@@ -256,7 +256,7 @@ class TriangulateFusion:
         for e in estimates:
             if e.camera_height_m is not None:
                 try:
-                    rays.append(ball_ray(e, e.camera_height_m, self.noise.covariance(e)))
+                    rays.append(ray_of(e, self.noise.covariance))
                 except EstimatorError:
                     continue
         inliers = self._consistent(rays)
@@ -395,8 +395,7 @@ class BallisticFusion:
         for e in estimates:
             if e.camera_height_m is not None:
                 try:
-                    cov = self.triangulate.noise.covariance(e)
-                    rays.append(ball_ray(e, e.camera_height_m, cov))
+                    rays.append(ray_of(e, self.triangulate.noise.covariance))
                 except EstimatorError:
                     continue
         return rays

@@ -32,7 +32,7 @@ a camera.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -55,6 +55,7 @@ __all__ = [
     "ball_ray",
     "height_unknown_covariance",
     "on_the_ray",
+    "ray_of",
     "triangulate",
 ]
 
@@ -218,3 +219,19 @@ def aloft(ground: FusedEstimate, ray: BallRay, estimate: BallEstimate) -> FusedE
     point, cov = on_the_ray(ray, estimate.range_m, estimate.range_sigma_m or 0.0)
     return replace(ground, x_m=point[0], y_m=point[1], z_m=point[2],
                    covariance=covariance_rows(cov[:2, :2]), covariance_3d=covariance3_rows(cov))
+
+
+def ray_of(estimate: BallEstimate, covariance: Callable[[BallEstimate], Matrix]) -> BallRay:
+    """``estimate``'s ray (its ``camera_height_m`` set), its sigmas from ``covariance`` (a
+    noise model's) of the estimate where the ray meets the ground: for a ball its blob's
+    width placed under itself (``ray_range_m``, :mod:`estimator.width`), the blob's own
+    ray, as sure as the blob, not the width's range."""
+    if estimate.camera_height_m is None:
+        raise EstimatorError(f"{estimate.robot}: no camera height, no ray")
+    e = estimate
+    if e.ray_range_m is not None and e.range_m > 0.0:
+        k = e.ray_range_m / e.range_m
+        e = replace(e, x_m=e.robot_x_m + k * (e.x_m - e.robot_x_m),
+                    y_m=e.robot_y_m + k * (e.y_m - e.robot_y_m), range_m=e.ray_range_m,
+                    range_sigma_m=None, ray_range_m=None)
+    return ball_ray(e, estimate.camera_height_m, covariance(e))

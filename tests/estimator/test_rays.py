@@ -13,7 +13,7 @@ from estimator.constants import BALL_RADIUS_M
 from estimator.estimates import BallEstimate
 from estimator.fusion import TriangulateFusion, get_fusion
 from estimator.noise import NoiseModel
-from estimator.rays import ball_ray, height_unknown_covariance, on_the_ray, triangulate
+from estimator.rays import ball_ray, height_unknown_covariance, on_the_ray, ray_of, triangulate
 
 R = BALL_RADIUS_M
 
@@ -203,10 +203,13 @@ def test_one_robot_whose_width_lifts_the_ball_places_it_on_its_ray_in_3d() -> No
     assert fused is not None and fused.z_m is not None and fused.covariance_3d is not None
     assert (fused.x_m, fused.y_m, fused.z_m) == pytest.approx(ball, abs=1e-9)
     c = np.array(fused.covariance_3d)
-    w, v = np.linalg.eigh(c)
-    ray = ball_ray(moved, 12.0, NoiseModel().covariance(moved))
+    ray = ray_of(moved, NoiseModel().covariance)  # the blob's ray, as sure as the blob
+    blob = ball_ray(e, 12.0, NoiseModel().covariance(e))
+    assert np.allclose(ray.direction, blob.direction, atol=1e-12)
+    assert (ray.sigma_azimuth_rad, ray.sigma_elevation_rad) == pytest.approx(
+        (blob.sigma_azimuth_rad, blob.sigma_elevation_rad), rel=1e-9)
     level = math.hypot(ray.direction[0], ray.direction[1])
-    assert math.sqrt(w[-1]) == pytest.approx(0.1 / level, rel=1e-6)
-    assert abs(float(v[:, -1] @ np.array(ray.direction))) == pytest.approx(1.0, abs=1e-9)
+    u = np.array(ray.direction)
+    assert math.sqrt(float(u @ c @ u)) == pytest.approx(0.1 / level, rel=1e-6)
     point, cov = on_the_ray(ray, math.hypot(ball[0] + 4.0, ball[1] - 1.0), 0.1)
     assert point == pytest.approx(ball, abs=1e-9) and np.allclose(cov, c)

@@ -290,6 +290,9 @@ def format_summary(s: ReplaySummary) -> str:
     if s.pose_sources:
         lines.append("poses from the field lines: " + ", ".join(
             f"{k} {v}" for k, v in s.pose_sources.items()))
+    if s.lifted is not None:
+        lines.append(f"balls in the air by their width (--width-range): {s.lifted} of "
+                     f"{sum(r.estimates for r in s.per_robot.values())} estimates")
     if s.skipped:
         lines.append("skipped frames: " + ", ".join(f"{k} {v}" for k, v in s.skipped.items()))
     if s.undecodable_messages:

@@ -119,7 +119,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                                           math.radians(options.pose_sigma_deg)))
             if options.localise == "ball" else None)
         localiser = _localiser(options, info, estimator, path)
-        stats = ReplayStats(info.robots)
+        stats = ReplayStats(info.robots, width_range=options.width_range)
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats)

@@ -96,6 +96,9 @@ class ReplaySummary:
     pose_sources: dict[str, int] | None = None
     """With ``--localise lines``: frames by where their pose came from ("lines", "held",
     "prior"); None without it."""
+    lifted: int | None = None
+    """With ``--width-range``: the estimates whose blob's width placed a ball in the air
+    under itself; None without it."""
     warnings: tuple[str, ...] = ()
     """What the user must know about a replay that worked (:mod:`replay.diagnosis`); the
     commands print them on stderr (``-q`` does not hide them)."""
@@ -121,8 +124,10 @@ class _RobotCounts:
 class ReplayStats(SinkBase):
     """Counts per robot and fused, skipped frames by reason, estimator time (display only)."""
 
-    def __init__(self, robots: tuple[str, ...]) -> None:
+    def __init__(self, robots: tuple[str, ...], *, width_range: bool = False) -> None:
         self.robots = robots
+        self.lifted: int | None = 0 if width_range else None
+        """``--width-range``: estimates placed under a ball in the air (None: not asked)."""
         self.frames = 0
         self.steps = 0
         self.fused_steps = 0
@@ -154,6 +159,8 @@ class ReplayStats(SinkBase):
             counts.detections += 1
         if result.estimate is not None:
             counts.estimates += 1
+            if self.lifted is not None and result.estimate.ray_range_m is not None:
+                self.lifted += 1
             if result.error_m is not None:
                 counts.errors.add(result.error_m)
 
@@ -188,6 +195,7 @@ class ReplayStats(SinkBase):
                       **self._velocity_dict()},
             "undecodable_messages": self.undecodable,
             **self._localisation_dict(),
+            **({} if self.lifted is None else {"width": {"lifted": self.lifted}}),
         }
 
     def _localisation_dict(self) -> dict[str, Json]:
@@ -229,4 +237,5 @@ class ReplayStats(SinkBase):
                 self.velocity_errors.max_abs),
             loss=self.recovered,
             pose_sources=dict(sorted(self.pose_sources.items())) if self.pose_sources else None,
+            lifted=self.lifted,
         )

@@ -33,7 +33,8 @@ Schema (``format`` = "dsp-replay-results", ``version`` = 1)::
                            "velocity": {"errors", "rmse_m_s", "mean_error_m_s",
                                         "max_error_m_s"}},
                  "undecodable_messages",
-                 "localisation": {"sources": {source: n}, "statuses": {status: n}}}}
+                 "localisation": {"sources": {source: n}, "statuses": {status: n}},
+                 "width": {"lifted": n}}}
 
 ``status`` is one of :data:`~replay.records.FRAME_STATUSES`. ``localisation`` is there only
 with ``--localise lines``, on the frames with a believed pose: the pose corrected from the
@@ -55,7 +56,8 @@ from the ballistic tracker (``ballistic``): its vertical velocity [m/s] and wher
 it predicts the ball next meets the ground (null while the ball is not flying). The
 estimate's ``range_sigma_m`` and ``ray_range_m`` only with ``--width-range``, on the
 estimates whose blob's width placed a ball in the air under itself: the range's sigma
-(the width's) and where the blob's ray meets the ground-plane.
+(the width's) and where the blob's ray meets the ground-plane; the summary's ``width``
+counts those estimates.
 """
 
 from __future__ import annotations

@@ -24,6 +24,7 @@ from replay.estimation import CorrectedLocator, FrameEstimator
 from replay.options import ReplayOptions
 from replay.records import FrameResult, FrameStatus
 from replay.runner import replay
+from replay.stats import ReplayStats
 
 GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
 R = BALL_RADIUS_M
@@ -117,3 +118,14 @@ def test_a_golden_ball_on_the_ground_gives_the_same_estimates(tmp_path: Path) ->
     assert runs[True]["options"] == runs[False]["options"]
     assert runs[True]["frames"] == runs[False]["frames"]
     assert runs[True]["fused"] == runs[False]["fused"]
+    assert runs[True]["summary"].pop("width") == {"lifted": 0}  # counted, none in the air
+    assert "width" not in runs[False]["summary"]
+
+
+def test_the_summary_counts_the_estimates_placed_in_the_air() -> None:
+    lifted, ground = _located(BALL, width=True), _located((BALL[0], BALL[1], R), width=True)
+    for width in (False, True):
+        stats = ReplayStats(("robot1",), width_range=width)
+        for i, e in enumerate((lifted, ground, lifted)):
+            stats.frame(FrameResult(i, "robot1", i, FrameStatus.OK, estimate=e), None)
+        assert stats.summary_dict().get("width") == ({"lifted": 2} if width else None)

@@ -210,9 +210,12 @@ class CalibratedNoise:
     def calibrated_range_sigma_m(self, robot: str, r_px: float) -> float:
         """The calibrated range's own sigma at pixel radius ``r_px`` [m]: the fit's residual
         and the centroid's noise through the calibration's slope (no pose's share)."""
-        calibration = self.calibrations.get(robot, self.default)
+        return math.sqrt(self._range_variance(self.calibrations.get(robot, self.default), r_px))
+
+    def _range_variance(self, calibration: Calibration, r_px: float) -> float:
+        """rms^2 + (d'(r) sigma_px)^2: the first two terms of sigma_r^2."""
         slope = _slope_m_per_px(calibration, r_px)
-        return math.sqrt(self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2)
+        return self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2
 
     def covariance(self, estimate: BallEstimate) -> Matrix:
         """Sigma_i of one estimate in the field frame [m^2]; an estimate that carries its
@@ -220,13 +223,12 @@ class CalibratedNoise:
         calibration = self.calibrations.get(estimate.robot, self.default)
         d = abs(estimate.range_m)
         r = estimate.r_px if estimate.r_px is not None else _radius_px(calibration, d)
-        slope = _slope_m_per_px(calibration, r)
         known = estimate.pose_covariance is not None
         loc2 = 0.0 if known else self.position_sigma_m**2
         yaw2 = 0.0 if known else self.yaw_sigma_rad**2
-        sigma_r = (math.sqrt(self.fit_rms_m**2 + (slope * self.centroid_sigma_px) ** 2 + loc2)
-                   if estimate.range_sigma_m is None
-                   else math.sqrt(estimate.range_sigma_m**2 + loc2))
+        own2 = (self._range_variance(calibration, r) if estimate.range_sigma_m is None
+                else estimate.range_sigma_m**2)
+        sigma_r = math.sqrt(own2 + loc2)
         bearing2 = (self.centroid_sigma_px / max(r, 1.0)) ** 2 + yaw2
         sigma_t = math.sqrt(d * d * bearing2 + loc2)
         sigma = _oriented(estimate, sigma_r, sigma_t, self.min_sigma_m, self.min_visibility)

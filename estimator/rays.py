@@ -224,8 +224,8 @@ def aloft(ground: FusedEstimate, ray: BallRay, estimate: BallEstimate) -> FusedE
 def ray_of(estimate: BallEstimate, covariance: Callable[[BallEstimate], Matrix]) -> BallRay:
     """``estimate``'s ray (its ``camera_height_m`` set), its sigmas from ``covariance`` (a
     noise model's) of the estimate where the ray meets the ground: for a ball its blob's
-    width placed under itself (``ray_range_m``, :mod:`estimator.width`), the blob's own
-    ray, as sure as the blob, not the width's range."""
+    width placed under itself (``ray_range_m``, :mod:`estimator.width`; :func:`ball_ray`
+    draws the ray through that point), as sure as the blob, not the width's range."""
     if estimate.camera_height_m is None:
         raise EstimatorError(f"{estimate.robot}: no camera height, no ray")
     e = estimate
@@ -234,4 +234,4 @@ def ray_of(estimate: BallEstimate, covariance: Callable[[BallEstimate], Matrix])
         e = replace(e, x_m=e.robot_x_m + k * (e.x_m - e.robot_x_m),
                     y_m=e.robot_y_m + k * (e.y_m - e.robot_y_m), range_m=e.ray_range_m,
                     range_sigma_m=None, ray_range_m=None)
-    return ball_ray(e, estimate.camera_height_m, covariance(e))
+    return ball_ray(estimate, estimate.camera_height_m, covariance(e))

@@ -17,12 +17,15 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from dsp.cli import run_main
 from estimator.detection import detect_ball
 from estimator.width import width_range
 from replay import ReplayOptions, replay
@@ -53,12 +56,15 @@ class _Timer(SinkBase):
         self.ms["width"].append(1e3 * (t2 - t1) / self.repeat)
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
+def main(argv: Sequence[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="bench_width.py", allow_abbrev=False,
+                                description=__doc__.splitlines()[0])
     p.add_argument("log", nargs="?", type=Path, default=ROOT / "logs" / "golden" / "lobs.mcap")
     p.add_argument("--repeat", type=int, default=20, metavar="N",
                    help="calls of each per frame (default 20)")
-    args = p.parse_args()
+    args = p.parse_args(argv)
+    if args.repeat < 1:
+        p.error(f"--repeat {args.repeat}: give at least 1 call")
     cv2.setNumThreads(1)
     timer = _Timer(args.repeat)
     replay(args.log, ReplayOptions(threads=1, progress=False, quiet=True), sinks=[timer])
@@ -71,4 +77,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_main("bench_width.py", main))  # a missing or bad log: one line, exit 1

@@ -1,22 +1,38 @@
-"""How much of a replay's error its robots' poses share: the floor of what the ball can show.
+"""How much of a replay's error its robots' poses share, and the floor of what the ball can show.
 
     python scripts/shared_error.py RESULTS.json TRUE.json [RESULTS.json TRUE.json ...]
 
 RESULTS is a ``dsp-replay --out`` of a log (any ``--localise``); TRUE the same log replayed
-with its true poses (``--pose-topic '/ground_truth/{robot}/pose'``), which gives each frame's
-true pose. A robot whose believed pose is off by (dx, dy) and dpsi reports a ball at b from
-its true pose p at b + d, d = (dx, dy) + (R(dpsi) - I)(b - p): the yaw's part grows with the
-range. At each fused step, over the robots whose estimates the track took in the last
-``--window`` seconds (each robot's latest), the mean of their d weighted by the localisation
-prior (``--sigma-m`` and ``--sigma-deg``, the realism preset's drifting bias, by default:
-1 / (sigma_m^2 + (range sigma_yaw)^2)) is the error they share. Comparing the robots' views
-of one ball shows how their errors differ, never what they share: a fusion that corrects
-the poses from the ball alone (``--localise ball``) is left with that part at best.
+with its true poses (``--pose-topic '/ground_truth/{robot}/pose'``) and otherwise the same
+options, which gives each frame's true pose and the fused error with exact poses. A robot
+whose believed pose is off by (dx, dy) and dpsi reports a ball at b from its true pose p at
+b + d, d = (dx, dy) + (R(dpsi) - I)(b - p): the yaw's part grows with the range.
+
+The shared part: at each fused step, over the robots whose estimates the track took in the
+last ``--window`` seconds (each robot's latest), the mean of their d weighted by the
+localisation prior (``--sigma-m`` and ``--sigma-deg``, the realism preset's drifting bias,
+by default: 1 / (sigma_m^2 + (range sigma_yaw)^2)).
+
+The gauge, which is the floor: the ball hides less than that mean. Each robot's pose error
+is three numbers (dx, dy, dpsi) that drift over seconds, so as the ball moves about a robot
+its yaw's part and its position's part are told apart, and the robots' differences show
+every part of their errors but one motion of all of them together: the whole picture
+turned by one angle phi about the ball and shifted by one c (each robot's pose moved with
+it: (dx, dy) += c + phi J (p - b), dpsi += phi), which moves every robot's ball by c and
+changes no difference between them. With the prior W (1 / sigma_m^2, 1 / sigma_m^2,
+1 / sigma_yaw^2 for each robot), what of the errors lies along that motion is the c of
+(G' W G)^-1 G' W beta (beta the taken robots' pose errors stacked, G the motion's three
+columns): the best any fusion that learns the poses from the ball can do is to leave it.
+The robots' spread pins down part of a turn they share through their positions' prior, so
+the gauge is in general below the shared mean (one robot alone: both are its own d). A
+fusion that removed everything else would give the replay with the true poses moved by c
+at each step: the floor of the fused RMSE from the ball alone.
 
 One Markdown row per pair (and one of them all pooled): the fused steps scored, the replay's
-fused RMSE, the RMSE of each taken frame's own d (per robot) and of each step's shared part
-(the floor), from the believed poses and, when the replay corrected them (``--localise``),
-from the corrected ones.
+fused RMSE, the RMSE of each taken frame's own d (per robot) and of each step's shared part,
+from the believed poses and, when the replay corrected them (``--localise``), from the
+corrected ones, and of each step's gauge |c|; then the true-pose replay's fused error plus
+the believed poses' c at each step that both scored (the floor).
 """
 
 from __future__ import annotations
@@ -29,6 +45,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,6 +72,44 @@ def offset(pose: dict[str, Any], true_pose: dict[str, Any], ball: dict[str, Any]
     return Offset(float(pose["x_m"]) - float(true_pose["x_m"]) + (c - 1.0) * bx - s * by,
                   float(pose["y_m"]) - float(true_pose["y_m"]) + s * bx + (c - 1.0) * by,
                   math.hypot(bx, by))
+
+
+@dataclass(frozen=True)
+class PoseError:
+    """A frame's pose error (believed less true: dx, dy [m], dpsi [rad]) and its robot's
+    true position [m]."""
+
+    dx: float
+    dy: float
+    dpsi: float
+    x_m: float
+    y_m: float
+
+
+def pose_error(pose: dict[str, Any], true_pose: dict[str, Any]) -> PoseError:
+    return PoseError(float(pose["x_m"]) - float(true_pose["x_m"]),
+                     float(pose["y_m"]) - float(true_pose["y_m"]),
+                     math.remainder(float(pose["yaw_rad"]) - float(true_pose["yaw_rad"]),
+                                    math.tau),
+                     float(true_pose["x_m"]), float(true_pose["y_m"]))
+
+
+def gauge(errors: Sequence[PoseError], ball: tuple[float, float], *, sigma_m: float,
+          sigma_rad: float) -> tuple[float, float]:
+    """The shift c of the robots' ball that no comparison of their views shows (module
+    docstring): the motion (c, phi about the ball) of all of them together that lies
+    nearest their pose errors under the prior's weights."""
+    bx, by = ball
+    g = np.zeros((3 * len(errors), 3))
+    beta = np.zeros(3 * len(errors))
+    for i, e in enumerate(errors):
+        g[3 * i:3 * i + 3] = [[1.0, 0.0, -(e.y_m - by)], [0.0, 1.0, e.x_m - bx],
+                              [0.0, 0.0, 1.0]]
+        beta[3 * i:3 * i + 3] = (e.dx, e.dy, e.dpsi)
+    w = np.tile([sigma_m ** -2, sigma_m ** -2, sigma_rad ** -2], len(errors))
+    gw = g.T * w
+    c = np.linalg.solve(gw @ g, gw @ beta)
+    return float(c[0]), float(c[1])
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -87,19 +143,27 @@ class Shares:
     """Per pose kind ("believed", "corrected"): each taken frame's |d|."""
     shared: dict[str, list[float]]
     """Per pose kind: each fused step's shared part."""
+    gauge: dict[str, list[float]]
+    """Per pose kind: each fused step's gauge |c|."""
+    floor: list[float]
+    """Each fused step's true-pose replay error moved by c (steps both scored)."""
 
     def row(self, name: str) -> str:
         cells = []
         for kind in ("believed", "corrected"):
-            own, shared = self.own[kind], self.shared[kind]
-            cells.append(f"{_rms(own):.4f} / {_rms(shared):.4f}" if own else "-")
+            own, shared, gauge = self.own[kind], self.shared[kind], self.gauge[kind]
+            cells.append(f"{_rms(own):.4f} / {_rms(shared):.4f} / {_rms(gauge):.4f}"
+                         if own else "-")
+        cells.append(f"{_rms(self.floor):.4f} ({len(self.floor)})" if self.floor else "-")
         return (f"| {name} | {len(self.fused)} | {_rms(self.fused):.4f} | "
                 + " | ".join(cells) + " |")
 
     def __add__(self, other: Shares) -> Shares:
         return Shares(self.fused + other.fused,
                       {k: v + other.own[k] for k, v in self.own.items()},
-                      {k: v + other.shared[k] for k, v in self.shared.items()})
+                      {k: v + other.shared[k] for k, v in self.shared.items()},
+                      {k: v + other.gauge[k] for k, v in self.gauge.items()},
+                      self.floor + other.floor)
 
 
 def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
@@ -107,7 +171,14 @@ def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
     """The module docstring's figures for one replay and its true-pose twin."""
     true_poses = {(f["robot"], int(f["stamp_ns"])): f["pose"] for f in truth["frames"]
                   if f.get("pose")}
+    true_errors = {}
+    for step in truth["fused"]:
+        ball = step.get("truth")
+        if not step.get("tick") and step.get("x_m") is not None and ball:
+            true_errors[int(step["stamp_ns"])] = (float(step["x_m"]) - float(ball["x_m"]),
+                                                 float(step["y_m"]) - float(ball["y_m"]))
     kinds: dict[str, dict[Key, Offset]] = {"believed": {}, "corrected": {}}
+    errors: dict[str, dict[Key, PoseError]] = {"believed": {}, "corrected": {}}
     by_stamp: dict[int, list[dict[str, Any]]] = {}
     for f in results["frames"]:
         key = (f["robot"], int(f["stamp_ns"]))
@@ -116,11 +187,15 @@ def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
         if true_pose is None or ball is None or not f.get("pose"):
             continue
         kinds["believed"][key] = offset(f["pose"], true_pose, ball)
+        errors["believed"][key] = pose_error(f["pose"], true_pose)
         loc = f.get("localisation")
         if loc and loc.get("x_m") is not None:
             kinds["corrected"][key] = offset(loc, true_pose, ball)
-    out = Shares([], {k: [] for k in kinds}, {k: [] for k in kinds})
+            errors["corrected"][key] = pose_error(loc, true_pose)
+    out = Shares([], {k: [] for k in kinds}, {k: [] for k in kinds}, {k: [] for k in kinds},
+                 [])
     latest: dict[str, dict[str, tuple[int, Offset]]] = {k: {} for k in kinds}
+    latest_errors: dict[str, dict[str, tuple[int, PoseError]]] = {k: {} for k in kinds}
     for step in results["fused"]:
         if step.get("tick") or step.get("error_m") is None:
             continue
@@ -140,6 +215,21 @@ def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
                 out.shared[kind].append(math.hypot(
                     sum(wi * d.dx for wi, d in zip(w, now, strict=True)) / total,
                     sum(wi * d.dy for wi, d in zip(w, now, strict=True)) / total))
+        truth_now = step.get("truth")
+        for kind, pose_errors in errors.items():
+            for f in by_stamp.get(stamp, ()):
+                e = pose_errors.get((f["robot"], stamp))
+                if f["robot"] in taken and e is not None:
+                    latest_errors[kind][f["robot"]] = (stamp, e)
+            members = [e for t, e in latest_errors[kind].values() if stamp - t <= window_ns]
+            if not (members and truth_now):
+                continue
+            ball = (float(truth_now["x_m"]), float(truth_now["y_m"]))
+            cx, cy = gauge(members, ball, sigma_m=sigma_m, sigma_rad=sigma_rad)
+            out.gauge[kind].append(math.hypot(cx, cy))
+            true_error = true_errors.get(stamp)
+            if kind == "believed" and true_error is not None:
+                out.floor.append(math.hypot(true_error[0] + cx, true_error[1] + cy))
     return out
 
 
@@ -172,9 +262,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         pooled = one if pooled is None else pooled + one
     if pooled is not None and len(rows) > 1:
         rows.append(pooled.row("all, pooled"))
-    print("| results | steps | fused RMSE [m] | believed poses: per robot / shared [m] | "
-          "corrected poses: per robot / shared [m] |")
-    print("|---|---|---|---|---|")
+    print("| results | steps | fused RMSE [m] | believed poses: per robot / shared / gauge [m] "
+          "| corrected poses: per robot / shared / gauge [m] | "
+          "floor: true-pose replay + gauge [m] (steps) |")
+    print("|---|---|---|---|---|---|")
     print("\n".join(rows))
     return 0
 

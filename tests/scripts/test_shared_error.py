@@ -122,3 +122,80 @@ def test_bad_input_is_one_line(tmp_path: Path) -> None:
         assert run.returncode in (1, 2) and "Traceback" not in run.stderr
         assert says in run.stderr and run.stderr.count("\n") <= 3, run.stderr
         assert run.stdout == ""  # no table begun before the error
+
+
+def _ring(turn: float = 0.0) -> dict[str, tuple[float, float, float]]:
+    """Three robots 4 m round the ball at (0, 0), 120 deg apart, each facing it."""
+    out = {}
+    for i, a in enumerate((90.0, 210.0, 330.0)):
+        r = math.radians(a)
+        out[f"robot{i + 1}"] = (4.0 * math.cos(r), 4.0 * math.sin(r), r + math.pi + turn)
+    return out
+
+
+def _gauge_of(believed: dict[str, tuple[float, float, float]],
+              true: dict[str, tuple[float, float, float]],
+              true_replay_error: tuple[float, float] | None = None) -> Any:
+    doc, truth = _docs(believed)
+    for f in truth["frames"]:
+        f["pose"] = _pose(*true[f["robot"]])
+    if true_replay_error is not None:
+        truth["fused"] = [dict(s, x_m=BALL["x_m"] + true_replay_error[0], truth=BALL,
+                               y_m=BALL["y_m"] + true_replay_error[1]) for s in doc["fused"]]
+    for s in doc["fused"]:
+        s["truth"] = BALL
+    return shared_error.shares(doc, truth, window_ns=150 * MS, sigma_m=0.05,
+                               sigma_rad=math.radians(1.0))
+
+
+def test_one_robot_turned_alone_is_shared_in_the_mean_but_not_in_the_gauge() -> None:
+    # robot1 off by 1 deg, the others right: as the ball moves round it its yaw shows, so
+    # nothing of it is the floor, while the weighted mean keeps a third of its 7 cm
+    true = _ring()
+    believed = dict(true)
+    x, y, yaw = true["robot1"]
+    believed["robot1"] = (x, y, yaw + math.radians(1.0))
+    s = _gauge_of(believed, true)
+    chord = 4.0 * 2.0 * math.sin(math.radians(0.5))
+    assert s.shared["believed"][-1] == pytest.approx(chord / 3.0)
+    assert s.gauge["believed"][-1] == pytest.approx(0.0, abs=1e-12)
+    # robot1 alone at the first step: all of it (to first order in the turn)
+    assert s.gauge["believed"][0] == pytest.approx(4.0 * math.radians(1.0))
+
+
+def test_the_whole_picture_moved_together_is_all_floor() -> None:
+    # every robot's pose turned 1 deg about (1, 2) and shifted by (3, -2) cm: each robot's
+    # ball moves as the picture does, which no comparison of them shows
+    phi, q, c = math.radians(1.0), (1.0, 2.0), (0.03, -0.02)
+
+    def moved(x: float, y: float) -> tuple[float, float]:
+        dx, dy = x - q[0], y - q[1]
+        return (q[0] + math.cos(phi) * dx - math.sin(phi) * dy + c[0],
+                q[1] + math.sin(phi) * dx + math.cos(phi) * dy + c[1])
+
+    true = _ring()
+    believed = {r: (*moved(x, y), yaw + phi) for r, (x, y, yaw) in true.items()}
+    bx, by = moved(BALL["x_m"], BALL["y_m"])
+    s = _gauge_of(believed, true, true_replay_error=(0.01, 0.0))
+    # first order in phi
+    assert s.gauge["believed"][-1] == pytest.approx(math.hypot(bx, by), abs=2e-4)
+    assert s.shared["believed"][-1] == pytest.approx(math.hypot(bx, by), abs=1e-9)
+    # the floor: the true-pose replay's error moved by the gauge
+    assert s.floor[-1] == pytest.approx(math.hypot(bx + 0.01, by), abs=2e-4)
+    assert "| 0.0200 |" in s.row("x") and s.row("x").endswith("(30) |")
+
+
+def test_the_robots_spread_pins_part_of_a_turn_they_share() -> None:
+    # all three turned by 1 deg, none moved: a turn of the whole picture would have moved
+    # them 7 cm each, which their positions' prior (5 cm) makes unlikely; so the gauge
+    # keeps a part of the turn, not all, and none of it reaches the ball at their centre
+    true = _ring()
+    s = _gauge_of(_ring(math.radians(1.0)), true)
+    assert s.gauge["believed"][-1] == pytest.approx(0.0, abs=1e-12)
+    assert s.shared["believed"][-1] == pytest.approx(0.0, abs=1e-12)
+    # seen from a ball off their centre, part of it stays: less than a whole turn gives
+    off = shared_error.gauge([shared_error.PoseError(0.0, 0.0, math.radians(1.0), x, y)
+                              for x, y, _ in true.values()], (2.0, 0.0), sigma_m=0.05,
+                             sigma_rad=math.radians(1.0))
+    whole = 2.0 * math.radians(1.0)  # the ball 2 m from the turn's centre
+    assert 0.1 * whole < math.hypot(*off) < 0.9 * whole

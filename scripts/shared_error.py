@@ -55,26 +55,6 @@ Key = tuple[str, int]
 
 
 @dataclass(frozen=True)
-class Offset:
-    """What a frame's pose error does to its ball: the offset d [m] and the ball's range."""
-
-    dx: float
-    dy: float
-    range_m: float
-
-
-def offset(pose: dict[str, Any], true_pose: dict[str, Any], ball: dict[str, Any]) -> Offset:
-    """The ball's offset from a pose error (module docstring)."""
-    dpsi = math.remainder(float(pose["yaw_rad"]) - float(true_pose["yaw_rad"]), math.tau)
-    bx = float(ball["x_m"]) - float(true_pose["x_m"])
-    by = float(ball["y_m"]) - float(true_pose["y_m"])
-    c, s = math.cos(dpsi), math.sin(dpsi)
-    return Offset(float(pose["x_m"]) - float(true_pose["x_m"]) + (c - 1.0) * bx - s * by,
-                  float(pose["y_m"]) - float(true_pose["y_m"]) + s * bx + (c - 1.0) * by,
-                  math.hypot(bx, by))
-
-
-@dataclass(frozen=True)
 class PoseError:
     """A frame's pose error (believed less true: dx, dy [m], dpsi [rad]) and its robot's
     true position [m]."""
@@ -92,6 +72,27 @@ def pose_error(pose: dict[str, Any], true_pose: dict[str, Any]) -> PoseError:
                      math.remainder(float(pose["yaw_rad"]) - float(true_pose["yaw_rad"]),
                                     math.tau),
                      float(true_pose["x_m"]), float(true_pose["y_m"]))
+
+
+@dataclass(frozen=True)
+class Offset:
+    """What a frame's pose error does to its ball: the offset d [m], the ball's range, and
+    the pose error itself."""
+
+    dx: float
+    dy: float
+    range_m: float
+    error: PoseError
+
+
+def offset(pose: dict[str, Any], true_pose: dict[str, Any], ball: dict[str, Any]) -> Offset:
+    """The ball's offset from a pose error (module docstring)."""
+    e = pose_error(pose, true_pose)
+    bx = float(ball["x_m"]) - e.x_m
+    by = float(ball["y_m"]) - e.y_m
+    c, s = math.cos(e.dpsi), math.sin(e.dpsi)
+    return Offset(e.dx + (c - 1.0) * bx - s * by, e.dy + s * bx + (c - 1.0) * by,
+                  math.hypot(bx, by), e)
 
 
 def gauge(errors: Sequence[PoseError], ball: tuple[float, float], *, sigma_m: float,
@@ -178,7 +179,6 @@ def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
             true_errors[int(step["stamp_ns"])] = (float(step["x_m"]) - float(ball["x_m"]),
                                                  float(step["y_m"]) - float(ball["y_m"]))
     kinds: dict[str, dict[Key, Offset]] = {"believed": {}, "corrected": {}}
-    errors: dict[str, dict[Key, PoseError]] = {"believed": {}, "corrected": {}}
     by_stamp: dict[int, list[dict[str, Any]]] = {}
     for f in results["frames"]:
         key = (f["robot"], int(f["stamp_ns"]))
@@ -187,20 +187,18 @@ def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
         if true_pose is None or ball is None or not f.get("pose"):
             continue
         kinds["believed"][key] = offset(f["pose"], true_pose, ball)
-        errors["believed"][key] = pose_error(f["pose"], true_pose)
         loc = f.get("localisation")
         if loc and loc.get("x_m") is not None:
             kinds["corrected"][key] = offset(loc, true_pose, ball)
-            errors["corrected"][key] = pose_error(loc, true_pose)
     out = Shares([], {k: [] for k in kinds}, {k: [] for k in kinds}, {k: [] for k in kinds},
                  [])
     latest: dict[str, dict[str, tuple[int, Offset]]] = {k: {} for k in kinds}
-    latest_errors: dict[str, dict[str, tuple[int, PoseError]]] = {k: {} for k in kinds}
     for step in results["fused"]:
         if step.get("tick") or step.get("error_m") is None:
             continue
         stamp = int(step["stamp_ns"])
         taken = step.get("fused_robots") or ()
+        truth_now = step.get("truth")
         out.fused.append(float(step["error_m"]))
         for kind, offsets in kinds.items():
             for f in by_stamp.get(stamp, ()):
@@ -209,23 +207,17 @@ def shares(results: dict[str, Any], truth: dict[str, Any], *, window_ns: int,
                     latest[kind][f["robot"]] = (stamp, d)
                     out.own[kind].append(math.hypot(d.dx, d.dy))
             now = [d for t, d in latest[kind].values() if stamp - t <= window_ns]
-            if now:
-                w = [1.0 / (sigma_m ** 2 + (d.range_m * sigma_rad) ** 2) for d in now]
-                total = sum(w)
-                out.shared[kind].append(math.hypot(
-                    sum(wi * d.dx for wi, d in zip(w, now, strict=True)) / total,
-                    sum(wi * d.dy for wi, d in zip(w, now, strict=True)) / total))
-        truth_now = step.get("truth")
-        for kind, pose_errors in errors.items():
-            for f in by_stamp.get(stamp, ()):
-                e = pose_errors.get((f["robot"], stamp))
-                if f["robot"] in taken and e is not None:
-                    latest_errors[kind][f["robot"]] = (stamp, e)
-            members = [e for t, e in latest_errors[kind].values() if stamp - t <= window_ns]
-            if not (members and truth_now):
+            if not now:
+                continue
+            w = [1.0 / (sigma_m ** 2 + (d.range_m * sigma_rad) ** 2) for d in now]
+            total = sum(w)
+            out.shared[kind].append(math.hypot(
+                sum(wi * d.dx for wi, d in zip(w, now, strict=True)) / total,
+                sum(wi * d.dy for wi, d in zip(w, now, strict=True)) / total))
+            if not truth_now:
                 continue
             ball = (float(truth_now["x_m"]), float(truth_now["y_m"]))
-            cx, cy = gauge(members, ball, sigma_m=sigma_m, sigma_rad=sigma_rad)
+            cx, cy = gauge([d.error for d in now], ball, sigma_m=sigma_m, sigma_rad=sigma_rad)
             out.gauge[kind].append(math.hypot(cx, cy))
             true_error = true_errors.get(stamp)
             if kind == "believed" and true_error is not None:

@@ -32,7 +32,7 @@ import sys
 from collections.abc import Callable, Iterator, Sequence
 from importlib import metadata
 from types import FrameType
-from typing import IO
+from typing import IO, NoReturn
 
 from dsp.contract import RENDERERS
 from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError
@@ -41,6 +41,7 @@ from dsp.text import printable
 __all__ = [
     "DISTRIBUTION",
     "RENDERERS",
+    "Parser",
     "add_common_arguments",
     "echo",
     "progress_enabled",
@@ -50,6 +51,23 @@ __all__ = [
 
 DISTRIBUTION = "dual-sight"
 """The installed distribution whose version ``--version`` prints."""
+
+
+class Parser(argparse.ArgumentParser):
+    """Every command's option parser: a mistake is one line and a one-line hint, exit 2.
+
+    argparse's own :meth:`~argparse.ArgumentParser.error` prints the whole usage block
+    (18-21 lines for the larger commands) before the message; the message is what a user
+    needs, and ``--help`` is one command away. Abbreviations are refused (``allow_abbrev``
+    False), so an option added later cannot change what an old command line means."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+
+    def error(self, message: str) -> NoReturn:  # argparse's hook for every parse error
+        self.exit(2, printable(f"{self.prog}: error: {message}") +
+                  f"\nTry '{self.prog} --help' for the options.\n")
 
 
 def version() -> str:
@@ -97,8 +115,7 @@ def add_common_arguments(
                          help="never show a progress bar (default: when stderr is a terminal "
                          "and not --quiet)")
         parser.add_argument("-q", "--quiet", action="store_true",
-                            help="print no summary; no progress bar unless --progress "
-                            "(warnings are still printed)")
+                            help="print no summary (warnings still are)")
 
 
 def progress_enabled(args: argparse.Namespace, stream: IO[str] | None = None) -> bool | None:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from dsp.atomic import atomic_output, check_distinct
 from dsp.checks import check_int, check_number, check_suffix
-from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.jsonio import dumps as strict_json
 from dsp.plotting import FIGURE_SUFFIXES, save
@@ -44,7 +44,7 @@ MAX_PLACEMENTS = 10_000
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=PROG,
         allow_abbrev=False,
         description="Fit the pixel-radius -> range calibration of a camera model the way the "

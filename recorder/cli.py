@@ -13,7 +13,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.realism import REALISM, Realism, realism_preset
 from dsp.text import format_bytes, printable
 from recorder.field import FIELDS
@@ -25,7 +25,7 @@ PROG = "dsp-record"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=PROG,
         allow_abbrev=False,
         description="Record a scenario of the simulated RoboCup MSL world (pybullet) to a "

@@ -21,12 +21,12 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.checks import check_suffix
-from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import EXIT_INTERRUPTED, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
-from replay.batch.cli import OUT_MCAP_IN_DIR, add_batch_arguments, check_single, is_batch, run_batch
+from replay.batch.cli import add_batch_arguments, check_single, is_batch, run_batch
 from replay.log.catalogue import check_mcap_file
 from replay.memory import keep_image_buffers
 from replay.options import (
@@ -37,6 +37,7 @@ from replay.options import (
     ReplayOptions,
     RerunTarget,
 )
+from replay.profiles import DEFAULT_PROFILE, PROFILE_CHOICES, PROFILES, options_for
 from replay.runner import replay
 from replay.sinks.rerun.live import DEFAULT_BIND, DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT
 from replay.stats import ReplaySummary
@@ -46,120 +47,154 @@ __all__ = ["build_parser", "format_summary", "main", "warn"]
 PROG = "dsp-replay"
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+ESSENTIAL = frozenset({
+    "help", "help_all", "profile", "rerun", "save", "connect", "serve",
+    "out", "out_mcap", "out_csv", "plot", "force", "cameras", "ball", "image_topic",
+    "pose_topic", "out_dir", "quiet"})
+"""The options ``--help`` shows (by ``dest``); ``--help-all`` shows every one."""
+
+
+def build_parser(*, all_options: bool = True) -> argparse.ArgumentParser:
+    """The parser; ``all_options`` False hides the researchers' switches from ``--help``
+    (they parse all the same)."""
+    p = Parser(
         prog=PROG,
-        allow_abbrev=False,
-        description="Replay a Dual-Sight log: estimate the ball from every image, fuse, "
-        "evaluate against ground truth, and show it in Rerun.",
+        usage="%(prog)s LOG [--profile best|fast|paper] [--rerun | --connect URL | --serve] "
+        "[--save RRD] [--out JSON] [--out-mcap MCAP] [...]\n"
+        "       %(prog)s LOG|FOLDER [...] --out-dir DIR [--estimates] [--workers N | --ray]",
+        description="Find the ball in every image of a log, locate and fuse it, score it "
+        "against the log's truth and show it in Rerun: the best pipeline the log allows.",
+        epilog=None if all_options else "Researchers' switches: dsp-replay --help-all.",
+        add_help=False,
     )
+    p.add_argument("-h", "--help", action="help", help="show the essential options and exit")
+    p.add_argument("--help-all", action="store_true",
+                   help="show every option and exit")
     p.add_argument("log", type=Path, nargs="+",
-                   help="the MCAP log to replay (with --out-dir: logs and folders of logs)")
-    viewer = p.add_mutually_exclusive_group()
-    viewer.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
-    viewer.add_argument("--save", type=Path, metavar="RRD", help="save a Rerun .rrd file")
-    viewer.add_argument("--connect", metavar="URL",
-                        help="connect to a running viewer over gRPC "
-                        "(e.g. rerun+http://127.0.0.1:9876/proxy)")
-    viewer.add_argument("--serve", action="store_true",
-                        help="serve the Rerun web viewer until Ctrl-C and print its URL")
-    p.add_argument("--bind", metavar="ADDR",
-                   help=f"with --serve: the address to serve on (default {DEFAULT_BIND}, this "
-                   "machine only; 0.0.0.0 for every interface)")
-    p.add_argument("--port", type=int, metavar="PORT",
-                   help=f"with --serve: the web viewer's port (default {DEFAULT_WEB_PORT}; "
-                   "0 picks a free one)")
-    p.add_argument("--grpc-port", type=int, metavar="PORT",
-                   help=f"with --serve: the data (gRPC) port (default {DEFAULT_GRPC_PORT}; "
-                   "0 picks a free one)")
-    p.add_argument("--method", choices=METHODS, default="corrected",
-                   help="paper: eq. 3-14 as published; corrected: calibration on the range "
-                   "(default)")
-    p.add_argument("--fusion", metavar="|".join(FUSION_METHODS),
-                   help="how the robots' estimates are fused (default: mean in paper mode, "
-                   "as the paper does; for the corrected estimator track: a Kalman filter "
-                   "giving position and velocity at every image stamp; triangulate and "
-                   "ballistic place the ball in 3-D, ballistic tracking its flight and "
-                   "predicting its landing); or a fusion from "
-                   "outside: an installed dual_sight.fusions entry point's name, or "
-                   "package.module:Class (docs/compare.md)")
-    p.add_argument("--noise", choices=NOISE_MODELS, default="cambada",
-                   help="the window fusions' covariance per estimate: cambada (a fixed range "
-                   "law, default) or calibrated (from the calibration, as track uses; makes "
-                   "robust reject outliers weighted averages in)")
-    _add_track_arguments(p)
-    _add_input_arguments(p)
-    _add_localise_arguments(p)
-    p.add_argument("--pose-tolerance", type=float, default=0.1, metavar="S",
-                   help="skip an image whose nearest pose is further away (default 0.1 s)")
-    p.add_argument("--window", type=float, default=0.05, metavar="S",
-                   help="fusion window grouping the robots' images (default 0.05 s)")
-    p.add_argument("--recover", action="store_true",
-                   help="replay every complete chunk of a truncated or damaged log")
-    p.add_argument("--max-chunk-mib", type=float, default=128.0, metavar="MIB",
-                   help="refuse chunks larger than this, compressed or not (default 128)")
-    p.add_argument("--max-image-mpx", type=float, default=40.0, metavar="MPX",
-                   help="skip images whose header declares more megapixels (default 40)")
-    p.add_argument("--threads", type=int, metavar="N",
-                   help="threads decoding and detecting images ahead (default: the cores; "
-                   "1: serial); the outputs are the same whatever N")
-    p.add_argument("--out", type=Path, metavar="JSON", help="write results JSON")
-    p.add_argument("--out-mcap", type=Path, metavar="MCAP", nargs="?", const=OUT_MCAP_IN_DIR,
-                   help="write estimates as MCAP (with --out-dir: no file name)")
-    p.add_argument("--out-csv", type=Path, metavar="CSV",
-                   help="write the per-frame and fused estimates as CSV, one row each")
-    p.add_argument("--plot", type=Path, metavar="PNG",
-                   help="draw error over time and the top-down track (.png or .svg)")
-    p.add_argument("--strict", action="store_true",
-                   help="make every warning an error (a robot that saw no ball, balls out of "
-                   "range, skipped messages or images): exit 1 and write nothing")
+                   help="the MCAP log (with --out-dir: logs and folders)")
+    p.add_argument("--profile", choices=PROFILE_CHOICES, default=DEFAULT_PROFILE,
+                   help="; ".join(f"{n}: {PROFILES[n].summary}" for n in PROFILE_CHOICES)
+                   if all_options else "best (default), fast (no line fit) or paper (the "
+                   "paper exactly)")
+    viewer = p.add_argument_group("viewing (Rerun)")
+    live = viewer.add_mutually_exclusive_group()
+    live.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
+    live.add_argument("--connect", metavar="URL", help="connect to a running viewer")
+    live.add_argument("--serve", action="store_true",
+                      help="serve the web viewer (prints its URL)")
+    viewer.add_argument("--save", type=Path, metavar="RRD",
+                        help="save a Rerun .rrd file (also while viewing live)")
+    out = p.add_argument_group("outputs")
+    out.add_argument("--out", type=Path, metavar="JSON",
+                     help="write the results JSON")
+    out.add_argument("--out-mcap", type=Path, metavar="MCAP",
+                     help="write the estimates as MCAP (Foxglove, ros2 bag)")
+    out.add_argument("--out-csv", type=Path, metavar="CSV",
+                     help="write the estimates as CSV, one row each")
+    out.add_argument("--plot", type=Path, metavar="PNG",
+                     help="draw error over time and the track (.png/.svg)")
+    team = p.add_argument_group("your own robots' log")
+    team.add_argument("--cameras", metavar="FILE",
+                      help="camera file (.yaml/.json); default: the log's own")
+    team.add_argument("--ball", type=Path, metavar="BALL.json",
+                      help="ball model for the real-ball detector")
+    team.add_argument("--image-topic", default=contract.IMAGE_TOPIC, metavar="TOPIC",
+                      help="image topic, {robot} = robot name (default %(default)s)")
+    team.add_argument("--pose-topic", default=contract.POSE_TOPIC, metavar="TOPIC",
+                      help="pose topic pattern (default %(default)s)")
     add_batch_arguments(p)
     add_common_arguments(p, force=True)
+    expert = p.add_argument_group(
+        "researchers' switches", "each overrides one choice of the profile; choices that "
+        "cannot go with it fall away (--fusion mean drops the hops)" if all_options else None)
+    expert.add_argument("--method", choices=METHODS, default=None,
+                        help="paper: eq. 3-14 as published; corrected: calibration on the "
+                        "range (the profile's: corrected, paper for --profile paper)")
+    expert.add_argument("--fusion", metavar="|".join(FUSION_METHODS),
+                        help="how the robots' estimates are fused (the profile's: track, a "
+                        "Kalman filter giving position and velocity at every image stamp; "
+                        "mean for --profile paper); triangulate and ballistic place the ball "
+                        "in 3-D, ballistic tracking its flight and predicting its landing; "
+                        "or a fusion from outside: an installed dual_sight.fusions entry "
+                        "point's name, or package.module:Class")
+    expert.add_argument("--noise", choices=NOISE_MODELS, default="cambada",
+                        help="the window fusions' covariance per estimate: cambada (a fixed "
+                        "range law, default) or calibrated (from the calibration, as track "
+                        "uses)")
+    _add_track_arguments(expert)
+    _add_input_arguments(expert)
+    _add_localise_arguments(expert)
+    expert.add_argument("--pose-tolerance", type=float, default=0.1, metavar="S",
+                        help="skip an image whose nearest pose is further away (default 0.1 s)")
+    expert.add_argument("--window", type=float, default=0.05, metavar="S",
+                        help="fusion window grouping the robots' images (default 0.05 s)")
+    expert.add_argument("--recover", action="store_true",
+                        help="replay every complete chunk of a truncated or damaged log")
+    expert.add_argument("--max-chunk-mib", type=float, default=128.0, metavar="MIB",
+                        help="refuse chunks larger than this, compressed or not (default 128)")
+    expert.add_argument("--max-image-mpx", type=float, default=40.0, metavar="MPX",
+                        help="skip images whose header declares more megapixels (default 40)")
+    expert.add_argument("--threads", type=int, metavar="N",
+                        help="threads decoding and detecting images ahead (default: the "
+                        "cores; 1: serial); the outputs are the same whatever N")
+    expert.add_argument("--strict", action="store_true",
+                        help="make every warning an error (a robot that saw no ball, balls "
+                        "out of range, skipped messages or images): exit 1, write nothing")
+    expert.add_argument("--bind", metavar="ADDR",
+                        help=f"with --serve: the address to serve on (default {DEFAULT_BIND}, "
+                        "this machine only; 0.0.0.0 for every interface)")
+    expert.add_argument("--port", type=int, metavar="PORT",
+                        help=f"with --serve: the web viewer's port (default "
+                        f"{DEFAULT_WEB_PORT}; 0 picks a free one)")
+    expert.add_argument("--grpc-port", type=int, metavar="PORT",
+                        help=f"with --serve: the data (gRPC) port (default "
+                        f"{DEFAULT_GRPC_PORT}; 0 picks a free one)")
+    if not all_options:
+        for action in p._actions:
+            if action.dest not in ESSENTIAL:
+                action.help = argparse.SUPPRESS
     return p
 
 
-def _add_track_arguments(p: argparse.ArgumentParser) -> None:
+def _add_track_arguments(p: argparse._ActionsContainer) -> None:
     """``--smooth``, ``--hops``, ``--width-range`` and ``--clock``."""
     p.add_argument("--smooth", action="store_true",
                    help="offline: smooth the track over the whole log (RTS smoother) instead "
                    "of the causal estimate a robot would have live (--fusion track)")
-    p.add_argument("--hops", action="store_true",
-                   help="--fusion track: the position from a 3-D track beside the tracker, so a "
-                   "hop is not placed where far robots' lifted estimates put it; with good "
-                   "poses (--localise lines) or --pose-uncertainty (docs/hops.md)")
+    p.add_argument("--hops", action=argparse.BooleanOptionalAction, default=None,
+                   help="--fusion track: the position from a 3-D track beside the tracker, "
+                   "so a hop or a lob is placed where it is (the profile's: on with two or "
+                   "more robots, off for --profile paper)")
     p.add_argument("--width-range", action="store_true",
                    help="also range each blob by its width across the bearing, which a ball "
                    "in the air does not change: a blob wider than a ball on the ground at its "
-                   "range is a ball in the air, placed under itself (its ray kept for the 3-D "
-                   "fusions); the corrected method (docs/hops.md)")
+                   "range is a ball in the air, placed under itself; the corrected method")
     p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "
                    "against the truth at the tick")
 
 
-def _add_localise_arguments(p: argparse.ArgumentParser) -> None:
+def _add_localise_arguments(p: argparse._ActionsContainer) -> None:
     """``--localise``, ``--pose-sigma`` and ``--pose-uncertainty``."""
-    p.add_argument("--localise", choices=LOCALISE_MODES, default="none",
+    p.add_argument("--localise", choices=LOCALISE_MODES, default=None,
                    help="lines: correct each frame's pose from the field lines in its image "
-                   "before the ball is located (the field from the log's scenario metadata; "
-                   "about 7 ms more per frame on one core); ball: correct each robot's pose by "
-                   "its drifting bias, estimated from how its ball disagrees with the "
-                   "tracked one (--fusion track; only the robots' biases relative to each "
-                   "other can be seen); none: the believed poses (default)")
+                   "(the field from the log's scenario metadata; about 7 ms more per frame "
+                   "on one core); auto: lines where the log names its field and a camera "
+                   "(the profile's, but none for fast and paper); ball: correct each "
+                   "robot's pose by its drifting bias, estimated from how its ball disagrees "
+                   "with the tracked one (--fusion track); none: the believed poses")
     p.add_argument("--pose-sigma", metavar="M,DEG", type=_pose_sigma,
                    default=DEFAULT_POSE_SIGMA,
                    help="the believed pose's standard deviation, position in metres and yaw "
-                   "in degrees (default 0.05,1): with --localise lines a fit that moves the "
-                   "pose further than this allows is refused; with --localise ball, the "
-                   "spread of each robot's bias (drifting with a 5 s time constant); with "
-                   "--pose-uncertainty, the "
-                   "pose's covariance when neither the lines nor the log give one")
-    p.add_argument("--pose-uncertainty", action="store_true",
-                   help="weigh each robot's estimate by its own pose's uncertainty too (the "
-                   "position's, and the yaw's across the bearing, growing with range): the "
-                   "line fit's covariance with --localise lines, else the log pose's "
-                   "(PoseWithCovarianceStamped), else --pose-sigma's")
+                   "in degrees (default 0.05,1): a line fit that moves the pose further than "
+                   "this allows is refused; with --localise ball, the spread of each robot's "
+                   "bias; with --pose-uncertainty, the pose's covariance when neither the "
+                   "lines nor the log give one")
+    p.add_argument("--pose-uncertainty", action=argparse.BooleanOptionalAction, default=None,
+                   help="weigh each robot's estimate by its own pose's uncertainty too: the "
+                   "line fit's covariance, else the log pose's (PoseWithCovarianceStamped), "
+                   "else --pose-sigma's (the profile's: on, off for --profile paper)")
 
 
 def _pose_sigma(text: str) -> tuple[float, float]:
@@ -189,21 +224,13 @@ def _input(text: str | None) -> Path | str | None:
     return None if text is None else (text if text == "paper" else Path(text))
 
 
-def _add_input_arguments(p: argparse.ArgumentParser) -> None:
+def _add_input_arguments(p: argparse._ActionsContainer) -> None:
     """What describes the log: its cameras, its topics, the robots and times to replay."""
     p.add_argument("--detector", metavar="paper|real|NAME|package.module:Class", default=None,
                    help="how the ball is found in an image: 'paper' (the paper's colour "
                    "chain, the default), 'real' (the real-ball detector of --ball), or a "
                    "detector from outside: an installed dual_sight.detectors entry point's "
                    "name, or package.module:Class (docs/compare.md)")
-    p.add_argument("--ball", type=Path, metavar="BALL.json",
-                   help="a ball model (dsp-calibrate --ball-from DIR writes one): the real "
-                   "detector, fitted to the venue's ball, light and look-alikes")
-    p.add_argument("--cameras", metavar="FILE",
-                   help="camera file, .yaml or .json: each robot's camera (model, size, centre, "
-                   "mounting, calibration, map-to-field; dsp-info --cameras-template writes "
-                   "one); 'paper' for the paper's camera (default: the log's camera metadata; "
-                   "a log without any needs one of the two)")
     p.add_argument("--calibration", metavar="FILE",
                    help="calibration JSON for every robot, replacing its camera's; 'paper' "
                    "for the paper's eq. 4 (and its image centre where the log names no camera)")
@@ -211,10 +238,6 @@ def _add_input_arguments(p: argparse.ArgumentParser) -> None:
                    help="a calibration model from outside for every robot, replacing its "
                    "camera's: an installed dual_sight.calibrations entry point's name, or "
                    "package.module:Class (docs/compare.md)")
-    p.add_argument("--image-topic", default=contract.IMAGE_TOPIC,
-                   help="image topic pattern, {robot} = robot name (default %(default)s)")
-    p.add_argument("--pose-topic", default=contract.POSE_TOPIC,
-                   help="pose topic pattern (default %(default)s)")
     p.add_argument("--truth-topic", metavar="TOPIC",
                    help="the ball's true position, to score against (PoseStamped, "
                    f"PointStamped or Odometry; default {contract.GT_BALL_TOPIC})")
@@ -234,22 +257,25 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
     check_suffix("--out-mcap", args.out_mcap, (".mcap",))
     check_suffix("--out-csv", args.out_csv, (".csv",))
     check_suffix("--plot", args.plot, FIGURE_SUFFIXES)
-    rerun = None
+    rerun, also_save = None, None
     if args.rerun:
         rerun = RerunTarget("spawn")
-    elif args.save is not None:
-        rerun = RerunTarget("save", str(args.save))
     elif args.connect is not None:
         rerun = RerunTarget("connect", args.connect)
     elif args.serve:
         rerun = RerunTarget("serve", serve_url)
+    if args.save is not None:
+        if rerun is None:
+            rerun = RerunTarget("save", str(args.save))
+        else:
+            also_save = args.save
     robots = None
     if args.robots:
         robots = tuple(r.strip() for r in args.robots.split(",") if r.strip())
     start, start_absolute = args.start or (None, False)
     end, end_absolute = args.end or (None, False)
-    return ReplayOptions(
-        method=args.method, detector=args.detector, ball=args.ball,
+    return options_for(
+        args.profile, method=args.method, detector=args.detector, ball=args.ball,
         fusion=args.fusion, calibration=_input(args.calibration),
         calibration_model=args.calibration_model,
         cameras=_input(args.cameras), smooth=args.smooth, hops=args.hops, noise=args.noise,
@@ -261,7 +287,8 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         start_absolute=start_absolute, end_absolute=end_absolute,
         strict=args.strict, pose_tolerance_s=args.pose_tolerance,
         window_s=args.window, recover=args.recover, out=args.out, out_mcap=args.out_mcap,
-        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun, threads=args.threads,
+        out_csv=args.out_csv, plot=args.plot, force=args.force, rerun=rerun, rerun_save=also_save,
+        threads=args.threads,
         progress=progress_enabled(args),
         max_chunk_mib=args.max_chunk_mib, max_image_mpx=args.max_image_mpx, quiet=args.quiet,
     )
@@ -278,7 +305,8 @@ def _rate(v: float) -> str:
 
 def format_summary(s: ReplaySummary) -> str:
     """A plain-text table of the replay."""
-    lines = [f"replayed {s.path.name}: {s.frames} frames, {s.steps} steps "
+    lines = [] if s.pipeline is None else [s.pipeline]
+    lines += [f"replayed {s.path.name}: {s.frames} frames, {s.steps} steps "
              f"({s.fused_steps} fused) in {s.wall_s:.2f} s ({_rate(s.frames_per_s)} frames/s)"]
     if s.estimator_ms is not None and math.isfinite(s.estimator_ms):
         lines.append(f"estimator time: {s.estimator_ms:.2f} ms/frame (decode + detect + locate)")
@@ -336,7 +364,11 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    args = build_parser().parse_intermixed_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--help-all" in argv:
+        build_parser().print_help()
+        return 0
+    args = build_parser(all_options=False).parse_intermixed_args(argv)
     live = [f for f, v in (("--bind", args.bind), ("--port", args.port),
                            ("--grpc-port", args.grpc_port)) if v is not None]
     if live and not args.serve:

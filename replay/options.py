@@ -42,10 +42,11 @@ poses, so the look-ahead stays bounded."""
 MAX_CLOCK_HZ = 10_000.0
 """The fastest ``--clock`` [Hz]."""
 RERUN_MODES = ("spawn", "save", "connect", "serve")
-LOCALISE_MODES = ("none", "lines", "ball")
+LOCALISE_MODES = ("none", "lines", "ball", "auto")
 """``--localise``: the believed poses as they are, each corrected from its image's field
 lines (:mod:`replay.localise`), or each corrected by its robot's bias as the tracker's
-residuals give it (:mod:`estimator.tracking.bias`)."""
+residuals give it (:mod:`estimator.tracking.bias`); "auto": the field lines where the log
+names its field and a camera, else none (:func:`replay.profiles.decide`)."""
 DEFAULT_POSE_SIGMA = (0.05, 1.0)
 """The believed pose's standard deviation the line fit weighs it with, (m, deg)."""
 FIT_LEAD_S = 0.1
@@ -98,6 +99,9 @@ class ReplayOptions:
     Raises :class:`~replay.errors.UsageError` when made with a value out of range."""
 
     method: str = "corrected"
+    profile: str | None = None
+    """The profile these options were made from (:func:`replay.profiles.options_for`),
+    recorded in the results; None: options made one by one."""
     detector: str | None = None
     """How the ball is found in an image: "paper" (the paper's chain), "real" (the
     real-ball detector of ``ball``) or a detector from outside (:mod:`replay.plugins`: an
@@ -160,6 +164,9 @@ class ReplayOptions:
     """A figure of the replay, .png or .svg (:mod:`replay.sinks.figure`)."""
     force: bool = False
     rerun: RerunTarget | None = None
+    rerun_save: Path | None = None
+    """An .rrd file the Rerun recording is saved to as well, while it is viewed live
+    (``--rerun --save FILE``, as Rerun's own examples allow)."""
     threads: int | None = None
     """Threads decoding and detecting images ahead (:mod:`replay.ahead`); None: the
     machine's cores, 1: none (serial). The outputs are the same bytes whatever the count."""
@@ -272,7 +279,7 @@ class ReplayOptions:
         """The .rrd file that ``--save`` writes, if any."""
         if self.rerun is not None and self.rerun.mode == "save" and self.rerun.target:
             return Path(self.rerun.target)
-        return None
+        return self.rerun_save
 
     def output_flags(self) -> tuple[tuple[str, Path | None], ...]:
         """Every file output with the flag that names it."""
@@ -399,6 +406,8 @@ class ReplayOptions:
         thread count, which changes nothing in the outputs."""
         d = asdict(self)
         d.pop("threads")
+        if self.rerun_save is None:
+            d.pop("rerun_save")
         if not self.localising:  # as before the option existed: the same recording ids
             d.pop("localise")
         if not self.pose_uncertainty:
@@ -412,5 +421,7 @@ class ReplayOptions:
             d.pop("pose_sigma_deg")
         if self.calibration_model is None:
             d.pop("calibration_model")
+        if self.profile is None:
+            d.pop("profile")
         d["fusion"] = self.fusion_method
         return {k: (str(v) if isinstance(v, Path) else v) for k, v in d.items()}

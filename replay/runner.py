@@ -58,6 +58,7 @@ from replay.log import (
     TruthMessage,
 )
 from replay.options import ReplayOptions, Timing
+from replay.profiles import Pipeline, decide
 from replay.real_ball import BallFinder
 from replay.records import FrameResult, FrameStatus, Localisation
 from replay.selection import check_selected, check_selection, log_origin_ns
@@ -106,6 +107,9 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
             calibration_model=options.calibration_part(),
             metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
+        options, pipeline = decide(
+            options, has_field=info.scenario is not None and info.scenario.field is not None,
+            robots=info.robots, camera_robots=tuple(cameras.models))
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
@@ -122,7 +126,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         stats = ReplayStats(info.robots, width_range=options.width_range)
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
-            outputs = _open_outputs(stack, reader, options, estimator, stats)
+            outputs = _open_outputs(stack, reader, options, estimator, stats,
+                                    pipeline if options.profile is not None else None)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels, finder=finder,
                 detector=estimator.detector,
@@ -140,12 +145,12 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                                           bad_messages=reader.bad_messages)
             if options.strict and warnings:
                 raise StrictError(warnings)  # before the outputs are committed
-    saved = options.rerun.target if options.rerun is not None and \
-        options.rerun.mode == "save" else None
+    saved = options.save_path
     summary = stats.summary(path, wall_s=time.perf_counter() - wall0, outputs=tuple(
         Path(p) for p in (options.out, options.out_mcap, options.out_csv, options.plot, saved)
         if p is not None))
-    return dataclasses.replace(summary, warnings=tuple(warnings))
+    return dataclasses.replace(summary, warnings=tuple(warnings),
+                               pipeline=pipeline.describe() if options.profile else None)
 
 
 def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
@@ -162,10 +167,11 @@ def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
                   options: ReplayOptions, estimator: FrameEstimator,
-                  stats: ReplayStats) -> list[Sink]:
+                  stats: ReplayStats, pipeline: Pipeline | None) -> list[Sink]:
     """The sinks the options ask for, each entered in ``stack``."""
     return open_outputs(stack, options, OutputContext(
-        reader.info, reader.path.name, file_digest(reader.path), stats, estimator.centres))
+        reader.info, reader.path.name, file_digest(reader.path), stats, estimator.centres,
+        None if pipeline is None else pipeline.to_dict()))
 
 
 def _recovered(reader: LogReader) -> RecoveryLoss | None:

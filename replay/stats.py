@@ -99,6 +99,9 @@ class ReplaySummary:
     lifted: int | None = None
     """With ``--width-range``: the estimates whose blob's width placed a ball in the air
     under itself; None without it."""
+    pipeline: str | None = None
+    """What ran, in one line (:meth:`replay.profiles.Pipeline.describe`), for a replay made
+    from a profile."""
     warnings: tuple[str, ...] = ()
     """What the user must know about a replay that worked (:mod:`replay.diagnosis`); the
     commands print them on stderr (``-q`` does not hide them)."""

@@ -21,19 +21,15 @@ from replay.batch.run import SUMMARY_STEM, replay_batch, summary_paths
 from replay.options import ReplayOptions
 from replay.parallel.cli import add_worker_arguments, workers_from_args
 
-__all__ = ["OUT_MCAP_IN_DIR", "add_batch_arguments", "check_single", "is_batch", "run_batch"]
-
-OUT_MCAP_IN_DIR = Path("<stem>.estimates.mcap")
-"""``--out-mcap`` given without a file (a batch: each log's estimates go into --out-dir);
-told apart by identity (argparse would run a str const through ``type``)."""
-
+__all__ = ["add_batch_arguments", "check_single", "is_batch", "run_batch"]
 
 def add_batch_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out-dir", type=Path, metavar="DIR",
-                   help="batch: replay every LOG (and every *.mcap of a FOLDER) into DIR: "
-                   "<stem>.json each, <stem>.estimates.mcap with --out-mcap, and "
-                   f"{SUMMARY_STEM}.json/.csv/.md over all of them")
-    add_worker_arguments(p, what="the logs of a batch (--out-dir)")
+    g = p.add_argument_group("many logs")
+    g.add_argument("--out-dir", type=Path, metavar="DIR",
+                   help=f"replay each LOG into DIR, with {SUMMARY_STEM}.json/.csv/.md")
+    g.add_argument("--estimates", action="store_true",
+                   help="with --out-dir: also each log's estimates as DIR/<stem>.estimates.mcap")
+    add_worker_arguments(g, what="the logs of a batch (--out-dir)")
 
 
 def is_batch(args: argparse.Namespace) -> bool:
@@ -44,8 +40,9 @@ def check_single(args: argparse.Namespace) -> None:
     """Refuse batch-only flags in a single replay."""
     if args.workers is not None or args.ray:
         raise UsageError("--workers and --ray replay a batch: give --out-dir DIR")
-    if args.out_mcap is OUT_MCAP_IN_DIR:
-        raise UsageError("--out-mcap needs a file name (or --out-dir DIR for a batch)")
+    if args.estimates:
+        raise UsageError("--estimates writes each log's estimates in a batch: give "
+                         "--out-dir DIR (one log: --out-mcap FILE)")
 
 
 def _check(args: argparse.Namespace) -> None:
@@ -54,9 +51,9 @@ def _check(args: argparse.Namespace) -> None:
     if args.out is not None:
         raise UsageError("--out names one file; with --out-dir each log's results go to "
                          "DIR/<stem>.json")
-    if args.out_mcap is not None and args.out_mcap is not OUT_MCAP_IN_DIR:
-        raise UsageError("--out-mcap takes no file name with --out-dir (each log's estimates "
-                         "go to DIR/<stem>.estimates.mcap)")
+    if args.out_mcap is not None:
+        raise UsageError("--out-mcap names one file; with --out-dir, --estimates writes "
+                         "each log's to DIR/<stem>.estimates.mcap")
     if args.out_csv is not None or args.plot is not None:
         raise UsageError("--out-csv and --plot name one file: leave them out of a batch")
     if args.rerun or args.save is not None or args.connect is not None or args.serve:
@@ -68,8 +65,7 @@ def run_batch(args: argparse.Namespace,
               options_from_args: Callable[[argparse.Namespace], ReplayOptions]) -> int:
     """The batch command: 0 when every log replayed; else :class:`InputError` (exit 1)."""
     _check(args)
-    estimates_mcap = args.out_mcap is not None
-    args.out_mcap = None
+    estimates_mcap = args.estimates
     workers = workers_from_args(args)
     summary = replay_batch(args.log, args.out_dir, options_from_args(args),
                            estimates_mcap=estimates_mcap, workers=workers,

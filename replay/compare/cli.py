@@ -16,7 +16,7 @@ from pathlib import Path
 
 from dsp.atomic import atomic_output, check_distinct, check_output_path
 from dsp.checks import check_int, check_suffix
-from dsp.cli import add_common_arguments, echo, run_main
+from dsp.cli import Parser, add_common_arguments, echo, run_main
 from dsp.errors import InputError, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from replay.compare import Report, compare
@@ -27,7 +27,7 @@ PROG = "dsp-compare"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         allow_abbrev=False,
         prog=PROG, description="Compare two replays of the same logs: per log and in total, "
         "fused RMSE, p95, detection rate and velocity error of A, B and B - A, with a paired "

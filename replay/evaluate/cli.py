@@ -28,7 +28,7 @@ from typing import TypeVar
 from dsp.atomic import atomic_output, check_distinct
 from dsp.ball_file import read_check_file, shipped_check
 from dsp.checks import check_int, check_number
-from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
+from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
@@ -68,7 +68,7 @@ MAX_SEED = 2**63 - 1 - MAX_COUNT
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=PROG,
         allow_abbrev=False,
         description="Record the paper's four scenarios (or N random scenes), replay them with "

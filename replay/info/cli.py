@@ -17,7 +17,7 @@ from pathlib import Path
 from dsp.atomic import atomic_output, check_distinct
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_suffix, check_topic_pattern
-from dsp.cli import add_common_arguments, run_main
+from dsp.cli import Parser, add_common_arguments, run_main
 from dsp.errors import EXIT_INPUT, UsageError
 from replay.errors import CorruptLogError, ReplayError, TruncatedLogError
 from replay.info.summary import format_info, log_info
@@ -29,7 +29,7 @@ PROG = "dsp-info"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog=PROG,
         allow_abbrev=False,
         description="Summarise an MCAP log: duration, topics with types, counts and rates, "

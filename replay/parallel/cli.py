@@ -10,7 +10,7 @@ from replay.parallel.tasks import Workers
 __all__ = ["add_worker_arguments", "workers_from_args"]
 
 
-def add_worker_arguments(parser: argparse.ArgumentParser, *, what: str) -> None:
+def add_worker_arguments(parser: argparse._ActionsContainer, *, what: str) -> None:
     """``--workers N`` and ``--ray`` (``what``: the unit of work, for the help)."""
     parser.add_argument("--workers", type=int, metavar="N",
                         help=f"run {what} in N local processes (default: every core; "

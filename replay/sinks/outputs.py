@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from dsp.field import DEFAULT_FIELD, FIELDS
+from dsp.jsonio import Json
 from replay.log import LogInfo
 from replay.options import ReplayOptions
 from replay.sink import Sink
@@ -34,6 +35,8 @@ class OutputContext:
     stats: SummarySource
     centres: Mapping[str, tuple[float, float]]
     """Each robot's image centre [px], for the Rerun view."""
+    pipeline: dict[str, Json] | None = None
+    """What runs, part by part (:class:`replay.profiles.Pipeline`), when made from a profile."""
 
 
 def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOptions,
@@ -43,7 +46,8 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
     sinks: list[Sink] = []
     if options.out is not None:
         header = ResultsHeader(file=context.name, sha256=context.digest, robots=info.robots,
-                               options=options.results_view(), parts=options.parts_view())
+                               options=options.results_view(), parts=options.parts_view(),
+                               pipeline=context.pipeline)
         sinks.append(stack.enter_context(ResultsWriter(
             Path(options.out), header=header, stats=context.stats, force=options.force)))
     if options.out_mcap is not None:
@@ -70,4 +74,10 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
         sinks.append(stack.enter_context(RerunSink(
             options.rerun, info=info, digest=context.digest, options=options,
             centres=context.centres)))
+        if options.rerun_save is not None:  # viewed live and saved: a second stream
+            from replay.options import RerunTarget
+
+            sinks.append(stack.enter_context(RerunSink(
+                RerunTarget("save", str(options.rerun_save)), info=info,
+                digest=context.digest, options=options, centres=context.centres)))
     return sinks

@@ -48,6 +48,9 @@ class ResultsHeader:
     parts: dict[str, Json] = field(default_factory=dict)
     """The estimator's parts from outside the package (:mod:`replay.plugins`); the key is
     left out when there are none, so files made without them stay as they were."""
+    pipeline: dict[str, Json] | None = None
+    """What ran, part by part (:meth:`replay.profiles.Pipeline.to_dict`), for a replay made
+    from a profile; left out otherwise."""
 
 
 class ResultsCollector(SinkBase):
@@ -83,6 +86,7 @@ def _head(header: ResultsHeader, stats: SummarySource) -> dict[str, Json]:
                 "recovered": recovered},
         "options": header.options,
         **({"parts": header.parts} if header.parts else {}),
+        **({"pipeline": header.pipeline} if header.pipeline is not None else {}),
         "summary": stats.summary_dict(),
     }
 

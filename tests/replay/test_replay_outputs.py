@@ -161,7 +161,7 @@ def test_a_batch_never_writes_over_one_of_its_logs(log: Path, tmp_path: Path,
     victim = out_dir / "in.estimates.mcap"  # where the batch puts in.mcap's estimates
     victim.write_bytes(log.read_bytes())
     before = victim.read_bytes()
-    code, _, err = run([log, victim, "--out-dir", out_dir, "--out-mcap", "--force"], capsys)
+    code, _, err = run([log, victim, "--out-dir", out_dir, "--estimates", "--force"], capsys)
     assert code == 2, err
     assert err == (f"dsp-replay: error: the output in.estimates.mcap {victim} is the input log "
                    f"{victim}; an output never overwrites an input, choose another file\n")

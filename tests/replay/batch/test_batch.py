@@ -49,7 +49,7 @@ def files(d: Path) -> dict[str, bytes]:
 
 def run_batch(logs: Path | list[Path], out: Path, *flags: str) -> int:
     paths = [str(p) for p in (logs if isinstance(logs, list) else [logs])]
-    return replay.cli.main([*paths, "--out-dir", str(out), "--out-mcap", "-q", *flags])
+    return replay.cli.main([*paths, "--out-dir", str(out), "--estimates", "-q", *flags])
 
 
 def _record_eval_logs(d: Path, count: int) -> None:
@@ -134,9 +134,10 @@ def test_same_stem_and_existing_outputs_are_refused_before_any_work(
 @pytest.mark.parametrize(("flags", "message"), [
     (["--workers", "2"], "--workers and --ray replay a batch: give --out-dir DIR"),
     (["--out-dir", "d", "--out", "x.json"], "--out names one file"),
-    (["--out-dir", "d", "--out-mcap", "x.mcap"], "--out-mcap takes no file name"),
+    (["--out-dir", "d", "--out-mcap", "x.mcap"], "--out-mcap names one file"),
     (["--out-dir", "d", "--plot", "x.png"], "--out-csv and --plot name one file"),
     (["--out-dir", "d", "--workers", "0"], "--workers 0: give at least 1"),
+    (["--estimates"], "--estimates writes each log's estimates in a batch"),
 ])
 def test_batch_flag_misuse_is_a_usage_error(logs: Path, flags: list[str], message: str,
                                             capsys: pytest.CaptureFixture[str]) -> None:

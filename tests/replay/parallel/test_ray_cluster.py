@@ -78,7 +78,7 @@ def _files(d: Path) -> dict[str, bytes]:
 
 
 def _batch(out: Path, *flags: str) -> dict[str, bytes]:
-    argv = [*map(str, LOGS), "--out-dir", str(out), "--out-mcap", "-q", *flags]
+    argv = [*map(str, LOGS), "--out-dir", str(out), "--estimates", "-q", *flags]
     assert replay.cli.main(argv) == 0
     return _files(out)
 

@@ -1,0 +1,167 @@
+"""Profiles: named sets of a replay's choices, and the pipeline decided from what a log holds.
+
+A replay runs one pipeline: detect -> locate (with the pose as corrected) -> fuse and track.
+A **profile** names a set of choices for it; a switch (``--fusion``, ``--localise``, ...)
+overrides one choice, and choices that cannot go with an explicit switch fall away (``--fusion
+mean`` drops the tracker's hop handling). Code branches on the choices, never on a profile's
+name.
+
+- ``best`` (the default): the corrected estimator; each frame's pose corrected from the
+  field lines in its image where the log names its field and describes a camera (the
+  believed pose where a frame's lines are not seen); each estimate weighed by its pose's
+  uncertainty (the line fit's, else the log pose's own covariance, else ``--pose-sigma``'s);
+  the tracker with its 3-D track beside it (hops and balls in the air).
+- ``fast``: the same without the line fit (believed poses): no per-frame fit, for logs
+  whose poses are good already or when speed matters more.
+- ``paper``: the paper exactly: eq. 3-14, the paper's colour chain, the mean fusion
+  (eq. 20-21); no pose correction, no uncertainty, no tracker.
+
+What the log decides (:func:`decide`): the line fit needs the field's geometry (the log's
+``dsp.scenario`` metadata) and a camera model of at least one robot; the 3-D track needs two
+or more robots. Where a part cannot apply the :class:`Pipeline` says why, once, and the
+results header records the pipeline that ran (:meth:`Pipeline.to_dict`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from dsp.errors import UsageError
+from dsp.jsonio import Json
+
+if TYPE_CHECKING:
+    from replay.options import ReplayOptions
+
+__all__ = ["DEFAULT_PROFILE", "PROFILES", "PROFILE_CHOICES", "Pipeline", "Profile", "decide",
+           "options_for"]
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A named set of choices (values of :class:`~replay.options.ReplayOptions` fields)."""
+
+    name: str
+    summary: str
+    """One line for ``--help``."""
+    method: str
+    fusion: str
+    localise: str
+    """"auto": the field lines where the log allows them (:func:`decide`)."""
+    hops: bool
+    pose_uncertainty: bool
+
+
+PROFILES: dict[str, Profile] = {p.name: p for p in (
+    Profile("best", "the most accurate pipeline measured: poses corrected from the field "
+            "lines where the log allows it, pose uncertainty, the tracker with hops and "
+            "balls in the air (default)",
+            method="corrected", fusion="track", localise="auto", hops=True,
+            pose_uncertainty=True),
+    Profile("fast", "best without the line fit (the believed poses): for logs whose poses "
+            "are good already, or when speed matters more",
+            method="corrected", fusion="track", localise="none", hops=True,
+            pose_uncertainty=True),
+    Profile("paper", "the paper exactly: eq. 3-14, its colour detector and the mean fusion",
+            method="paper", fusion="mean", localise="none", hops=False,
+            pose_uncertainty=False),
+)}
+DEFAULT_PROFILE = "best"
+PROFILE_CHOICES = tuple(PROFILES)
+
+_CHOICES = ("method", "fusion", "localise", "hops", "pose_uncertainty")
+"""The options a profile sets."""
+
+
+def options_for(profile: str = DEFAULT_PROFILE, **given: Any) -> ReplayOptions:
+    """The :class:`~replay.options.ReplayOptions` of ``profile`` with the options ``given``
+    (keyword arguments of ReplayOptions; a profile's choice given as None is the profile's).
+    A profile's choice that an explicit option rules out falls away: the hops and the line
+    fit's ``auto`` need what they need, an explicit value never does (it is refused by the
+    options' own checks when it cannot be)."""
+    from replay.options import ReplayOptions
+
+    if profile not in PROFILES:
+        raise UsageError(f"--profile {profile!r}; choose one of {', '.join(PROFILES)}")
+    p = PROFILES[profile]
+    explicit = {k: v for k, v in given.items() if not (k in _CHOICES and v is None)}
+    chosen: dict[str, Any] = {k: getattr(p, k) for k in _CHOICES if k not in explicit}
+    method = str(explicit.get("method", chosen.get("method")))
+    if "fusion" in chosen and "method" in explicit and explicit["method"] != p.method:
+        del chosen["fusion"]  # the method's own fusion (mean for the paper's)
+    fusion = explicit.get("fusion", chosen.get("fusion"))
+    if fusion is None:
+        from replay.options import DEFAULT_FUSION
+        fusion = DEFAULT_FUSION[method]
+    if "hops" in chosen and (fusion != "track" or explicit.get("smooth")):
+        chosen["hops"] = False
+    if "pose_uncertainty" in chosen and method == "paper":
+        chosen["pose_uncertainty"] = False
+    if "localise" in chosen and method == "paper" and p.method != "paper":
+        chosen["localise"] = "none"
+    return ReplayOptions(profile=profile, **explicit, **chosen)
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """What a replay runs, part by part, as decided from its options and its log."""
+
+    profile: str | None
+    detector: str
+    method: str
+    poses: str
+    """"lines" (corrected from the field lines), "ball" (by the tracker's residuals) or
+    "believed" (the log's)."""
+    pose_uncertainty: bool
+    fusion: str
+    hops: bool
+    notes: tuple[str, ...] = ()
+    """Each part the profile wanted that the log did not allow, and why."""
+
+    def to_dict(self) -> dict[str, Json]:
+        d: dict[str, Json] = {k: v for k, v in dataclasses.asdict(self).items()
+                              if k != "notes"}
+        d["notes"] = list(self.notes)
+        return d
+
+    def describe(self) -> str:
+        """One line: the pipeline, and what did not apply."""
+        poses = {"lines": "poses corrected from the field lines",
+                 "ball": "poses corrected by each robot's bias",
+                 "believed": "the believed poses"}[self.poses]
+        parts = [f"{self.detector} detector", f"{self.method} ranges", poses]
+        if self.pose_uncertainty:
+            parts.append("pose uncertainty")
+        parts.append(f"{self.fusion} fusion" + (" with hops and flight" if self.hops else ""))
+        head = "pipeline" + (f" ({self.profile})" if self.profile else "")
+        return f"{head}: " + ", ".join(parts) + "".join(f"; {n}" for n in self.notes)
+
+
+def decide(options: ReplayOptions, *, has_field: bool, robots: Sequence[str],
+           camera_robots: Sequence[str]) -> tuple[ReplayOptions, Pipeline]:
+    """The options with every ``auto`` choice settled from what the log holds, and the
+    pipeline they run. ``has_field``: the log names its field; ``camera_robots``: the robots
+    with a camera model (the line fit projects the image with it)."""
+    notes: list[str] = []
+    localise = options.localise
+    if localise == "auto":
+        if not has_field:
+            localise = "none"
+            notes.append("no line fit: the log names no field (dsp.scenario metadata)")
+        elif not camera_robots:
+            localise = "none"
+            notes.append("no line fit: no robot's camera model is known")
+        else:
+            localise = "lines"
+    hops = options.hops
+    if hops and len(robots) < 2 and options.profile is not None:
+        hops = False
+        notes.append("no 3-D track: one robot, no rays to cross")
+    settled = dataclasses.replace(options, localise=localise, hops=hops)
+    poses = {"lines": "lines", "ball": "ball"}.get(localise, "believed")
+    return settled, Pipeline(
+        profile=options.profile, detector=options.detector_name, method=options.method,
+        poses=poses, pose_uncertainty=options.pose_uncertainty,
+        fusion=options.fusion_method, hops=hops, notes=tuple(notes))

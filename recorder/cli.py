@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output", type=Path, help="the .mcap log to write")
     p.add_argument("--scenario", metavar="NAME",
                    help=f"one of {', '.join(SCENARIOS)} (default: from the file name)")
-    p.add_argument("--seed", type=int, default=0, help="seed (default %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="the scenario's seed (default %(default)s)")
     length = p.add_mutually_exclusive_group()
     length.add_argument("--duration", type=float, metavar="S",
                         help="sim seconds (default: 1 s for static scenes, 12 s rolling, "

@@ -1,7 +1,7 @@
 """``dsp-compare``: did B do better than A on the same logs, by more than noise? (thin CLI)
 
     dsp-compare A B [--out cmp.json] [--out-csv cmp.csv] [--out-md cmp.md] [--plot cmp.png]
-                    [--replicates N] [--seed S] [--allow-different-logs] [--fail-if-worse]
+                    [--replicates N] [--bootstrap-seed N] [--allow-different-logs] [--fail-if-worse]
 
 A and B: results files (``dsp-replay --out``) or folders of them (``--out-dir``). Prints the
 Markdown report; exit 0, or 1 with ``--fail-if-worse`` when a total is worse in B.
@@ -41,16 +41,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the paired per-log differences with their intervals (.png or .svg)")
     p.add_argument("--replicates", type=int, default=1000, metavar="N",
                    help="bootstrap replicates (default %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument("--bootstrap-seed", type=int, default=0, metavar="N",
+                   help="the bootstrap's random seed (default 0)")
     p.add_argument("--allow-different-logs", action="store_true",
                    help="compare results of different logs (paired by the log's file name)")
     p.add_argument("--fail-if-worse", action="store_true",
                    help="exit 1 when B is worse than A in a total (for CI)")
-    p.add_argument("--rerun", type=Path, metavar="LOG",
+    p.add_argument("--log", type=Path, metavar="LOG",
                    help="replay LOG as A and as B into one Rerun recording, side by side "
-                   "(a viewer is spawned, or --save)")
-    p.add_argument("--save", type=Path, metavar="FILE.rrd",
-                   help="with --rerun: save the recording instead of showing it")
+                   "(with --rerun or --save)")
+    p.add_argument("--rerun", action="store_true",
+                   help="with --log: spawn a Rerun viewer (as dsp-replay --rerun)")
+    p.add_argument("--save", type=Path, metavar="RRD",
+                   help="with --log: save the side-by-side recording as a .rrd file")
     add_common_arguments(p, force=True, progress=False)
     p.add_argument("-q", "--quiet", action="store_true", help="print no report")
     return p
@@ -62,12 +65,18 @@ def _outputs(args: argparse.Namespace) -> list[tuple[str, Path | None]]:
     check_suffix("--out-md", args.out_md, (".md",))
     check_suffix("--plot", args.plot, FIGURE_SUFFIXES)
     check_suffix("--save", args.save, (".rrd",))
-    if args.save is not None and args.rerun is None:
-        raise UsageError("--save saves the --rerun recording: give --rerun LOG")
+    if (args.save is not None or args.rerun) and args.log is None:
+        raise UsageError("--rerun and --save show a log's two replays: give --log LOG")
+    if args.log is not None and args.save is None and not args.rerun:
+        raise UsageError("--log LOG is shown side by side: give --rerun (a viewer) or "
+                         "--save FILE.rrd")
+    if args.save is not None and args.rerun:
+        raise UsageError("--rerun and --save: give one (the side-by-side recording goes to "
+                         "a viewer or to a file)")
     outs = [("--out", args.out), ("--out-csv", args.out_csv), ("--out-md", args.out_md),
             ("--plot", args.plot), ("--save", args.save)]
     check_distinct(outs, [("the input A", args.a), ("the input B", args.b),
-                          ("the --rerun log", args.rerun)])
+                          ("the --log log", args.log)])
     for flag, path in outs:
         if path is not None:
             check_output_path(path, force=args.force, label=flag)
@@ -77,9 +86,9 @@ def _outputs(args: argparse.Namespace) -> list[tuple[str, Path | None]]:
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     check_int("--replicates", args.replicates, low=1, high=1_000_000)
-    check_int("--seed", args.seed, low=0, high=2**63 - 1)
+    check_int("--bootstrap-seed", args.bootstrap_seed, low=0, high=2**63 - 1)
     outs = dict(_outputs(args))
-    report = compare(args.a, args.b, replicates=args.replicates, seed=args.seed,
+    report = compare(args.a, args.b, replicates=args.replicates, seed=args.bootstrap_seed,
                      allow_different_logs=args.allow_different_logs)
     for flag, text in (("--out", report.to_json()), ("--out-csv", report.to_csv()),
                        ("--out-md", report.to_markdown())):
@@ -93,7 +102,7 @@ def _main(argv: Sequence[str] | None) -> int:
         with atomic_output(args.plot, force=args.force, label="--plot") as tmp:
             draw(report, tmp, args.plot.suffix.lower().lstrip("."))
     echo(args, report.to_markdown().rstrip("\n"))
-    if args.rerun is not None:
+    if args.log is not None:
         _rerun(args, report)
     if args.fail_if_worse and report.worse:
         print(f"{PROG}: B is worse than A in total: {', '.join(report.worse)}", file=sys.stderr)
@@ -105,13 +114,13 @@ def _rerun(args: argparse.Namespace, report: Report) -> None:
     from replay.compare.side_by_side import side_by_side
     from replay.runner import file_digest
 
-    if not args.rerun.is_file():
-        raise InputError(f"{args.rerun}: no such log")
-    digest = file_digest(args.rerun)
+    if not args.log.is_file():
+        raise InputError(f"{args.log}: no such log")
+    digest = file_digest(args.log)
     pair = next((p for p in report.pairs if digest in (p.a.sha256, p.b.sha256)), None)
     if pair is None:
-        raise InputError(f"{args.rerun}: neither run holds results of this log")
-    side_by_side(args.rerun, pair.a, pair.b, save=args.save, force=args.force)
+        raise InputError(f"{args.log}: neither run holds results of this log")
+    side_by_side(args.log, pair.a, pair.b, save=args.save, force=args.force)
     if args.save is not None:
         echo(args, f"wrote {args.save}: A under /A, B under /B")
 

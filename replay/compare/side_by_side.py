@@ -41,7 +41,8 @@ __all__ = ["PREFIXES", "replay_options", "side_by_side", "side_by_side_blueprint
 PREFIXES = ("/A", "/B")
 _OPTION_KEYS = ("method", "fusion", "detector", "image_topic", "pose_topic", "truth_topic",
                 "start_s", "end_s", "start_absolute", "end_absolute", "pose_tolerance_s",
-                "window_s", "recover", "noise", "smooth", "clock_hz")
+                "window_s", "recover", "noise", "smooth", "clock_hz", "hops", "width_range",
+                "localise", "pose_uncertainty", "pose_sigma_m", "pose_sigma_deg")
 
 
 def replay_options(run: ResultsRun, log: Path) -> ReplayOptions:

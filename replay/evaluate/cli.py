@@ -152,7 +152,7 @@ def _add_images_arguments(p: argparse.ArgumentParser) -> None:
                    help="the labels' class of the ball (default 0)")
     g.add_argument("--detector", choices=DETECTORS, default="real",
                    help="the real-ball detector (default) or the paper's chain")
-    g.add_argument("--check", type=Path, metavar="ONNX",
+    g.add_argument("--check-model", type=Path, metavar="ONNX", dest="check",
                    help="the learned check to use (default: the shipped one; train/train.py "
                    "makes others, e.g. one that never saw the venue)")
     g.add_argument("--no-head", action="store_true", help="fit no venue head")

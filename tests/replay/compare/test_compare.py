@@ -100,7 +100,7 @@ def test_outputs_are_byte_identical_and_the_seed_matters(tmp_path: Path) -> None
     for run, seed in ((1, "0"), (2, "0"), (3, "5")):
         d = tmp_path / f"out{run}"
         d.mkdir()
-        assert main([str(a), str(b), "-q", "--seed", seed, "--out", str(d / "c.json"),
+        assert main([str(a), str(b), "-q", "--bootstrap-seed", seed, "--out", str(d / "c.json"),
                      "--out-csv", str(d / "c.csv"), "--out-md", str(d / "c.md"),
                      "--plot", str(d / "c.png")]) == 0
         outs.append({p.name: p.read_bytes() for p in sorted(d.iterdir())})

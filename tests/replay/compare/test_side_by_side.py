@@ -1,4 +1,4 @@
-"""dsp-compare --rerun: both runs of one log in one recording under /A and /B, each the
+"""dsp-compare --log LOG --save: both runs of one log in one recording under /A and /B, each the
 single replay's entities, their plotted errors those of their results files."""
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ def test_both_runs_side_by_side(tmp_path: Path, capsys: pytest.CaptureFixture[st
     for out, fusion in ((a, "mean"), (b, "track")):
         assert replay.cli.main([str(LOG), "--fusion", fusion, "--out", str(out), "-q"]) == 0
     rrd = tmp_path / "side.rrd"
-    assert main([str(a), str(b), "--rerun", str(LOG), "--save", str(rrd), "-q"]) == 0
+    assert main([str(a), str(b), "--log", str(LOG), "--save", str(rrd), "-q"]) == 0
     reader = chunk.RrdReader(rrd)
     assert [r.application_id for r in reader.recordings()] == ["dual_sight_replay_compare"]
     assert reader.blueprints()
@@ -57,7 +57,7 @@ def test_the_log_must_be_the_results_log(tmp_path: Path,
     assert replay.cli.main([str(LOG), "--out", str(a), "-q"]) == 0
     capsys.readouterr()  # the replay's own warning
     other = LOG.with_name("scenario1.mcap")
-    assert main([str(a), str(a), "--rerun", str(other), "--save", str(tmp_path / "x.rrd"),
+    assert main([str(a), str(a), "--log", str(other), "--save", str(tmp_path / "x.rrd"),
                  "-q"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "scenario1.mcap" in err

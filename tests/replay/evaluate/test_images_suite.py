@@ -141,7 +141,7 @@ def test_bad_uses_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert len(err) == 1 and "3 labelled images; fitting on numbers 3-4 needs more" in err[0]
     assert main(["--suite", "images", str(few), "--train-from", "-1"]) != 0
     assert "--train-from -1" in capsys.readouterr().err
-    assert main(["--suite", "images", str(few), "--check", str(few)]) != 0
+    assert main(["--suite", "images", str(few), "--check-model", str(few)]) != 0
     assert "is a folder; give a ball check" in capsys.readouterr().err
     assert main(["--suite", "images", str(few), "--threshold", "1.5"]) != 0
     assert "--threshold 1.5: give a finite number" in capsys.readouterr().err

@@ -72,6 +72,8 @@ SCENES: dict[str, dict[str, Any]] = {
 }
 """Golden scene name (= log file stem) -> keyword arguments of ``recorder.record.record``."""
 
+PROFILE = "profile"
+"""The "method" of a configuration that is a whole profile."""
 CONFIGS: tuple[tuple[str, str], ...] = (
     ("paper", "mean"),  # the paper's method (eq. 3-14) with its mean fusion
     ("corrected", "mean"),
@@ -79,8 +81,11 @@ CONFIGS: tuple[tuple[str, str], ...] = (
     ("corrected", "weighted"),
     ("corrected", "robust"),
     ("corrected", "track"),  # the tracker: a step at every image stamp, with the velocity
+    (PROFILE, "best"),  # dsp-replay's default: the best profile, decided from the log
 )
-"""(method, fusion) pairs replayed for every scene (each expected file is ~5 kB)."""
+"""(method, fusion) pairs replayed for every scene (each expected file is ~5 kB); a pair
+(:data:`PROFILE`, NAME) is the profile NAME (:mod:`replay.profiles`), as ``dsp-replay LOG
+--profile NAME`` replays it."""
 
 EXTRA_CONFIGS: dict[str, tuple[tuple[str, str], ...]] = {
     # the 3-D fusions: rays crossed into a point, and the ballistic tracker on those points
@@ -148,7 +153,12 @@ def replay_text(log: Path, method: str, fusion: str, workdir: Path) -> str:
 
     out = workdir / f".{log.stem}.{config_label(method, fusion)}.results.json"
     out.unlink(missing_ok=True)
-    replay(log, ReplayOptions(method=method, fusion=fusion, out=out, progress=False))
+    if method == PROFILE:
+        from replay.profiles import options_for
+
+        replay(log, options_for(fusion, out=out, progress=False))
+    else:
+        replay(log, ReplayOptions(method=method, fusion=fusion, out=out, progress=False))
     text = out.read_text(encoding="ascii")
     out.unlink()
     return text

@@ -56,6 +56,7 @@ from replay.evaluate.match_score import (
 from replay.evaluate.scenes import serial_map
 from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
+from replay.profiles import options_for
 from replay.runner import replay
 from replay.sinks import ResultsCollector
 
@@ -65,6 +66,7 @@ __all__ = [
     "CAPTURE_STEPS",
     "CLOCK_HZ",
     "CLOCK_ROW",
+    "DEFAULT_ROW",
     "LINES_SUFFIX",
     "MATCH_FUSIONS",
     "MatchLogScore",
@@ -83,8 +85,13 @@ __all__ = [
     "serial_map",
 ]
 
-MATCH_FUSIONS = tuple(f for f in ("track", "mean", "weighted", "robust") if f in FUSION_METHODS)
-"""The fusions the suite compares (``track`` first when the estimator has it)."""
+DEFAULT_ROW = "default"
+"""The row of ``dsp-replay LOG`` with no switches: the best profile (:mod:`replay.profiles`),
+its line fit, pose uncertainty and hops decided from the log."""
+MATCH_FUSIONS = (*(f for f in ("track", "mean", "weighted", "robust") if f in FUSION_METHODS),
+                 DEFAULT_ROW)
+"""The fusions the suite compares (``track`` first when the estimator has it), and the
+default pipeline last."""
 PHASES = ("random", "sync")
 CLOCK_HZ = 100.0
 """The common clock the tracker is also scored on (``dsp-replay --clock``)."""
@@ -102,6 +109,8 @@ def pose_label(row: str, localise: str) -> str:
 def replays_with(fusion: str, localise: str) -> bool:
     """Whether ``fusion`` is replayed with ``--localise localise``: "ball" learns the biases
     from the tracker, so only ``track`` is."""
+    if fusion == DEFAULT_ROW:  # the profile settles its own poses
+        return localise == "none"
     return localise != "ball" or fusion == "track"
 
 
@@ -234,11 +243,13 @@ def run_match_task(task: MatchTask) -> MatchLogScore:
                          if replays_with(f, m)):
         collected = ResultsCollector()
         clock = CLOCK_HZ if fusion == "track" else None
-        replay(task.log, ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
-                                       calibration=o.calibration, localise=mode,
-                                       pose_uncertainty=o.pose_uncertainty,
-                                       hops=o.hops and fusion == "track", progress=False),
-               sinks=[collected])
+        options = (options_for(calibration=o.calibration, progress=False)
+                   if fusion == DEFAULT_ROW else
+                   ReplayOptions(method="corrected", fusion=fusion, clock_hz=clock,
+                                 calibration=o.calibration, localise=mode,
+                                 pose_uncertainty=o.pose_uncertainty,
+                                 hops=o.hops and fusion == "track", progress=False))
+        replay(task.log, options, sinks=[collected])
         fused[pose_label(fusion, mode)] = score_steps(
             [f for f in collected.fused if not f.get("tick")], distractors)
         if clock is not None:  # the ticks: steps without images

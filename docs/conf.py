@@ -19,12 +19,12 @@ os.environ.setdefault("RUST_LOG", "off")  # importing rerun prints nothing
 
 project = "dual-sight"
 author = "the dual-sight developers"
-copyright = "the dual-sight developers, MIT licence"  # noqa: A001 (Sphinx's name)
+copyright = "the dual-sight developers, MIT licence"
 
 extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinxarg.ext"]
 source_suffix = {".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "**/README.md"]
+exclude_patterns = ["_build", "generated"]  # generated/: tables included into pages
 
 # [text](page.md#a-heading) links are checked against headings down to level 3
 myst_heading_anchors = 3

@@ -22,8 +22,8 @@ import argparse
 import datetime as dt
 import json
 import math
-import re
 import os
+import re
 import statistics
 import subprocess
 import sys

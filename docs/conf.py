@@ -26,7 +26,8 @@ source_suffix = {".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "generated"]  # generated/: tables included into pages
 
-# [text](page.md#a-heading) links are checked against headings down to level 3
+# [text](page.md#a-heading) links are checked against headings down to level 3 (MyST warns
+# on a missing page or anchor; GitHub-style slugs, as the pages read on GitHub)
 myst_heading_anchors = 3
 myst_enable_extensions = ["colon_fence"]
 
@@ -34,6 +35,7 @@ autodoc_default_options = {"members": True, "show-inheritance": False}
 autodoc_member_order = "bysource"
 autodoc_typehints = "signature"
 
+highlight_language = "text"  # the commands' usage blocks; shell blocks say bash
 html_theme = "furo"
 html_title = "dual-sight"
 html_static_path: list[str] = []

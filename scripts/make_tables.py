@@ -46,10 +46,10 @@ SCENES: dict[str, tuple[str, ...]] = {
 }
 """Headline rows: each pools the fused steps of its golden logs."""
 
-COLUMNS = {"paper-mean": "the paper's method (eq. 3-14, mean fusion)",
-           "corrected-mean": "corrected, mean fusion",
-           "corrected-track": "corrected, the tracker",
-           "corrected-ballistic": "corrected, in 3-D (--fusion ballistic)"}
+COLUMNS = {"paper-mean": "the paper (eq. 3-14, mean)",
+           "corrected-mean": "corrected, mean",
+           "corrected-track": "corrected, tracker",
+           "corrected-ballistic": "corrected, 3-D (ballistic)"}
 """Headline columns: golden configurations (``<method>-<fusion>``); a log not replayed
 with one (the 3-D fusions are replayed on the lob only) shows "-"."""
 
@@ -133,8 +133,8 @@ def measure_speed() -> str:
 
 
 def speed_rows(frames_per_s: str) -> list[list[str]]:
-    return [["replay in process (read, decode, detect, locate, track; each replay's set-up "
-             "included)", f"the golden {', '.join(SPEED_LOGS)} logs: {speed_frames()} frames",
+    return [["replay in process (read, decode, detect, locate, track; set-up included)",
+             f"the golden {', '.join(SPEED_LOGS)} logs: {speed_frames()} frames",
              f"{frames_per_s} frames/s"]]
 
 
@@ -144,8 +144,8 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-ACCURACY_HEADER = ["golden logs (3 robots, ideal camera, exact poses)", "frames",
-                   *[f"fused RMSE: {c}" for c in COLUMNS.values()]]
+ACCURACY_HEADER = ["fused RMSE on the golden logs (3 robots, ideal camera, exact poses)",
+                   "frames", *COLUMNS.values()]
 SPEED_HEADER = ["speed", "work", "median of 3 runs"]
 GOLDEN_HEADER = ["log", "method-fusion", "frames", "fused steps scored", "fused RMSE"]
 
@@ -174,7 +174,8 @@ def headline_pattern() -> re.Pattern[str]:
     """The README's table as this script writes it, whatever the speed and the date."""
     text = re.escape(headline(_FPS, _WHEN))
     text = text.replace(re.escape(_FPS), r"[0-9]+").replace(
-        re.escape(_WHEN), r"on [0-9]{4}-[0-9]{2}-[0-9]{2} at commit [0-9a-f]+, [0-9]+ cores")
+        re.escape(_WHEN), r"on [0-9]{4}-[0-9]{2}-[0-9]{2} at commit [0-9a-f]+, [0-9]+ cores, "
+        r"load average [0-9]+\.[0-9] at the start")
     return re.compile(text)
 
 
@@ -225,9 +226,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         for problem in found:
             print(f"make_tables.py: {problem}", file=sys.stderr)
         return 1 if found else 0
+    load = os.getloadavg()[0]  # other work on the machine slows the speed row: say how much
+    speed = measure_speed()
     when = (f"on {dt.datetime.now(dt.timezone.utc):%Y-%m-%d} at commit {_commit()}, "
-            f"{os.cpu_count()} cores")
-    block = headline(measure_speed(), when)
+            f"{os.cpu_count()} cores, load average {load:.1f} at the start")
+    block = headline(speed, when)
     start = readme.index(BEGIN) + len(BEGIN) if BEGIN in readme else None
     if start is None:
         raise SystemExit(f"{README.name}: no {BEGIN} ... {END} block")

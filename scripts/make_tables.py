@@ -216,7 +216,8 @@ def _write(path: Path, text: str) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="make_tables.py", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="make_tables.py", allow_abbrev=False,
+                                     description=__doc__.split("\n")[0])
     parser.add_argument("--check", action="store_true",
                         help="check the tables' form and accuracy figures; write nothing")
     args = parser.parse_args(argv)
@@ -243,5 +244,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
+def _main() -> int:
+    try:
+        return main()
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        # a golden file missing or not the results form: one line, nothing written
+        where = getattr(err, "filename", None) or "logs/golden"
+        print(f"make_tables.py: error: {where}: {err}", file=sys.stderr)
+        return 1
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_main())

@@ -30,7 +30,7 @@ Quaternion = tuple[float, float, float, float]
 
 
 def normalise_quaternion(x: float, y: float, z: float, w: float) -> Quaternion:
-    """The unit quaternion (x, y, z, w) / |q|; raises GeometryError for a zero or
+    """The unit quaternion (x, y, z, w) / ``|q|``; raises GeometryError for a zero or
     non-finite one."""
     n = math.sqrt(x * x + y * y + z * z + w * w)
     if not math.isfinite(n) or n == 0.0:

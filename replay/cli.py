@@ -76,6 +76,19 @@ def build_parser(*, all_options: bool = True) -> argparse.ArgumentParser:
                    help="; ".join(f"{n}: {PROFILES[n].summary}" for n in PROFILE_CHOICES)
                    if all_options else "best (default), fast (no line fit) or paper (the "
                    "paper exactly)")
+    _add_essential_arguments(p)
+    add_batch_arguments(p)
+    add_common_arguments(p, force=True)
+    _add_researcher_arguments(p, all_options)
+    if not all_options:
+        for action in p._actions:
+            if action.dest not in ESSENTIAL:
+                action.help = argparse.SUPPRESS
+    return p
+
+
+def _add_essential_arguments(p: argparse.ArgumentParser) -> None:
+    """Viewing, outputs and what describes a team's own log: what ``--help`` shows."""
     viewer = p.add_argument_group("viewing (Rerun)")
     live = viewer.add_mutually_exclusive_group()
     live.add_argument("--rerun", action="store_true", help="spawn a Rerun viewer")
@@ -102,8 +115,10 @@ def build_parser(*, all_options: bool = True) -> argparse.ArgumentParser:
                       help="image topic, {robot} = robot name (default %(default)s)")
     team.add_argument("--pose-topic", default=contract.POSE_TOPIC, metavar="TOPIC",
                       help="pose topic pattern (default %(default)s)")
-    add_batch_arguments(p)
-    add_common_arguments(p, force=True)
+
+
+def _add_researcher_arguments(p: argparse.ArgumentParser, all_options: bool) -> None:
+    """Each switch overrides one choice of the profile (``--help-all`` shows them)."""
     expert = p.add_argument_group(
         "researchers' switches", "each overrides one choice of the profile; choices that "
         "cannot go with it fall away (--fusion mean drops the hops)" if all_options else None)
@@ -149,11 +164,6 @@ def build_parser(*, all_options: bool = True) -> argparse.ArgumentParser:
     expert.add_argument("--grpc-port", type=int, metavar="PORT",
                         help=f"with --serve: the data (gRPC) port (default "
                         f"{DEFAULT_GRPC_PORT}; 0 picks a free one)")
-    if not all_options:
-        for action in p._actions:
-            if action.dest not in ESSENTIAL:
-                action.help = argparse.SUPPRESS
-    return p
 
 
 def _add_track_arguments(p: argparse._ActionsContainer) -> None:

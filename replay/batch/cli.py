@@ -26,7 +26,7 @@ __all__ = ["add_batch_arguments", "check_single", "is_batch", "run_batch"]
 def add_batch_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("many logs")
     g.add_argument("--out-dir", type=Path, metavar="DIR",
-                   help=f"replay each LOG into DIR, with {SUMMARY_STEM}.json/.csv/.md")
+                   help=f"replay each LOG (a FOLDER's *.mcap) into DIR, and {SUMMARY_STEM}")
     g.add_argument("--estimates", action="store_true",
                    help="with --out-dir: also each log's estimates as DIR/<stem>.estimates.mcap")
     add_worker_arguments(g, what="the logs of a batch (--out-dir)")

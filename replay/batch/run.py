@@ -62,7 +62,7 @@ __all__ = [
 ESTIMATES_SUFFIX = ".estimates.mcap"
 SUMMARY_STEM = "batch-summary"
 SHARED_PATH_HINT = ("every worker needs the logs and the output folder at the same path: "
-                    "put them on a shared folder (README: Many logs and clusters)")
+                    "put them on a shared folder (docs/batch.md)")
 
 
 def collect_logs(paths: Sequence[Path]) -> list[Path]:

@@ -90,7 +90,9 @@ class LogInfo:
 
 
 class LogReader:
-    """Context manager reading one log. Keyword-only options::
+    """Context manager reading one log, with keyword-only options.
+
+    For example::
 
         with LogReader(path, robots=["robot1"]) as log:
             print(log.info.robots)

@@ -23,6 +23,7 @@ from typing import Any, Generic, Protocol, TypeVar
 
 from estimator.fusion import FUSION_METHODS
 from replay.options import ReplayOptions
+from replay.profiles import options_for
 from replay.runner import replay
 from replay.sinks import ResultsCollector
 
@@ -60,10 +61,15 @@ class Config:
         return f"{self.method}/{self.fusion}{poses}"
 
 
+DEFAULT_METHOD = "default"
+"""A config whose method is this replays a whole profile (its ``fusion`` names it), as
+``dsp-replay LOG --profile NAME`` does: ``default/best`` is ``dsp-replay LOG``."""
 CONFIGS = (Config("paper", "mean"),
-           *(Config("corrected", f) for f in FUSION_METHODS if f != "ballistic"))
-"""The paper and random suites' replays. Not ``ballistic``: on their still and rolling
-balls it is ``triangulate`` behind a filter; ``dsp-eval --suite lobs`` scores it."""
+           *(Config("corrected", f) for f in FUSION_METHODS if f != "ballistic"),
+           Config(DEFAULT_METHOD, "best"))
+"""The paper and random suites' replays, and the default pipeline's last. Not
+``ballistic``: on their still and rolling balls it is ``triangulate`` behind a filter;
+``dsp-eval --suite lobs`` scores it."""
 
 
 def configs_for(localise: str = "none") -> tuple[Config, ...]:
@@ -122,10 +128,13 @@ def replay_results(log: Path, config: Config, calibration: Path | None, *,
                    pose_uncertainty: bool = False) -> dict[str, Any]:
     """The replay's frames and fused steps, as its results file would hold them."""
     collected = ResultsCollector()
-    replay(log, ReplayOptions(method=config.method, fusion=config.fusion,
-                              calibration=calibration, localise=config.localise,
-                              pose_uncertainty=pose_uncertainty, progress=False),
-           sinks=[collected])
+    if config.method == DEFAULT_METHOD:
+        options = options_for(config.fusion, calibration=calibration, progress=False)
+    else:
+        options = ReplayOptions(method=config.method, fusion=config.fusion,
+                                calibration=calibration, localise=config.localise,
+                                pose_uncertainty=pose_uncertainty, progress=False)
+    replay(log, options, sinks=[collected])
     return {"frames": collected.frames, "fused": collected.fused}
 
 

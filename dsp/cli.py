@@ -35,7 +35,7 @@ from types import FrameType
 from typing import IO
 
 from dsp.contract import RENDERERS
-from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError
+from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError, os_error_text
 from dsp.text import printable
 
 __all__ = [
@@ -171,6 +171,6 @@ def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],
         os.dup2(devnull, sys.stdout.fileno())  # so the flush at exit does not fail again
         return EXIT_INPUT
     except OSError as err:
-        _fail(prog, f"error: {err}")
+        _fail(prog, f"error: {os_error_text(err)}")
         return EXIT_INPUT
     return 0 if code is None else code

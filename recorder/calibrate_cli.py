@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from contextlib import ExitStack
 from pathlib import Path
 
-from dsp.atomic import atomic_output, check_distinct
+from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.checks import check_int, check_number, check_suffix
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
@@ -70,6 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX, metavar="PX",
                    help="cube face size rendered per direction (default %(default)s)")
     add_common_arguments(p, camera="ideal", renderer=True, force=True)
+    declare_files(p, outputs=("--out", "--plot"))
     return p
 
 

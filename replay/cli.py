@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp import contract
+from dsp.atomic import declare_files
 from dsp.checks import check_suffix
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import EXIT_INTERRUPTED, UsageError
@@ -115,6 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "range, skipped messages or images): exit 1 and write nothing")
     add_batch_arguments(p)
     add_common_arguments(p, force=True)
+    declare_files(p, inputs=("log", "--ball", "--cameras", "--calibration"),
+                  outputs=("--out", "--out-mcap", "--out-csv", "--plot", "--save"),
+                  output_dirs=("--out-dir",), names=("paper",))
     return p
 
 

@@ -311,15 +311,18 @@ class ReplayOptions:
     def max_image_pixels(self) -> int:
         return int(self.max_image_mpx * 1_000_000)
 
+    def input_flags(self) -> list[tuple[str, Path]]:
+        """Every file the options name for reading (the log aside), labelled."""
+        return [(f"the {flag} file", Path(given))
+                for flag, given in (("--ball", self.ball), ("--calibration", self.calibration),
+                                    ("--cameras", self.cameras))
+                if given is not None and given != "paper"]
+
     def check_outputs(self, log: Path | str | None = None) -> None:
         """Refuse, before any work: an output that exists already (unless ``force``), is a
-        folder or has no folder; an output that is the input ``log`` or the calibration
-        file, or that another output names too (symlinks and hard links included)."""
-        inputs = [("the input log", log)]
-        for flag, given in (("--calibration", self.calibration), ("--cameras", self.cameras)):
-            if given is not None and given != "paper":
-                inputs.append((f"the {flag} file", Path(given)))
-        check_distinct(self.output_flags(), inputs)
+        folder or has no folder; an output that is the input ``log`` or a file of
+        :meth:`input_flags`, or that another output names too (symlinks and hard links included)."""
+        check_distinct(self.output_flags(), [("the input log", log), *self.input_flags()])
         for flag, out in self.output_flags():
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)

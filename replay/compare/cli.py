@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from dsp.atomic import atomic_output, check_distinct, check_output_path
+from dsp.atomic import atomic_output, check_distinct, check_output_path, declare_files
 from dsp.checks import check_int, check_suffix
 from dsp.cli import add_common_arguments, echo, run_main
 from dsp.errors import InputError, UsageError
@@ -53,6 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --rerun: save the recording instead of showing it")
     add_common_arguments(p, force=True, progress=False)
     p.add_argument("-q", "--quiet", action="store_true", help="print no report")
+    declare_files(p, inputs=("a", "b", "--rerun"),
+                  outputs=("--out", "--out-csv", "--out-md", "--plot", "--save"))
     return p
 
 

@@ -101,7 +101,10 @@ def fail_with(exc: BaseException) -> Callable[[Sequence[str] | None], int]:
     (DspError("plain"), 1, "prog: error: plain"),
     (KeyboardInterrupt(), 130, "prog: interrupted"),
     (FileNotFoundError(2, "No such file or directory", "d/x"), 1,
-     "prog: error: [Errno 2] No such file or directory: 'd/x'"),
+     "prog: error: d/x: No such file or directory"),
+    (PermissionError(13, "Permission denied", "a", None, "b"), 1,
+     "prog: error: a -> b: Permission denied"),
+    (OSError("no errno"), 1, "prog: error: no errno"),
 ])
 def test_run_main_maps_errors_to_one_line_and_a_code(
     exc: BaseException, code: int, line: str, capsys: pytest.CaptureFixture[str]

@@ -54,7 +54,13 @@ from replay.sinks.rerun.shapes import (
     landing_mark,
     truth_mark,
 )
-from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
+from replay.sinks.rerun.streams import (
+    abandon,
+    blueprint_storage,
+    check_room,
+    release,
+    write_failure,
+)
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
@@ -446,5 +452,7 @@ class RerunSink(SinkBase):
         if self.lost is None and not self.broken:  # a broken file writer blocks a disconnect
             with contextlib.suppress(RuntimeError):
                 release(self.rec)
+        elif self.broken:  # nor may it block the exit
+            abandon(self.rec)
         if self._save is not None:
             self._save.discard()

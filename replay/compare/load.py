@@ -17,13 +17,13 @@ the estimator's parts) and two tables keyed for pairing:
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dsp import jsonio
 from dsp.errors import InputError
 from dsp.jsonio import Json
 from dsp.textfile import read_text_file
@@ -140,7 +140,7 @@ def _header(path: Path, doc: Mapping[str, Any]) -> tuple[str, str, dict[str, Jso
 def parse_results(path: Path, text: str) -> ResultsRun | None:
     """The run in ``text`` (read from ``path``); None when it is JSON of another format."""
     try:
-        doc = json.loads(text, parse_constant=_reject_constant)
+        doc = jsonio.loads(text, parse_constant=_reject_constant)
     except (ValueError, RecursionError) as err:
         raise InputError(f"{path}: not JSON ({str(err).splitlines()[0]})") from None
     if not isinstance(doc, dict) or doc.get("format") != RESULTS_FORMAT:

@@ -46,3 +46,55 @@ def test_the_calibrations_in_use_pass() -> None:
     check_ranges(MirrorCalibration(0.5, 0.003), 1000.0, "a mirror")
     with pytest.raises(CalibrationError, match=r"^x: unusable calibration: its range at"):
         check_ranges(LinearCalibration(0.0, -1.0), 540.0, "x")
+
+
+def _ball_model(size_line: list[float]) -> str:
+    import json
+
+    import numpy as np
+
+    from estimator.detection.real.model import (
+        COLOUR_BINS,
+        FIELD_BINS,
+        BallModel,
+        model_to_dict,
+    )
+
+    model = BallModel(colour_lut=np.zeros(COLOUR_BINS, np.uint8),
+                      field_mask=np.zeros(FIELD_BINS, np.uint8), levels=(150,))
+    return json.dumps({**model_to_dict(model), "size_line": size_line})
+
+
+@pytest.mark.parametrize("size_line", [[float("nan"), 3.0], [1e308, 0.0], [0.2, -1e308],
+                                       [-0.5, 10.0]])
+def test_a_ball_model_with_a_size_line_out_of_range_is_one_line(
+        tmp_path: Path, size_line: list[float]) -> None:
+    from dsp.ball_file import read_ball_file
+    from dsp.errors import InputError
+
+    path = tmp_path / "ball.json"
+    path.write_text(_ball_model(size_line))
+    with pytest.raises(InputError) as info:
+        read_ball_file(path)
+    assert str(info.value).startswith(f"{path}: size_line (") and "\n" not in str(info.value)
+    path.write_text(_ball_model([0.2, 3.0]))
+    assert read_ball_file(path).size_line == (0.2, 3.0)
+
+
+@pytest.mark.parametrize(("key", "value"), [("height_m", "1e308"), ("cu_px", "-1e300"),
+                                            ("k_m_per_px", ".nan"), ("k_m_per_px", "1e7")])
+def test_a_camera_file_with_a_number_out_of_range_is_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str, value: str) -> None:
+
+    from replay.info.cli import main as info_main
+
+    template = tmp_path / "cameras.yaml"
+    assert info_main([str(LOG), "--cameras-template", "-o", str(template)]) == 0
+    capsys.readouterr()
+    text = template.read_text()
+    line = next(t for t in text.splitlines() if t.strip().startswith(f"{key}:"))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace(line, f"{line.split(':')[0]}: {value}", 1))
+    assert replay_main([str(LOG), "--cameras", str(bad), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"dsp-replay: error: {bad}: robot1.{key} = ") and err.count("\n") == 1

@@ -42,8 +42,8 @@ import numpy.typing as npt
 
 from estimator.errors import BallModelError
 
-__all__ = ["COLOUR_BINS", "FIELD_BINS", "FORMAT", "BallModel", "model_from_dict",
-           "model_to_dict"]
+__all__ = ["COLOUR_BINS", "FIELD_BINS", "FORMAT", "MAX_SIZE_OFFSET_PX", "MAX_SIZE_SLOPE",
+           "BallModel", "model_from_dict", "model_to_dict"]
 
 FORMAT = "dual-sight ball model"
 VERSION = 1
@@ -56,6 +56,13 @@ HEAD_SIZE = 40
 OFFSET = 128
 SCALE = 16.0
 """A table byte b stands for the log-likelihood ratio ``(b - OFFSET) / SCALE``."""
+
+
+MAX_SIZE_SLOPE = 100.0
+"""The steepest size line [px of diameter per px of row] a ball model may hold (a fitted
+one is under 1)."""
+MAX_SIZE_OFFSET_PX = 1e5
+"""The largest size line offset [px] a ball model may hold."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +109,12 @@ class BallModel:
             raise BallModelError(f"threshold {self.threshold} is not a probability 0-1")
         if not 0.0 <= self.centre_blend <= 1.0:
             raise BallModelError(f"centre_blend {self.centre_blend} is not a weight 0-1")
+        a, b = self.size_line
+        if not (math.isfinite(a) and math.isfinite(b) and 0.0 <= a <= MAX_SIZE_SLOPE
+                and abs(b) <= MAX_SIZE_OFFSET_PX):
+            raise BallModelError(f"size_line ({a}, {b}) must be finite, its slope in "
+                                 f"[0, {MAX_SIZE_SLOPE:g}] and its offset within "
+                                 f"{MAX_SIZE_OFFSET_PX:g} px")
         if self.check_head is not None and (len(self.check_head) != HEAD_SIZE or not all(
                 math.isfinite(v) for v in self.check_head)):
             raise BallModelError(f"check_head must be {HEAD_SIZE} finite numbers")

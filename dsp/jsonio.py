@@ -24,7 +24,8 @@ import operator
 from collections.abc import Mapping, Sequence
 from typing import Any, TypeAlias
 
-__all__ = ["MAX_DEPTH", "MAX_INT_DIGITS", "Json", "JsonLimitError", "dumps", "finite", "loads"]
+__all__ = ["MAX_DEPTH", "MAX_INT_DIGITS", "Json", "JsonLimitError", "check_limits", "dumps",
+           "finite", "loads"]
 
 MAX_DEPTH = 64
 """The deepest nesting of arrays and objects a JSON input may have (the project's files
@@ -74,7 +75,7 @@ def _outside_strings(text: str) -> bytes:
     return "".join(parts[::2]).encode("utf-8", "surrogatepass")
 
 
-def _check_limits(text: str, max_depth: int) -> None:
+def check_limits(text: str, max_depth: int = MAX_DEPTH) -> None:
     """Refuse ``text`` when its arrays and objects nest deeper than ``max_depth`` or a
     number in it runs to more than :data:`MAX_INT_DIGITS` digits (what is inside strings
     does not count); linear, no recursion."""
@@ -96,7 +97,7 @@ def loads(text: str | bytes, *, max_depth: int = MAX_DEPTH, **kwargs: Any) -> An
         text = bytes(text).decode("utf-8")
     if not isinstance(text, str):
         raise TypeError(f"JSON text is a {type(text).__name__}, not text")
-    _check_limits(text, max_depth)
+    check_limits(text, max_depth)
     try:
         return json.loads(text, **kwargs)
     except RecursionError as err:  # pragma: no cover - the depth check comes first

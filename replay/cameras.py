@@ -199,7 +199,7 @@ def read_calibration(path: Path) -> tuple[Calibration, float]:
     text = read_text_file(path, MAX_CALIBRATION_BYTES, what="a calibration JSON file",
                           error=unusable)
     try:
-        jsonio.loads(text)  # within the limits of a JSON input before the model parses it
+        jsonio.check_limits(text)  # within a JSON input's limits before the model parses it
         model = calibration_from_json(text)
         fit = json.loads(text).get("fit") or {}
         rms = float(fit.get("rms_m", 0.0)) if isinstance(fit, dict) else 0.0

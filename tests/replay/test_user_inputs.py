@@ -98,3 +98,31 @@ def test_a_camera_file_with_a_number_out_of_range_is_one_line(
     assert replay_main([str(LOG), "--cameras", str(bad), "-q"]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"dsp-replay: error: {bad}: robot1.{key} = ") and err.count("\n") == 1
+
+
+def test_a_reused_eval_log_of_another_scene_is_refused(tmp_path: Path) -> None:
+    """dsp-eval reuses a log it finds under the expected name only when its metadata is
+    that scene: another scenario's log named random-seed0 is not scored as random seed 0."""
+    import shutil
+
+    from dsp.errors import InputError
+    from replay.evaluate.scenes import prepare_log
+    from replay.log import LogReader
+
+    with LogReader(LOG) as reader:
+        assert reader.info.scenario is not None
+        seed = reader.info.scenario.seed
+    log = tmp_path / "random-seed0.mcap"
+    shutil.copyfile(LOG, log)
+    before = log.read_bytes()
+    recorded: list[Path] = []
+    with pytest.raises(InputError) as info:
+        prepare_log(log, "random", 0, lambda: recorded.append(log))
+    assert str(info.value) == (f"{log}: reused as random seed 0, but the log is scenario1 seed "
+                               f"{seed}; remove it (it is recorded again) or choose another "
+                               "--out-dir")
+    assert log.read_bytes() == before and not recorded
+    prepare_log(log, "scenario1", seed, lambda: recorded.append(log))  # the same scene: reused
+    assert not recorded
+    prepare_log(tmp_path / "missing.mcap", "random", 0, lambda: recorded.append(log))
+    assert recorded == [log]

@@ -40,6 +40,7 @@ from dsp.text import printable
 
 __all__ = [
     "DISTRIBUTION",
+    "MAX_ERROR_CHARS",
     "RENDERERS",
     "add_common_arguments",
     "echo",
@@ -122,9 +123,14 @@ def echo(args: argparse.Namespace, text: str) -> None:
         print(printable(text, lines=True))
 
 
+MAX_ERROR_CHARS = 1000
+"""The longest error line a command prints; the rest is cut to ``...`` (a log naming 10,000
+robots, an option thousands of characters long)."""
+
+
 def _fail(prog: str, message: str) -> None:
-    # one line, whatever a name from a log holds (newlines, escape sequences)
-    print(printable(f"{prog}: {message}"), file=sys.stderr)
+    # one line, whatever a name from a log holds (newlines, escape sequences), and not a page
+    print(printable(f"{prog}: {message}", limit=MAX_ERROR_CHARS), file=sys.stderr)
 
 
 @contextlib.contextmanager

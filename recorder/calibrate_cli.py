@@ -74,6 +74,10 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+MAX_DIRECTIONS = 36
+"""The most ball directions one calibration sweeps (every 10 degrees)."""
+
+
 def _directions(text: str) -> list[float]:
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
@@ -81,6 +85,9 @@ def _directions(text: str) -> list[float]:
         raise UsageError(f"--directions {text!r}: give degrees separated by commas") from None
     if not values:
         raise UsageError("--directions is empty; give at least one direction, e.g. 0")
+    if len(values) > MAX_DIRECTIONS:
+        raise UsageError(f"--directions: {len(values)} directions; give at most "
+                         f"{MAX_DIRECTIONS} (each is a sweep of renders)")
     for v in values:
         check_number("--directions", v, low=-360, high=360, unit="deg")
     # forward first: the paper's own fit uses it

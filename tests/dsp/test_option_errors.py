@@ -76,6 +76,8 @@ RECORD: list[tuple[list[str], str]] = [
 ]
 
 CALIBRATE: list[tuple[list[str], str]] = [
+    (["--directions", ",".join(str(d) for d in range(37))],
+     "--directions: 37 directions; give at most 36"),
     (["--start-m", "nan"], "--start-m nan: give a finite number in (0, 30] m"),
     (["--start-m", "0"], "--start-m 0.0"),
     (["--stop-m", "inf"], "--stop-m inf"),

@@ -21,7 +21,7 @@ import itertools
 import json
 import math
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, TypeAlias
 
 __all__ = ["MAX_DEPTH", "MAX_INT_DIGITS", "Json", "JsonLimitError", "check_limits", "dumps",
@@ -68,25 +68,48 @@ _BRACKET_STEPS = bytes.maketrans(b"[{]}", b"\x02\x02\x00\x00")
 _DIGITS = bytes(ord("1") if chr(b) in "0123456789" else ord(" ") for b in range(256))
 
 
-def _outside_strings(text: str) -> bytes:
-    """``text`` without its string literals (escaped backslashes and quotes dropped first,
-    then every quoted part), as bytes; C-level passes only."""
-    parts = text.replace("\\\\", "").replace('\\"', "").split('"')
-    return "".join(parts[::2]).encode("utf-8", "surrogatepass")
+CHUNK_CHARS = 1 << 20
+"""The checks walk the text in pieces of about this many characters, so what they hold
+beside it stays small whatever its size."""
+
+
+def _pieces(text: str) -> Iterator[str]:
+    """``text`` in pieces of about :data:`CHUNK_CHARS`, never cut after a backslash (an
+    escape stays whole) nor inside a run of digits."""
+    start, n = 0, len(text)
+    while start < n:
+        end = min(start + CHUNK_CHARS, n)
+        while end < n and (text[end - 1] == "\\"
+                           or (text[end - 1].isdigit() and text[end].isdigit())):
+            end += 1
+        yield text[start:end]
+        start = end
 
 
 def check_limits(text: str, max_depth: int = MAX_DEPTH) -> None:
     """Refuse ``text`` when its arrays and objects nest deeper than ``max_depth`` or a
     number in it runs to more than :data:`MAX_INT_DIGITS` digits (what is inside strings
-    does not count); linear, no recursion."""
-    outside = _outside_strings(text)
-    steps = outside.translate(_BRACKET_STEPS, _NOT_BRACKETS)  # "[" "{" -> 2, "]" "}" -> 0
-    # the depth after the i-th bracket is the sum of the steps so far, less i
-    depth = max(map(operator.sub, itertools.accumulate(steps), itertools.count(1)), default=0)
-    if depth > max_depth:
-        raise JsonLimitError(f"nested {depth} levels deep (at most {max_depth})")
-    if b"1" * (MAX_INT_DIGITS + 1) in outside.translate(_DIGITS):
-        raise JsonLimitError(f"a number of more than {MAX_INT_DIGITS} digits")
+    does not count); linear, no recursion, piece by piece (:func:`_pieces`)."""
+    in_string = False
+    depth = deepest = 0
+    run = b"1" * (MAX_INT_DIGITS + 1)
+    for piece in _pieces(text):
+        # escaped backslashes, then escaped quotes, dropped; the quotes left delimit strings
+        parts = piece.replace("\\\\", "").replace('\\"', "").split('"')
+        outside = "".join(parts[1::2] if in_string else parts[::2]).encode(
+            "utf-8", "surrogatepass")
+        if (len(parts) - 1) % 2:
+            in_string = not in_string
+        steps = outside.translate(_BRACKET_STEPS, _NOT_BRACKETS)  # "[" "{" -> 2, "]" "}" -> 0
+        if steps:
+            # the depth after the i-th bracket is the steps' sum so far, less i
+            deepest = max(deepest, depth + max(map(operator.sub, itertools.accumulate(steps),
+                                                   itertools.count(1))))
+            depth += sum(steps) - len(steps)
+        if deepest > max_depth:
+            raise JsonLimitError(f"nested {deepest} levels deep (at most {max_depth})")
+        if run in outside.translate(_DIGITS):
+            raise JsonLimitError(f"a number of more than {MAX_INT_DIGITS} digits")
 
 
 def loads(text: str | bytes, *, max_depth: int = MAX_DEPTH, **kwargs: Any) -> Any:

@@ -77,3 +77,68 @@ def test_dsp_compare_says_so_in_one_line(tmp_path: Path, text: str,
     assert compare_main([str(a), str(b)]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"dsp-compare: error: {a}") and err.count("\n") == 1, err
+
+
+def _reference(text: str) -> tuple[int, int]:
+    """The deepest nesting and the longest digit run outside strings, char by char."""
+    depth = deepest = digits = longest = 0
+    in_string = escaped = False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+            continue
+        digits = digits + 1 if ch.isdigit() else 0
+        longest = max(longest, digits)
+        if ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif ch in "]}":
+            depth -= 1
+    return deepest, longest
+
+
+@pytest.mark.parametrize("chunk", [1, 2, 3, 7, 64])
+def test_the_checks_piece_by_piece_see_what_a_whole_pass_sees(
+        chunk: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Guards the pieces' boundaries: an escape, a string or a number cut across two
+    pieces is seen as a whole pass sees it, on seeded random documents."""
+    import random
+
+    monkeypatch.setattr(jsonio, "CHUNK_CHARS", chunk)
+    rng = random.Random(chunk)
+
+    def value(level: int) -> object:
+        kind = rng.randrange(6 if level < 70 else 3)
+        if kind == 0:
+            return rng.randrange(10 ** rng.randrange(1, 130))
+        if kind == 1:
+            return "".join(rng.choice('ab[]{}"\\\\0123456789') for _ in range(rng.randrange(9)))
+        if kind == 2:
+            return rng.random()
+        if kind in (3, 4):
+            return [value(level + 1) for _ in range(rng.randrange(1, 3))]
+        return {str(i): value(level + 1) for i in range(rng.randrange(1, 3))}
+
+    outcomes = set()
+    for _ in range(60):
+        doc = value(0)
+        for _ in range(rng.choice((0, 0, 60, 66))):  # some deep, near the limit either way
+            doc = [doc] if rng.random() < 0.5 else {"k": doc}
+        text = json.dumps(doc)
+        deepest, longest = _reference(text)
+        refused = deepest > MAX_DEPTH or longest > MAX_INT_DIGITS
+        outcomes.add(refused)
+        if refused:
+            with pytest.raises(JsonLimitError):
+                jsonio.check_limits(text)
+        else:
+            jsonio.check_limits(text)
+            assert jsonio.loads(text) == json.loads(text)
+    assert outcomes == {True, False}

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
-from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
+from dsp.checks import MAX_THREADS, MAX_TIME_S, check_int, check_number, check_topic_pattern
 from dsp.errors import UsageError
 from dsp.jsonio import Json
 from estimator.calibration import Calibration
@@ -213,6 +213,7 @@ class ReplayOptions:
             plugins.load_part("calibration", self.calibration_model)
         if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
             raise UsageError(f"--threads {self.threads}; must be >= 1")
+        check_int("--threads", self.threads, low=1, high=MAX_THREADS)
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
                      unit="s")
         check_number("--window", self.window_s, low=0, high=MAX_WINDOW_S, low_open=True,

@@ -41,6 +41,7 @@ REPLAY: list[tuple[list[str], str]] = [
     (["--out-mcap", "e.json"], "--out-mcap e.json: the file name must end in .mcap"),
     (["--save", "r.json"], "--save r.json: the file name must end in .rrd (e.g. r.rrd)"),
     (["--out-dir", "d", "--workers", "99999"], "--workers 99999: give at most 1024"),
+    (["--threads", "1000000000"], "--threads 1000000000: give a whole number in [1, 1024]"),
 ]
 
 RECORD: list[tuple[list[str], str]] = [
@@ -157,3 +158,18 @@ def test_eval_never_writes_its_table_over_the_calibration(
                                  "file; an output never overwrites an input, choose another "
                                  "file\n")
     assert calib.read_text() == before and [p.name for p in tmp_path.iterdir()] == [calib.name]
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"web_port": 99_999_999}, "--port 99999999: give a whole number in [0, 65535]"),
+    ({"grpc_port": -1}, "--grpc-port -1: give a whole number in [0, 65535]"),
+])
+def test_a_port_out_of_range_is_refused_before_a_server_starts(
+        kwargs: dict[str, int], message: str) -> None:
+    """--serve --port 99999999 was an OverflowError traceback from the socket's bind."""
+    from dsp.errors import UsageError
+    from replay.sinks.rerun.live import ViewerServer
+
+    with pytest.raises(UsageError) as info:
+        ViewerServer(**kwargs)  # type: ignore[arg-type]
+    assert str(info.value) == message

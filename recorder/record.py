@@ -74,8 +74,7 @@ MAX_DURATION_S = 86_400.0
 """The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
 MAX_FRAMES = 10_000_000
 MIN_RATE_HZ = 0.1
-"""The slowest --rate and --pose-rate [Hz]: one image every 10 s (slower ones stepped the
-simulation for ever, or overflowed the frame period)."""
+"""The slowest --rate and --pose-rate [Hz] (slower ones stepped the simulation for ever)."""
 MAX_FACE_PX = 4096
 """Six faces of 4096^2 RGB are ~300 MB; larger would exhaust memory, not sharpen the image."""
 MAX_POSE_NOISE_M = 100.0
@@ -183,9 +182,7 @@ class RecordOptions:
         if self.camera_phase not in (None, *CAMERA_PHASES):
             raise UsageError(f"unknown camera phase {self.camera_phase!r}; choose "
                              f"{' or '.join(CAMERA_PHASES)}")
-        check_number("--pose-rate", self.pose_rate_hz, low=MIN_RATE_HZ, high=PHYSICS_HZ,
-                     unit="Hz")
-        # each effect bounded, so its numbers stay in range and a frame's work finite
+        check_number("--pose-rate", self.pose_rate_hz, low=MIN_RATE_HZ, high=PHYSICS_HZ, unit="Hz")
         for flag, value, high, unit in (
                 ("--pose-bias", self.pose_bias_m, MAX_POSE_NOISE_M, "m"),
                 ("--yaw-bias", self.yaw_bias_deg, 180.0, "deg"),
@@ -193,8 +190,7 @@ class RecordOptions:
                 ("--image-noise", self.image_noise, 255.0, "grey levels"),
                 ("--gain-jitter", self.gain_jitter, 5.0, "")):
             check_number(flag, value, low=0, high=high, unit=unit)
-        check_number("--pose-bias-tau", self.pose_bias_tau_s, low=0, high=MAX_DURATION_S,
-                     low_open=True, unit="s")
+        check_number("--pose-bias-tau", self.pose_bias_tau_s, low=0, high=1e6, low_open=True)
 
     def _check_recording(self) -> None:
         if self.camera not in CAMERA_MODELS:

@@ -54,13 +54,7 @@ from replay.sinks.rerun.shapes import (
     landing_mark,
     truth_mark,
 )
-from replay.sinks.rerun.streams import (
-    abandon,
-    blueprint_storage,
-    check_room,
-    release,
-    write_failure,
-)
+from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
@@ -172,7 +166,7 @@ class RerunSink(SinkBase):
                                      recording=self.rec.to_native(), write_footer=True)
             except RuntimeError as err:
                 self.broken = True
-                raise write_failure(self._save.path, err) from err
+                raise write_failure(self._save.path, err, self.rec) from err
         elif mode == "spawn":
             check_display()
             self.rec.spawn(default_blueprint=bp)
@@ -437,7 +431,7 @@ class RerunSink(SinkBase):
                 except RuntimeError as err:  # a full disk, or the gRPC connection broke
                     if self._save is not None:
                         self.broken = True
-                        raise write_failure(self._save.path, err) from err
+                        raise write_failure(self._save.path, err, self.rec) from err
                     print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
                     self.lost = str(err)
             if ok and self._save is not None:
@@ -452,7 +446,5 @@ class RerunSink(SinkBase):
         if self.lost is None and not self.broken:  # a broken file writer blocks a disconnect
             with contextlib.suppress(RuntimeError):
                 release(self.rec)
-        elif self.broken:  # nor may it block the exit
-            abandon(self.rec)
         if self._save is not None:
             self._save.discard()

@@ -84,8 +84,10 @@ def abandon(rec: rr.RecordingStream) -> None:
     end_without_finalising(rec)  # collecting it would flush it, and wait for ever
 
 
-def write_failure(path: Path, err: RuntimeError) -> OutputError:
-    """What a failing Rerun file writer means, naming the output."""
+def write_failure(path: Path, err: RuntimeError, rec: rr.RecordingStream) -> OutputError:
+    """What a failing Rerun file writer means, naming the output; ``rec``, the recording
+    it wrote, is given up (:func:`abandon`)."""
+    abandon(rec)
     free = free_bytes(path.parent)
     if free is not None and free < MIN_FREE_BYTES:
         return OutputError(path, "No space left on device")

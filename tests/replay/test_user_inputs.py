@@ -126,3 +126,17 @@ def test_a_reused_eval_log_of_another_scene_is_refused(tmp_path: Path) -> None:
     assert not recorded
     prepare_log(tmp_path / "missing.mcap", "random", 0, lambda: recorded.append(log))
     assert recorded == [log]
+
+
+def test_a_ball_model_with_too_many_levels_is_one_line(tmp_path: Path) -> None:
+    """Each level is a pass over every image: 255 of them took minutes a frame."""
+    import json
+
+    from dsp.ball_file import read_ball_file
+    from dsp.errors import InputError
+
+    path = tmp_path / "ball.json"
+    path.write_text(json.dumps({**json.loads(_ball_model([0.2, 3.0])),
+                                "levels": list(range(1, 256))}))
+    with pytest.raises(InputError, match=r"levels .* must be at most 16 distinct bytes"):
+        read_ball_file(path)

@@ -13,22 +13,34 @@
 - turn a failing write (full disk, read-only or missing folder) into one
   :class:`~dsp.errors.OutputError` naming the output, and leave no temporary file behind.
 
-Temporary names are hidden (``.NAME.<random>.tmp``) unless a ``partial`` suffix is given:
+Temporary names are hidden (``.NAME.<host>-<pid>-<random>.tmp``; the next writer of NAME
+removes those a killed process of this machine left) unless a ``partial`` suffix is given:
 then they are visible and numbered, ``NAME.partial.mcap``, ``NAME.partial-2.mcap``, ..., so
 a log cut short by a crash is easy to find, and one never replaces an earlier one
 (:func:`partial_paths` lists them).
 
 :func:`same_file` and :func:`check_distinct` keep outputs off the inputs and off each other.
+Every command states which of its options name files it reads and which name files it
+writes (:func:`declare_files`, kept on its parser, so :func:`declared_files` and a test can
+walk every parser and find an undeclared file option); the command then compares all of
+them, with the files it derives (a batch's summaries), before any work.
+
+:func:`stale_temporaries` finds the hidden temporary files a killed run left beside an
+output (:func:`remove_stale_temporaries` removes them).
 """
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import errno
 import os
 import re
 import secrets
+import socket
+import zlib
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
@@ -36,11 +48,17 @@ from dsp.errors import OutputError, OutputExistsError, UsageError
 
 __all__ = [
     "AtomicFile",
+    "FileOptions",
     "atomic_output",
     "check_distinct",
     "check_output_path",
+    "declare_files",
+    "declared_files",
+    "named_files",
     "partial_paths",
+    "remove_stale_temporaries",
     "same_file",
+    "stale_temporaries",
 ]
 
 _CREATE = (os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
@@ -81,11 +99,11 @@ def check_distinct(outputs: Sequence[tuple[str, Path | str | None]],
 
     Each entry is ``(label, path)`` with a label as the user knows it ("--out", "the input
     log"); ``None`` paths are skipped."""
-    seen_in: dict[object, str] = {}
+    seen_in: dict[object, tuple[str, Path]] = {}
     for label, p in inputs:
         if p is not None:
             for key in _keys(Path(p)):
-                seen_in.setdefault(key, label)
+                seen_in.setdefault(key, (label, Path(p)))
     seen_out: dict[object, str] = {}
     for label, p in outputs:
         if p is None:
@@ -94,13 +112,82 @@ def check_distinct(outputs: Sequence[tuple[str, Path | str | None]],
         keys = _keys(out)
         for key in keys:
             if key in seen_in:
-                raise UsageError(f"{label} {out} is {seen_in[key]}; an output never "
+                what, given = seen_in[key]
+                if str(given) != str(out) and str(given) not in what:
+                    what = f"{what} {given}"  # a link or another spelling: name both
+                raise UsageError(f"{label} {out} is {what}; an output never "
                                  "overwrites an input, choose another file")
             if key in seen_out:
                 raise UsageError(f"{seen_out[key]} and {label} both name {out}; give each "
                                  "output its own file")
         for key in keys:
             seen_out[key] = label
+
+
+@dataclass(frozen=True)
+class FileOptions:
+    """Which options of a command name files: each entry an option string (``--out``) or a
+    positional's name (``log``), as the user sees it.
+
+    ``inputs``: files (or folders of files) the command reads; ``outputs``: files it
+    writes; ``output_dirs``: folders it writes files into (the command adds what it writes
+    there itself); ``names``: words an input option takes in place of a file
+    (``--cameras paper``)."""
+
+    inputs: tuple[str, ...] = ()
+    outputs: tuple[str, ...] = ()
+    output_dirs: tuple[str, ...] = ()
+    names: tuple[str, ...] = ()
+
+    @property
+    def options(self) -> tuple[str, ...]:
+        return self.inputs + self.outputs + self.output_dirs
+
+
+_DECLARED = "_dsp_file_options"
+
+
+def _action(parser: argparse.ArgumentParser, option: str) -> argparse.Action:
+    for action in parser._actions:
+        if option in action.option_strings or (not action.option_strings
+                                               and action.dest == option):
+            return action
+    raise ValueError(f"{parser.prog} has no option {option!r} to declare as a file")
+
+
+def declare_files(parser: argparse.ArgumentParser, *, inputs: Sequence[str] = (),
+                  outputs: Sequence[str] = (), output_dirs: Sequence[str] = (),
+                  names: Sequence[str] = ()) -> None:
+    """Record on ``parser`` which of its options name files it reads (``inputs``) and
+    writes (``outputs``, ``output_dirs``); each must be an option of the parser."""
+    files = FileOptions(tuple(inputs), tuple(outputs), tuple(output_dirs), tuple(names))
+    for option in files.options:
+        _action(parser, option)
+    parser.set_defaults(**{_DECLARED: files})
+
+
+def declared_files(parser: argparse.ArgumentParser) -> FileOptions:
+    """What :func:`declare_files` recorded on ``parser`` (nothing when it was not called)."""
+    files = parser.get_default(_DECLARED)
+    return files if isinstance(files, FileOptions) else FileOptions()
+
+
+def named_files(parser: argparse.ArgumentParser, args: argparse.Namespace,
+                options: Sequence[str]) -> list[tuple[str, Path]]:
+    """The files that ``options`` of ``parser`` name in ``args`` (one entry per file of a
+    list-valued option; not given, and the words of :attr:`FileOptions.names`, left out),
+    each labelled as the user knows it ("--ball", "the input log")."""
+    words = declared_files(parser).names
+    found: list[tuple[str, Path]] = []
+    for option in options:
+        action = _action(parser, option)
+        value = getattr(args, action.dest, None)
+        values = value if isinstance(value, (list, tuple)) else [value]
+        label = option if action.option_strings else f"the input {option}"
+        for v in values:
+            if isinstance(v, (str, os.PathLike)) and str(v) not in words:
+                found.append((label, Path(v)))
+    return found
 
 
 def check_output_path(path: Path | str, *, force: bool, label: str | None = None) -> None:
@@ -138,6 +225,53 @@ def _split(name: str) -> tuple[str, str]:
     return (stem, dot + ext) if stem else (name, "")
 
 
+def _host_tag() -> str:
+    """This machine, in 4 hex digits (a temporary name says which host's process made it)."""
+    return f"{zlib.crc32(socket.gethostname().encode()) & 0xFFFF:04x}"
+
+
+def _tmp_pattern(name: str) -> re.Pattern[str]:
+    return re.compile(r"\." + re.escape(name) + r"\.([0-9a-f]{4})-(\d+)-[0-9a-f]{8}\.tmp")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True  # another user's process, or not a pid here: leave its file alone
+    return True
+
+
+def stale_temporaries(path: Path | str) -> list[Path]:
+    """The hidden temporary files beside ``path`` that a killed run of this machine left:
+    their names (``.NAME.<host>-<pid>-<random>.tmp``) name a process that no longer runs.
+    A live run's, and another machine's, are not listed."""
+    path = Path(path)
+    pattern = _tmp_pattern(path.name)
+    host = _host_tag()
+    found = []
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(path.parent):
+            m = pattern.fullmatch(entry.name)
+            if (m and m.group(1) == host and int(m.group(2)) != os.getpid()
+                    and not _alive(int(m.group(2)))
+                    and entry.is_file(follow_symlinks=False)):
+                found.append(path.with_name(entry.name))
+    return sorted(found)
+
+
+def remove_stale_temporaries(path: Path | str) -> list[Path]:
+    """Remove :func:`stale_temporaries` of ``path``; returns those removed."""
+    removed = []
+    for tmp in stale_temporaries(path):
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+            removed.append(tmp)
+    return removed
+
+
 def _fsync_dir(folder: Path) -> None:
     flags = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0)
     try:
@@ -170,6 +304,8 @@ class AtomicFile:
         self.path = Path(path)
         self.force = force
         check_output_path(self.path, force=force, label=label)
+        if partial is None:  # what a killed run of this output left (a partial stays visible)
+            remove_stale_temporaries(self.path)
         self.tmp, fd = self._create(partial)
         self._fd: int | None = fd
         st = os.fstat(fd)
@@ -180,7 +316,8 @@ class AtomicFile:
         stem, ext = _split(self.path.name)
         for n in range(1, _MAX_PARTIALS + 1):
             if partial is None:
-                name = f".{self.path.name}.{secrets.token_hex(4)}.tmp"
+                name = (f".{self.path.name}.{_host_tag()}-{os.getpid()}-"
+                        f"{secrets.token_hex(4)}.tmp")
             else:
                 name = f"{stem}{partial}{'' if n == 1 else f'-{n}'}{ext}"
             tmp = self.path.with_name(name)

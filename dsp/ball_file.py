@@ -18,6 +18,7 @@ from functools import cache
 from importlib.resources import files
 from pathlib import Path
 
+from dsp import jsonio
 from dsp.errors import InputError
 from dsp.textfile import read_bytes_file, read_text_file
 from estimator.detection.real import BallModel, model_from_dict, model_to_dict
@@ -36,9 +37,11 @@ def read_ball_file(path: Path) -> BallModel:
     """The ball model of a ``ball.json``; :class:`InputError` naming the file and problem."""
     text = read_text_file(path, MAX_BALL_FILE_BYTES, what="a ball model file")
     try:
-        data = json.loads(text)
+        data = jsonio.loads(text)
     except json.JSONDecodeError as err:
         raise InputError(f"{path}: not JSON ({err.msg} at line {err.lineno})") from err
+    except ValueError as err:  # beyond the limits of a JSON input
+        raise InputError(f"{path}: not a usable JSON file ({err})") from err
     try:
         return model_from_dict(data)
     except BallModelError as err:

@@ -24,7 +24,6 @@ relative path is resolved against the camera file's folder.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections.abc import Mapping
@@ -33,6 +32,7 @@ from typing import Any
 
 import yaml
 
+from dsp import jsonio
 from dsp.cameras import DEFAULT_ENTRY, CameraDescriptionError, CameraSet, camera_set_from_json
 from dsp.jsonio import dumps as strict_json
 from dsp.textfile import read_text_file
@@ -49,10 +49,18 @@ MAX_DEPTH = 16
 class _Loader(yaml.SafeLoader):
     """PyYAML's safe loader without aliases and repeated keys."""
 
+    _depth = 0
+
     def compose_node(self, parent: Any, index: Any) -> Any:
         if self.check_event(yaml.AliasEvent):
             raise yaml.YAMLError("an alias (*name); write the value out instead")
-        node = super().compose_node(parent, index)
+        if self._depth > MAX_DEPTH:  # before the composer's recursion goes any deeper
+            raise yaml.YAMLError(f"nested deeper than {MAX_DEPTH} levels")
+        self._depth += 1
+        try:
+            node = super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
         if self.anchors:
             line = "" if node is None else f"line {node.start_mark.line + 1}: "
             raise yaml.YAMLError(f"{line}an anchor (&name); write values out instead")
@@ -113,7 +121,8 @@ def load_camera_document(text: str, suffix: str, source: str) -> Any:
     """The document in ``text`` (YAML or JSON by ``suffix``) as JSON values."""
     try:
         if suffix == ".json":
-            doc = json.loads(text, object_pairs_hook=_json_pairs, parse_constant=_no_constant)
+            doc = jsonio.loads(text, object_pairs_hook=_json_pairs,
+                               parse_constant=_no_constant)
         else:
             doc = yaml.load(text, Loader=_Loader)  # the safe loader, narrowed (above)
     except (ValueError, yaml.YAMLError, RecursionError) as err:

@@ -75,6 +75,9 @@ CAMERA_KINDS = ("ideal", "fisheye", "mirror", "lookup")
 DEFAULT_ENTRY = "default"
 """The entry that describes every robot without one of its own."""
 MAX_IMAGE_SIDE_PX = 100_000
+MAX_MAGNITUDE = 1e6
+"""The largest number a camera description holds, either sign (pixels, metres, degrees):
+1e308 is finite, and overflows what it is multiplied by."""
 
 _COMMON = ("model", "width_px", "height_px", "cu_px", "cv_px")
 _MODEL_KEYS = {
@@ -185,6 +188,9 @@ def _number(where: str, key: str, value: Any) -> float:
         raise _fail(where, key, f"= {value!r} is not a number")
     if not math.isfinite(value):
         raise _fail(where, key, f"= {value!r} is not a finite number")
+    if abs(value) > MAX_MAGNITUDE:
+        raise _fail(where, key, f"= {value!r} is out of range (a camera's numbers are within "
+                    f"{MAX_MAGNITUDE:g} either way)")
     return float(value)
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from dsp.errors import UsageError
 
 __all__ = [
+    "MAX_THREADS",
     "MAX_TIME_S",
     "check_int",
     "check_number",
@@ -25,6 +26,9 @@ __all__ = [
     "check_topic_pattern",
 ]
 
+MAX_THREADS = 1024
+"""The most threads (or worker processes) an option may ask for: each is a stack and a
+share of the memory, and no machine runs more at once."""
 MAX_TIME_S = 9e9
 """The largest time [s] an option takes, either sign: stamps of real robots' logs are Unix
 times (1.7e9 s today), and 9e9 s in nanoseconds still fits a signed 64-bit integer."""

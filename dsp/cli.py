@@ -35,11 +35,12 @@ from types import FrameType
 from typing import IO, NoReturn
 
 from dsp.contract import RENDERERS
-from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError
+from dsp.errors import EXIT_INPUT, EXIT_INTERRUPTED, DspError, os_error_text
 from dsp.text import printable
 
 __all__ = [
     "DISTRIBUTION",
+    "MAX_ERROR_CHARS",
     "RENDERERS",
     "Parser",
     "add_common_arguments",
@@ -139,9 +140,14 @@ def echo(args: argparse.Namespace, text: str) -> None:
         print(printable(text, lines=True))
 
 
+MAX_ERROR_CHARS = 1000
+"""The longest error line a command prints; the rest is cut to ``...`` (a log naming 10,000
+robots, an option thousands of characters long)."""
+
+
 def _fail(prog: str, message: str) -> None:
-    # one line, whatever a name from a log holds (newlines, escape sequences)
-    print(printable(f"{prog}: {message}"), file=sys.stderr)
+    # one line, whatever a name from a log holds (newlines, escape sequences), and not a page
+    print(printable(f"{prog}: {message}", limit=MAX_ERROR_CHARS), file=sys.stderr)
 
 
 @contextlib.contextmanager
@@ -188,6 +194,6 @@ def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],
         os.dup2(devnull, sys.stdout.fileno())  # so the flush at exit does not fail again
         return EXIT_INPUT
     except OSError as err:
-        _fail(prog, f"error: {err}")
+        _fail(prog, f"error: {os_error_text(err)}")
         return EXIT_INPUT
     return 0 if code is None else code

@@ -24,6 +24,7 @@ __all__ = [
     "OutputError",
     "OutputExistsError",
     "UsageError",
+    "os_error_text",
 ]
 
 EXIT_INPUT = 1
@@ -78,3 +79,14 @@ class OutputExistsError(DspError):
     def __init__(self, path: Path | str) -> None:
         super().__init__(f"{path}: output exists already (use --force to overwrite)")
         self.path = Path(path)
+
+
+def os_error_text(err: OSError) -> str:
+    """An OS error in the project's form, ``path: what went wrong``, not Python's
+    ``[Errno 30] Read-only file system: 'path'``."""
+    what = err.strerror or str(err)
+    if err.filename is None:
+        return what
+    if err.filename2 is not None:
+        return f"{err.filename} -> {err.filename2}: {what}"
+    return f"{err.filename}: {what}"

@@ -7,22 +7,45 @@ installs a SIGINT handler that prints ``prog: interrupted`` and exits 130 at onc
 been written yet), then imports the command, restores Python's own handler and calls the
 command's ``main``, whose :func:`dsp.cli.run_main` turns a later Ctrl-C into the same line
 after cleaning up. Rerun's native log is off unless ``RUST_LOG`` is set. This module
-imports nothing but the standard library's ``os``, ``signal`` and ``importlib``, so the
-window before the handler is the interpreter's own start-up.
+imports nothing but a few modules of the standard library, so the window before the handler
+is the interpreter's own start-up. A command whose native writer is stuck ends at once once
+its main returns (:func:`end_without_finalising`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import signal
+import sys
 from types import FrameType
 
-__all__ = ["calibrate", "compare", "evaluate", "info", "record", "replay"]
+__all__ = [
+    "calibrate",
+    "compare",
+    "end_without_finalising",
+    "evaluate",
+    "info",
+    "record",
+    "replay",
+]
 
 EXIT_INTERRUPTED = 130
 """As :data:`dsp.errors.EXIT_INTERRUPTED` (not imported: that would import the package's
 errors before the handler is in place, for no gain)."""
+
+
+_stuck: list[object] = []
+"""What :func:`end_without_finalising` was given: kept, so it is never collected."""
+
+
+def end_without_finalising(stuck: object) -> None:
+    """A native writer that failed (Rerun's, under a file-size limit) blocks whoever
+    collects or shuts it down, without a time limit. Keep ``stuck`` referenced, and end the
+    command, once its main has returned (its error printed, its outputs settled), with
+    :func:`os._exit`, which skips the interpreter's finalisation, instead of never ending."""
+    _stuck.append(stuck)
 
 
 def _launch(prog: str, module: str) -> int:
@@ -39,6 +62,11 @@ def _launch(prog: str, module: str) -> int:
     finally:
         signal.signal(signal.SIGINT, previous)
     code: int = command.main()
+    if _stuck:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(code)
     return code
 
 

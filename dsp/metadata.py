@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from dataclasses import field as dc_field
 from typing import Any, ClassVar
 
+from dsp import jsonio
 from dsp.cameras import (
     CameraDescriptionError,
     CameraSet,
@@ -81,7 +82,7 @@ def _int_map(record: str, key: str, value: Any) -> dict[str, int]:
 
 def _json_object(record: str, key: str, text: Any) -> dict[str, Any]:
     try:
-        value = json.loads(text)
+        value = jsonio.loads(text)
     except (TypeError, ValueError) as err:
         raise MetadataError(f"{record}: {key} is not JSON ({err}): {str(text)[:80]!r}") from err
     if not isinstance(value, dict):

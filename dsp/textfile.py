@@ -55,7 +55,10 @@ def read_bytes_file(path: Path, max_bytes: int, *, what: str = "the file",
             raise error(f"{path}: {st.st_size} bytes; {what} holds at most {max_bytes} bytes")
         with os.fdopen(fd, "rb") as f:
             fd = -1
-            data = f.read(max_bytes + 1)
+            # as much as the file holds (not a buffer of max_bytes), and what it grew by
+            data = f.read(st.st_size + 1)
+            if len(data) > st.st_size:
+                data += f.read(max_bytes + 1 - len(data))
     except OSError as err:
         raise error(f"{path}: cannot read: {err.strerror or err}") from err
     finally:

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from contextlib import ExitStack
 from pathlib import Path
 
-from dsp.atomic import atomic_output, check_distinct
+from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.checks import check_int, check_number, check_suffix
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
@@ -70,7 +70,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--face-px", type=int, default=DEFAULT_FACE_PX, metavar="PX",
                    help="cube face size rendered per direction (default %(default)s)")
     add_common_arguments(p, camera="ideal", renderer=True, force=True)
+    declare_files(p, outputs=("--out", "--plot"))
     return p
+
+
+MAX_DIRECTIONS = 36
+"""The most ball directions one calibration sweeps (every 10 degrees)."""
 
 
 def _directions(text: str) -> list[float]:
@@ -80,6 +85,9 @@ def _directions(text: str) -> list[float]:
         raise UsageError(f"--directions {text!r}: give degrees separated by commas") from None
     if not values:
         raise UsageError("--directions is empty; give at least one direction, e.g. 0")
+    if len(values) > MAX_DIRECTIONS:
+        raise UsageError(f"--directions: {len(values)} directions; give at most "
+                         f"{MAX_DIRECTIONS} (each is a sweep of renders)")
     for v in values:
         check_number("--directions", v, low=-360, high=360, unit="deg")
     # forward first: the paper's own fit uses it

@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from dsp.atomic import declare_files
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.realism import REALISM, Realism, realism_preset
 from dsp.text import format_bytes, printable
@@ -62,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_match_arguments(p)
     _add_venue_arguments(p)
     add_common_arguments(p, camera="ideal", renderer=True, force=True)
+    declare_files(p, outputs=("output",))
     return p
 
 

@@ -23,7 +23,6 @@ renamed when done. On Ctrl-C the MCAP is finished (so it is readable), kept ther
 from __future__ import annotations
 
 import dataclasses
-import math
 import platform
 import time
 from collections.abc import Callable
@@ -74,6 +73,8 @@ MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 86_400.0
 """The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
 MAX_FRAMES = 10_000_000
+MIN_RATE_HZ = 0.1
+"""The slowest --rate and --pose-rate [Hz] (slower ones stepped the simulation for ever)."""
 MAX_FACE_PX = 4096
 """Six faces of 4096^2 RGB are ~300 MB; larger would exhaust memory, not sharpen the image."""
 MAX_POSE_NOISE_M = 100.0
@@ -181,18 +182,15 @@ class RecordOptions:
         if self.camera_phase not in (None, *CAMERA_PHASES):
             raise UsageError(f"unknown camera phase {self.camera_phase!r}; choose "
                              f"{' or '.join(CAMERA_PHASES)}")
-        if self.pose_rate_hz is not None and not 0 < self.pose_rate_hz <= PHYSICS_HZ:
-            raise UsageError(f"--pose-rate must be in (0, {PHYSICS_HZ}] Hz, got "
-                             f"{self.pose_rate_hz}")
-        for flag, value in (("--pose-bias", self.pose_bias_m), ("--yaw-bias", self.yaw_bias_deg),
-                            ("--exposure", self.exposure_ms), ("--image-noise", self.image_noise),
-                            ("--gain-jitter", self.gain_jitter)):
-            if not (math.isfinite(value) and value >= 0):
-                raise UsageError(f"{flag} must be >= 0, got {value}")
-        if not self.pose_bias_tau_s > 0:
-            raise UsageError(f"--pose-bias-tau must be > 0 s, got {self.pose_bias_tau_s}")
-        if self.exposure_ms > 100:
-            raise UsageError(f"--exposure must be at most 100 ms, got {self.exposure_ms}")
+        check_number("--pose-rate", self.pose_rate_hz, low=MIN_RATE_HZ, high=PHYSICS_HZ, unit="Hz")
+        for flag, value, high, unit in (
+                ("--pose-bias", self.pose_bias_m, MAX_POSE_NOISE_M, "m"),
+                ("--yaw-bias", self.yaw_bias_deg, 180.0, "deg"),
+                ("--exposure", self.exposure_ms, 100.0, "ms"),
+                ("--image-noise", self.image_noise, 255.0, "grey levels"),
+                ("--gain-jitter", self.gain_jitter, 5.0, "")):
+            check_number(flag, value, low=0, high=high, unit=unit)
+        check_number("--pose-bias-tau", self.pose_bias_tau_s, low=0, high=1e6, low_open=True)
 
     def _check_recording(self) -> None:
         if self.camera not in CAMERA_MODELS:
@@ -214,7 +212,7 @@ class RecordOptions:
         check_int("--frames", self.frames, low=1, high=MAX_FRAMES)
         check_number("--duration", self.duration_s, low=0, high=MAX_DURATION_S, low_open=True,
                      unit="s")
-        check_number("--rate", self.rate_hz, low=0, high=1000, low_open=True, unit="Hz")
+        check_number("--rate", self.rate_hz, low=MIN_RATE_HZ, high=1000, unit="Hz")
         check_int("--robot-count", self.robots, low=1, high=8)
 
 
@@ -274,6 +272,9 @@ def _plan(path: Path, options: RecordOptions) -> Plan:
     else:
         duration = sc.default_duration_s if options.duration_s is None else options.duration_s
         frames = max(1, round(duration * rate))
+    if frames / rate > MAX_DURATION_S:
+        raise UsageError(f"--frames {frames} at {rate:g} Hz is {frames / rate:g} s of simulated "
+                         f"time; record at most {MAX_DURATION_S:g} s")
     pose_rate = options.pose_rate_hz or sc.default_pose_rate_hz
     if pose_rate is None:  # twice the camera rate, as the logs before match play
         tick_ns, per_frame = max(1, round(NS_PER_S / rate / 2)), 2

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dsp import jsonio
 from dsp.camera_file import read_camera_file
 from dsp.cameras import PAPER_CAMERA, CameraSet, CameraSpec, FieldTransform
 from dsp.errors import CalibrationError
@@ -37,7 +38,7 @@ from estimator.errors import EstimatorError
 from replay.errors import NoCameraError
 
 __all__ = ["DEFAULT_CENTRE_PX", "MAX_CALIBRATION_BYTES", "PAPER", "Cameras", "cameras_for",
-           "read_calibration"]
+           "check_ranges", "read_calibration"]
 
 DEFAULT_CENTRE_PX = PAPER_CENTRE_PX
 """The centre a sink draws for a robot it knows no camera of (none replays without one)."""
@@ -140,7 +141,54 @@ def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
     elif calibration_model is not None:  # a model from outside: no fit residual to add
         calibrations, rms = dict.fromkeys(robots, calibration_model), 0.0
         replaced = "--calibration-model"
+    for robot, model in calibrations.items():
+        where = replaced or (f"{log}: metadata" if sources[robot] == "metadata"
+                             else sources[robot])
+        check_ranges(model, _radius_px(specs[robot]), f"{where} ({robot})")
     return Cameras(specs, calibrations, rms, sources, replaced)
+
+
+RANGE_SAMPLES = 64
+"""The radii :func:`check_ranges` evaluates a calibration at."""
+INNER_SHARE = 0.1
+"""The inner share of the radius (under the robot's own body) where a range may be
+negative (a fit's offset below zero)."""
+
+
+def _radius_px(spec: CameraSpec) -> float:
+    """The radius over which a robot's ranges are read: its usable radius, else the image's
+    inscribed circle's."""
+    if spec.usable_radius_px is not None:
+        return float(spec.usable_radius_px)
+    return 0.5 * min(spec.width_px, spec.height_px)
+
+
+def check_ranges(model: Calibration, radius_px: float, source: str) -> None:
+    """Refuse a calibration whose ranges over the image (0 to ``radius_px``, up to where it
+    gives none: a mirror's horizon) are not finite, fall as the radius grows, or are
+    negative beyond the inner :data:`INNER_SHARE` of the radius: such a model places every
+    ball wrongly (a linear one with a negative slope put balls at -15.7 m), in one line
+    naming ``source``."""
+    last: tuple[float, float] | None = None
+    for i in range(RANGE_SAMPLES + 1):
+        r_px = radius_px * i / RANGE_SAMPLES
+        try:
+            got: float | None = model.range_m(r_px)  # a model from outside may give None
+        except (EstimatorError, ArithmeticError, ValueError):
+            break  # beyond where the model gives ranges
+        if got is None:
+            break
+        value = float(got)
+        if not math.isfinite(value):
+            raise CalibrationError(source, f"its range at {r_px:.0f} px is {value}")
+        if value < 0 and r_px > INNER_SHARE * radius_px:
+            raise CalibrationError(source, f"its range at {r_px:.0f} px is {value:.3g} m, "
+                                   "negative; a range grows from the image centre outwards")
+        if last is not None and value < last[1] - 1e-9 * max(1.0, abs(last[1])):
+            raise CalibrationError(source, f"its range falls from {last[1]:.3g} m at "
+                                   f"{last[0]:.0f} px to {value:.3g} m at {r_px:.0f} px; a "
+                                   "range grows from the image centre outwards")
+        last = (r_px, value)
 
 
 def read_calibration(path: Path) -> tuple[Calibration, float]:
@@ -151,6 +199,7 @@ def read_calibration(path: Path) -> tuple[Calibration, float]:
     text = read_text_file(path, MAX_CALIBRATION_BYTES, what="a calibration JSON file",
                           error=unusable)
     try:
+        jsonio.check_limits(text)  # within a JSON input's limits before the model parses it
         model = calibration_from_json(text)
         fit = json.loads(text).get("fit") or {}
         rms = float(fit.get("rms_m", 0.0)) if isinstance(fit, dict) else 0.0

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp import contract
+from dsp.atomic import declare_files
 from dsp.checks import check_suffix
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import EXIT_INTERRUPTED, UsageError
@@ -80,6 +81,9 @@ def build_parser(*, all_options: bool = True) -> argparse.ArgumentParser:
     add_batch_arguments(p)
     add_common_arguments(p, force=True)
     _add_researcher_arguments(p, all_options)
+    declare_files(p, inputs=("log", "--ball", "--cameras", "--calibration"),
+                  outputs=("--out", "--out-mcap", "--out-csv", "--plot", "--save"),
+                  output_dirs=("--out-dir",), names=("paper",))
     if not all_options:
         for action in p._actions:
             if action.dest not in ESSENTIAL:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
-from dsp.checks import MAX_TIME_S, check_number, check_topic_pattern
+from dsp.checks import MAX_THREADS, MAX_TIME_S, check_int, check_number, check_topic_pattern
 from dsp.errors import UsageError
 from dsp.jsonio import Json
 from estimator.calibration import Calibration
@@ -220,6 +220,7 @@ class ReplayOptions:
             plugins.load_part("calibration", self.calibration_model)
         if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
             raise UsageError(f"--threads {self.threads}; must be >= 1")
+        check_int("--threads", self.threads, low=1, high=MAX_THREADS)
         check_number("--pose-tolerance", self.pose_tolerance_s, low=0, high=MAX_WINDOW_S,
                      unit="s")
         check_number("--window", self.window_s, low=0, high=MAX_WINDOW_S, low_open=True,
@@ -318,15 +319,18 @@ class ReplayOptions:
     def max_image_pixels(self) -> int:
         return int(self.max_image_mpx * 1_000_000)
 
+    def input_flags(self) -> list[tuple[str, Path]]:
+        """Every file the options name for reading (the log aside), labelled."""
+        return [(f"the {flag} file", Path(given))
+                for flag, given in (("--ball", self.ball), ("--calibration", self.calibration),
+                                    ("--cameras", self.cameras))
+                if given is not None and given != "paper"]
+
     def check_outputs(self, log: Path | str | None = None) -> None:
         """Refuse, before any work: an output that exists already (unless ``force``), is a
-        folder or has no folder; an output that is the input ``log`` or the calibration
-        file, or that another output names too (symlinks and hard links included)."""
-        inputs = [("the input log", log)]
-        for flag, given in (("--calibration", self.calibration), ("--cameras", self.cameras)):
-            if given is not None and given != "paper":
-                inputs.append((f"the {flag} file", Path(given)))
-        check_distinct(self.output_flags(), inputs)
+        folder or has no folder; an output that is the input ``log`` or a file of
+        :meth:`input_flags`, or that another output names too (symlinks and hard links included)."""
+        check_distinct(self.output_flags(), [("the input log", log), *self.input_flags()])
         for flag, out in self.output_flags():
             if out is not None:
                 check_output_path(out, force=self.force, label=flag)

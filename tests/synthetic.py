@@ -147,6 +147,7 @@ def write_log(
     image_topic: str | None = None,
     robot_velocity: tuple[float, float] = (0.0, 0.0),
     pose_covariance: dict[str, Sequence[float]] | None = None,
+    scenario: tuple[str, int] = ("synthetic", 0),
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -170,7 +171,8 @@ def write_log(
     ``robot_velocity`` (m/s) moves every robot; ``yaw_bias_rad`` turns the pose a robot
     believes; ``carpet`` draws the ball on the 18x12 field's carpet seen through the ideal
     camera model from the true pose (:mod:`field_images`; the camera and the field are in
-    the metadata), for the field-line localisation."""
+    the metadata), for the field-line localisation; ``scenario`` is the (name, seed) its
+    dsp.scenario metadata records."""
     with_cameras = with_cameras or carpet
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
@@ -225,7 +227,7 @@ def write_log(
         }
         writer.add_metadata(
             contract.SCENARIO_METADATA,
-            {"name": "synthetic", "seed": "0", "params": json.dumps(
+            {"name": scenario[0], "seed": str(scenario[1]), "params": json.dumps(
                 {"field_length_m": 18.0, "field_width_m": 12.0,
                  **({"field": "18x12"} if carpet else {})}, sort_keys=True)},
         )

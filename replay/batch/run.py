@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from dsp.atomic import atomic_output, check_distinct
-from dsp.errors import DspError, InputError, OutputExistsError, UsageError
+from dsp.errors import DspError, InputError, OutputError, OutputExistsError, UsageError
 from dsp.progress import progress_bar
 from dsp.text import printable
 from replay.batch.summary import BatchSummary, ErrorSums, LogRow
@@ -169,10 +169,12 @@ def _tasks(logs: Sequence[Path], out_dir: Path, options: ReplayOptions,
         out, out_mcap = output_paths(log, out_dir, estimates_mcap=estimates_mcap)
         tasks.append(LogTask(log, dataclasses.replace(
             options, out=out, out_mcap=out_mcap, rerun=None, progress=False)))
-    # every refusal before any work: no output on an input log (with --force too)
-    check_distinct([(f"the output {p.name}", p) for task in tasks
-                    for p in (task.options.out, task.options.out_mcap) if p is not None],
-                   [(f"the input log {log}", log) for log in logs])
+    # every refusal before any work: no output, the summaries included, on an input log or
+    # on a file the options name (with --force too)
+    check_distinct([*((f"the output {p.name}", p) for task in tasks
+                      for p in (task.options.out, task.options.out_mcap) if p is not None),
+                    *((f"the summary {p.name}", p) for p in summary_paths(out_dir))],
+                   [*((f"the input log {log}", log) for log in logs), *options.input_flags()])
     for task in tasks:
         task.options.check_outputs(task.log)
     if not options.force:
@@ -195,7 +197,10 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: not a folder")
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # a read-only or full disk: the project's one line
+        raise OutputError(out_dir, err) from err
     workers = workers or Workers(count=1)
     if options.threads is None and (workers.ray or workers.processes > 1):
         # the workers already use the cores: a thread pool per log would oversubscribe them

@@ -21,7 +21,7 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from dsp import contract
-from dsp.atomic import atomic_output, check_distinct
+from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.ball_file import ball_file_text
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_number, check_suffix, check_topic_pattern
@@ -98,6 +98,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "first N images by stamp (default all)")
     ball.add_argument("--no-head", action="store_true",
                       help="with --ball-from: no venue head on the shared check")
+    declare_files(p, inputs=("--from-measurements", "--from-log", "--ball-from"),
+                  outputs=("--out", "--plot"))
     return p
 
 

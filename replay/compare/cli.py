@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from dsp.atomic import atomic_output, check_distinct, check_output_path
+from dsp.atomic import atomic_output, check_distinct, check_output_path, declare_files
 from dsp.checks import check_int, check_suffix
 from dsp.cli import Parser, add_common_arguments, echo, run_main
 from dsp.errors import InputError, UsageError
@@ -56,6 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --log: save the side-by-side recording as a .rrd file")
     add_common_arguments(p, force=True, progress=False)
     p.add_argument("-q", "--quiet", action="store_true", help="print no report")
+    declare_files(p, inputs=("a", "b", "--log"),
+                  outputs=("--out", "--out-csv", "--out-md", "--plot", "--save"))
     return p
 
 

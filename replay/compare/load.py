@@ -19,11 +19,13 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dsp import jsonio
 from dsp.errors import InputError
 from dsp.jsonio import Json
 from dsp.textfile import read_text_file
@@ -85,42 +87,138 @@ def _stamp(path: Path, where: str, value: object) -> int:
     return value
 
 
-def _items(path: Path, doc: Mapping[str, Any], key: str) -> list[Mapping[str, Any]]:
-    items = doc.get(key)
-    if not isinstance(items, list) or not all(isinstance(i, dict) for i in items):
-        raise _fail(path, f"'{key}' is not a list of objects")
-    return items
+class _Table:
+    """The pairing table of one list of a results file ("frames" or "fused"), built item by
+    item as the list is decoded (each item dropped once read); the first problem is kept
+    and raised only once the file is known to be a results file (:meth:`check`)."""
+
+    def __init__(self, path: Path, key: str) -> None:
+        self.path, self.key = path, key
+        self.rows: dict[Any, Any] = {}
+        self.duplicates = 0
+        self.seen = False
+        self.error: InputError | None = None
+
+    def add(self, i: int, item: object) -> None:
+        if self.error is not None:
+            return
+        try:
+            if not isinstance(item, dict):
+                raise _fail(self.path, f"'{self.key}' is not a list of objects")
+            self._add(i, item)
+        except InputError as err:
+            self.error = err
+
+    def _add(self, i: int, item: Mapping[str, Any]) -> None:
+        raise NotImplementedError
+
+    def check(self) -> None:
+        if self.error is not None:
+            raise self.error
+        if not self.seen:
+            raise _fail(self.path, f"'{self.key}' is not a list of objects")
 
 
-def _frames(path: Path, doc: Mapping[str, Any]) -> tuple[dict[FrameKey, bool], int]:
-    out: dict[FrameKey, bool] = {}
-    dup = 0
-    for i, f in enumerate(_items(path, doc, "frames")):
+class _Frames(_Table):
+    """(stamp_ns, robot) -> detected."""
+
+    def _add(self, i: int, f: Mapping[str, Any]) -> None:
         robot = f.get("robot")
         if not isinstance(robot, str):
-            raise _fail(path, f"frames[{i}].robot is {robot!r}")
-        key = (_stamp(path, f"frames[{i}]", f.get("stamp_ns")), robot)
-        if key in out:
-            dup += 1
-            continue
-        out[key] = f.get("detection") is not None
-    return out, dup
+            raise _fail(self.path, f"frames[{i}].robot is {robot!r}")
+        key = (_stamp(self.path, f"frames[{i}]", f.get("stamp_ns")), robot)
+        if key in self.rows:
+            self.duplicates += 1
+            return
+        self.rows[key] = f.get("detection") is not None
 
 
-def _steps(path: Path, doc: Mapping[str, Any]) -> tuple[dict[StepKey, StepScore], int]:
-    out: dict[StepKey, StepScore] = {}
-    dup = 0
-    for i, s in enumerate(_items(path, doc, "fused")):
+class _Steps(_Table):
+    """(stamp_ns, tick) -> the step's scores, for the steps with a truth."""
+
+    def _add(self, i: int, s: Mapping[str, Any]) -> None:
+        path = self.path
         key = (_stamp(path, f"fused[{i}]", s.get("stamp_ns")), bool(s.get("tick", False)))
-        if key in out:
-            dup += 1
-            continue
+        if key in self.rows:
+            self.duplicates += 1
+            return
         if s.get("truth") is None:
-            continue
+            return
         error = _number(path, f"fused[{i}].error_m", s.get("error_m"))
         velocity = _number(path, f"fused[{i}].velocity_error_m_s", s.get("velocity_error_m_s"))
-        out[key] = StepScore(error, velocity if error is not None else None)
-    return out, dup
+        self.rows[key] = StepScore(error, velocity if error is not None else None)
+
+
+_DECODER = json.JSONDecoder(parse_constant=_reject_constant)
+_SPACE = re.compile(r"[ \t\n\r]*")
+_STREAMED = object()
+"""What a streamed list stands as in the decoded top-level object."""
+
+
+def _space(text: str, pos: int) -> int:
+    end = _SPACE.match(text, pos)
+    return pos if end is None else end.end()
+
+
+def _expect(text: str, pos: int, chars: str, what: str) -> str:
+    if pos >= len(text) or text[pos] not in chars:
+        raise ValueError(f"Expecting {what}: char {pos}")
+    return text[pos]
+
+
+def _decode_streaming(text: str, tables: Mapping[str, _Table]) -> Any:
+    """The JSON value of ``text``, as :func:`json.loads` gives it, except that in a top-level
+    object the arrays under the keys of ``tables`` are handed to them item by item (and
+    stand as :data:`_STREAMED`): what is held is the text and the tables, never the whole
+    document. Raises ``ValueError`` for what is not JSON."""
+    jsonio.check_limits(text)
+    pos = _space(text, 0)
+    if not text.startswith("{", pos):  # not an object: no results file, decoded as it is
+        value, pos = _DECODER.raw_decode(text, pos)
+        if _space(text, pos) != len(text):
+            raise ValueError(f"Extra data: char {pos}")
+        return value
+    doc: dict[str, Any] = {}
+    pos = _space(text, pos + 1)
+    if text.startswith("}", pos):
+        pos += 1
+    else:
+        while True:
+            _expect(text, pos, '"', "property name enclosed in double quotes")
+            key, pos = _DECODER.raw_decode(text, pos)
+            pos = _space(text, pos)
+            _expect(text, pos, ":", "':' delimiter")
+            pos = _space(text, pos + 1)
+            table = tables.get(key)
+            if table is not None and text.startswith("[", pos):
+                if table.seen:
+                    raise ValueError(f"the key {key!r} is given twice")
+                table.seen = True
+                pos = _space(text, pos + 1)
+                i = 0
+                if text.startswith("]", pos):
+                    pos += 1
+                else:
+                    while True:
+                        item, pos = _DECODER.raw_decode(text, pos)
+                        table.add(i, item)
+                        i += 1
+                        pos = _space(text, pos)
+                        if _expect(text, pos, ",]", "',' delimiter") == "]":
+                            pos += 1
+                            break
+                        pos = _space(text, pos + 1)
+                doc[key] = _STREAMED
+            else:
+                doc[key], pos = _DECODER.raw_decode(text, pos)
+            pos = _space(text, pos)
+            if _expect(text, pos, ",}", "',' delimiter") == "}":
+                pos += 1
+                break
+            pos = _space(text, pos + 1)
+    if _space(text, pos) != len(text):
+        raise ValueError(f"Extra data: char {pos}")
+    return doc
 
 
 def _header(path: Path, doc: Mapping[str, Any]) -> tuple[str, str, dict[str, Json],
@@ -138,9 +236,12 @@ def _header(path: Path, doc: Mapping[str, Any]) -> tuple[str, str, dict[str, Jso
 
 
 def parse_results(path: Path, text: str) -> ResultsRun | None:
-    """The run in ``text`` (read from ``path``); None when it is JSON of another format."""
+    """The run in ``text`` (read from ``path``); None when it is JSON of another format.
+    The frames and fused steps are reduced to the pairing tables as they are decoded, so
+    what is held beside the text is in proportion to the tables, not to the document."""
+    frames, steps = _Frames(path, "frames"), _Steps(path, "fused")
     try:
-        doc = json.loads(text, parse_constant=_reject_constant)
+        doc = _decode_streaming(text, {"frames": frames, "fused": steps})
     except (ValueError, RecursionError) as err:
         raise InputError(f"{path}: not JSON ({str(err).splitlines()[0]})") from None
     if not isinstance(doc, dict) or doc.get("format") != RESULTS_FORMAT:
@@ -148,9 +249,10 @@ def parse_results(path: Path, text: str) -> ResultsRun | None:
     if doc.get("version") != 1:
         raise _fail(path, f"version {doc.get('version')!r}; this dsp-compare reads version 1")
     name, sha, options, parts = _header(path, doc)
-    frames, dup_f = _frames(path, doc)
-    steps, dup_s = _steps(path, doc)
-    return ResultsRun(path, name, sha, options, parts, frames, steps, dup_f + dup_s)
+    frames.check()
+    steps.check()
+    return ResultsRun(path, name, sha, options, parts, frames.rows, steps.rows,
+                      frames.duplicates + steps.duplicates)
 
 
 def read_results(path: Path) -> ResultsRun | None:

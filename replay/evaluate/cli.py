@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
-from dsp.atomic import atomic_output, check_distinct
+from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.ball_file import read_check_file, shipped_check
 from dsp.checks import check_int, check_number
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
@@ -62,6 +62,8 @@ __all__ = ["SimRecorder", "build_parser", "main"]
 S = TypeVar("S")
 
 PROG = "dsp-eval"
+IMAGES_OUTPUTS = ("images-summary.json", "images-summary.md", "images.csv")
+"""What ``--suite images`` writes into ``--out-dir``."""
 MAX_COUNT = 100_000
 MAX_SEED = 2**63 - 1 - MAX_COUNT
 """Scene seeds run from --seed to --seed + --count - 1: all within 64 bits."""
@@ -92,6 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_images_arguments(p)
     add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
+    declare_files(p, inputs=("--calibration", "dirs", "--check-model"), output_dirs=("--out-dir",))
     return p
 
 
@@ -325,6 +328,9 @@ def _run_images(args: argparse.Namespace) -> int:
     check_number("--threshold", args.threshold, low=0.0, high=1.0)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: is not a folder")
+    check_distinct([(f"the output {name}", out_dir / name) for name in IMAGES_OUTPUTS],
+                   [("the --check file", args.check),
+                    *((f"the input folder {d}", d) for d in args.dirs)])
     check = shipped_check() if args.check is None else read_check_file(args.check)
     t0 = time.perf_counter()
     doc, rows = run_images_suite(args.dirs, train_count=args.train_count,
@@ -335,9 +341,8 @@ def _run_images(args: argparse.Namespace) -> int:
     text = images_markdown(doc)
     doc["check"] = "shipped" if args.check is None else args.check.name
     doc["threshold"] = args.threshold  # None: each folder's model's own
-    for name, content in (("images-summary.json", strict_json(doc, sort_keys=True, indent=2)
-                           + "\n"), ("images-summary.md", text),
-                          ("images.csv", images_csv(rows))):
+    for name, content in zip(IMAGES_OUTPUTS, (strict_json(doc, sort_keys=True, indent=2)
+                                              + "\n", text, images_csv(rows)), strict=True):
         with atomic_output(out_dir / name, force=True) as tmp:
             tmp.write_text(content, encoding="utf-8")
     echo(args, text)
@@ -355,10 +360,10 @@ def _main(argv: Sequence[str] | None) -> int:
         raise UsageError("folders (DIR) go with --suite images")
     out_dir: Path = args.out_dir
     t0 = time.perf_counter()
-    _check(args)
     md, js = out_dir / f"{_stem(args)}.md", out_dir / f"{_stem(args)}.json"
     check_distinct([("the table", md), ("the table", js)],
                    [("the --calibration file", args.calibration)])
+    _check(args)
     workers = workers_from_args(args)
     out_dir.mkdir(parents=True, exist_ok=True)
     _, text, doc = _run_suite(args, workers)

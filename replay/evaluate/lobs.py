@@ -34,6 +34,7 @@ from dsp.jsonio import Json
 from estimator.constants import BALL_RADIUS_M
 from replay.evaluate.lobs_free import FREE_RUNNING_RULE, FREE_RUNNING_WHY, score_free_running
 from replay.evaluate.lobs_track import LEAD_S, TrackScore, score_track, true_landings
+from replay.evaluate.scenes import prepare_log
 from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
 from replay.runner import replay
@@ -257,8 +258,7 @@ def run_lobs_suite(out_dir: Path, options: LobsOptions, *, count: int, seed: int
     suite = LobsSuite(options, seeds)
     for s in seeds:
         log = out_dir / lobs_log_name(s, options)
-        if not log.exists():
-            _record(log, s, options)
+        prepare_log(log, "lobs", s, lambda: _record(log, s, options))  # noqa: B023 (called here)
         suite.per_seed[s] = score_lobs_log(log, options.calibration, options.camera_phase,
                                            width_range=options.width_range)
     return suite

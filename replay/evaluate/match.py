@@ -53,7 +53,7 @@ from replay.evaluate.match_score import (
     captures,
     score_steps,
 )
-from replay.evaluate.scenes import serial_map
+from replay.evaluate.scenes import prepare_log, serial_map
 from replay.evaluate.suites import rounded_doc
 from replay.options import ReplayOptions
 from replay.profiles import options_for
@@ -233,8 +233,8 @@ def _distractors(log: Path) -> list[tuple[float, float]]:
 
 def run_match_task(task: MatchTask) -> MatchLogScore:
     """Record the match when its log is missing, replay it with each fusion, score it."""
-    if not task.log.exists():
-        MatchRecorder(task.options, task.phase)(task.log, task.seed)
+    prepare_log(task.log, "match", task.seed,
+                lambda: MatchRecorder(task.options, task.phase)(task.log, task.seed))
     distractors = _distractors(task.log)
     fused: dict[str, Scores] = {}
     robots: dict[str, list[float]] = {}

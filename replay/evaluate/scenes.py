@@ -21,7 +21,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Generic, Protocol, TypeVar
 
+from dsp.errors import InputError
+from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
+from replay.log import LogReader
 from replay.options import ReplayOptions
 from replay.profiles import options_for
 from replay.runner import replay
@@ -35,7 +38,9 @@ __all__ = [
     "SceneMapper",
     "SceneScorer",
     "SceneTask",
+    "check_reused",
     "configs_for",
+    "prepare_log",
     "replay_results",
     "run_scene",
     "serial_map",
@@ -138,10 +143,31 @@ def replay_results(log: Path, config: Config, calibration: Path | None, *,
     return {"frames": collected.frames, "fused": collected.fused}
 
 
+def check_reused(log: Path, scenario: str, seed: int) -> None:
+    """Refuse a log already at ``log`` (about to be reused instead of recorded) whose
+    scenario metadata is not ``scenario`` with ``seed``: another scene's log with the
+    expected name would be scored as this one."""
+    with LogReader(log) as reader:
+        found = reader.info.scenario
+    if found is None or (found.name, found.seed) != (scenario, seed):
+        what = ("no dsp.scenario metadata" if found is None
+                else f"{printable(found.name)[:40]} seed {found.seed}")
+        raise InputError(f"{log}: reused as {scenario} seed {seed}, but the log is {what}; "
+                         "remove it (it is recorded again) or choose another --out-dir")
+
+
+def prepare_log(log: Path, scenario: str, seed: int, record: Callable[[], None]) -> None:
+    """Record the scene at ``log`` when it is missing, else check the log there is it."""
+    if log.exists():
+        check_reused(log, scenario, seed)
+    else:
+        record()
+
+
 def run_scene(task: SceneTask[S]) -> S:
     """Record the scene's log when it is missing, replay it under each config, score it."""
-    if not task.log.exists():
-        task.record(task.log, task.scenario, task.seed)
+    prepare_log(task.log, task.scenario, task.seed,
+                lambda: task.record(task.log, task.scenario, task.seed))
     replays = ((c, replay_results(task.log, c, task.calibration,
                                   pose_uncertainty=task.pose_uncertainty))
                for c in task.configs)

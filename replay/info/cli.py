@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from dsp.atomic import atomic_output, check_distinct
+from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_suffix, check_topic_pattern
 from dsp.cli import Parser, add_common_arguments, run_main
@@ -52,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pose-topic", metavar="PATTERN",
                    help="with --cameras-template: the pose topic pattern (default: found)")
     add_common_arguments(p, force=True, progress=False)
+    declare_files(p, inputs=("log",), outputs=("--out",))
     return p
 
 

@@ -16,7 +16,7 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from dsp import contract
+from dsp import contract, jsonio
 from dsp import metadata as meta
 from dsp.jsonio import Json
 from dsp.text import format_bytes, printable
@@ -159,7 +159,7 @@ def _descriptions(cat: Catalogue) -> dict[str, str]:
     out: dict[str, str] = {}
     for robot, text in cat.metadata.get(contract.CAMERAS_METADATA, {}).items():
         try:
-            out[_shown(robot)] = meta.CameraMetadata(robot, json.loads(text)).spec.describe()
+            out[_shown(robot)] = meta.CameraMetadata(robot, jsonio.loads(text)).spec.describe()
         except (ValueError, TypeError, AttributeError) as err:
             out[_shown(robot)] = _shown(f"unusable: {err}", limit=200)
     return out

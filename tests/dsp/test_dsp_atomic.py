@@ -96,9 +96,10 @@ def test_hidden_temporary_names_are_created_exclusively(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     names = iter(["aaaa", "aaaa", "bbbb"])
     monkeypatch.setattr(atomic.secrets, "token_hex", lambda n: next(names))
-    (tmp_path / ".r.json.aaaa.tmp").symlink_to(tmp_path / "elsewhere")
+    prefix = f".r.json.{atomic._host_tag()}-{os.getpid()}-"
+    (tmp_path / f"{prefix}aaaa.tmp").symlink_to(tmp_path / "elsewhere")
     out = AtomicFile(tmp_path / "r.json", force=False)
-    assert out.tmp.name == ".r.json.bbbb.tmp"
+    assert out.tmp.name == f"{prefix}bbbb.tmp"
     assert not (tmp_path / "elsewhere").exists()
     out.discard()
 
@@ -215,3 +216,57 @@ def test_check_distinct_names_both_sides(tmp_path: Path) -> None:
     with pytest.raises(UsageError, match=r"--out and --save both name"):
         check_distinct([("--out", tmp_path / "r.json"), ("--save", tmp_path / "r.json")])
     check_distinct([("--out", tmp_path / "r.json"), ("--save", None)], [("log", None)])
+
+
+def _dead_pid() -> int:
+    """A process id that ran and has ended (its parent reaped it)."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+def test_the_next_writer_removes_what_a_killed_run_left(tmp_path: Path) -> None:
+    host = atomic._host_tag()
+    dead = tmp_path / f".r.json.{host}-{_dead_pid()}-0123abcd.tmp"
+    dead.write_text("half a results file")
+    live = tmp_path / f".r.json.{host}-{os.getppid()}-0123abcd.tmp"  # a running process
+    live.write_text("still being written")
+    elsewhere = tmp_path / f".r.json.{(int(host, 16) + 1) % 0x10000:04x}-{_dead_pid()}-0123abcd.tmp"
+    elsewhere.write_text("another machine's run")
+    other = tmp_path / f".s.json.{host}-{_dead_pid()}-0123abcd.tmp"
+    other.write_text("another output's")
+    assert atomic.stale_temporaries(tmp_path / "r.json") == [dead]
+    with atomic_output(tmp_path / "r.json", force=False) as tmp:
+        tmp.write_text("{}")
+    assert not dead.exists()
+    assert live.exists() and elsewhere.exists() and other.exists()
+    assert (tmp_path / "r.json").read_text() == "{}"
+
+
+def test_declared_files_are_named_from_the_arguments(tmp_path: Path) -> None:
+    import argparse
+
+    p = argparse.ArgumentParser()
+    p.add_argument("log", type=Path, nargs="+")
+    p.add_argument("--cameras")
+    p.add_argument("--out", type=Path)
+    atomic.declare_files(p, inputs=("log", "--cameras"), outputs=("--out",), names=("paper",))
+    args = p.parse_args(["a.mcap", "b.mcap", "--cameras", "paper", "--out", "r.json"])
+    files = atomic.declared_files(p)
+    assert atomic.named_files(p, args, files.inputs) == [("the input log", Path("a.mcap")),
+                                                        ("the input log", Path("b.mcap"))]
+    assert atomic.named_files(p, args, files.outputs) == [("--out", Path("r.json"))]
+    with pytest.raises(ValueError, match="--nothing"):
+        atomic.declare_files(p, inputs=("--nothing",))
+
+
+def test_a_clash_through_a_link_names_both_paths(tmp_path: Path) -> None:
+    ball = tmp_path / "ball.json"
+    ball.write_text("{}")
+    link = tmp_path / "link.json"
+    link.symlink_to(ball)
+    with pytest.raises(UsageError, match=r"^--out .*link\.json is the --ball file .*ball\.json;"):
+        check_distinct([("--out", link)], [("the --ball file", ball)])

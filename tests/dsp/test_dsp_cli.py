@@ -101,7 +101,10 @@ def fail_with(exc: BaseException) -> Callable[[Sequence[str] | None], int]:
     (DspError("plain"), 1, "prog: error: plain"),
     (KeyboardInterrupt(), 130, "prog: interrupted"),
     (FileNotFoundError(2, "No such file or directory", "d/x"), 1,
-     "prog: error: [Errno 2] No such file or directory: 'd/x'"),
+     "prog: error: d/x: No such file or directory"),
+    (PermissionError(13, "Permission denied", "a", None, "b"), 1,
+     "prog: error: a -> b: Permission denied"),
+    (OSError("no errno"), 1, "prog: error: no errno"),
 ])
 def test_run_main_maps_errors_to_one_line_and_a_code(
     exc: BaseException, code: int, line: str, capsys: pytest.CaptureFixture[str]
@@ -250,3 +253,15 @@ def test_a_closed_pipe_ends_a_command_quietly() -> None:
                           env={**os.environ, "SCRIPT": script})
     assert proc.stdout == "x" * 10
     assert proc.stderr == ""
+
+
+def test_an_error_line_is_cut_to_a_readable_length(capsys: pytest.CaptureFixture[str]) -> None:
+    """A log naming 10,000 robots gave a 69 kB error line: it is cut, still one line."""
+    from dsp.cli import MAX_ERROR_CHARS
+
+    names = ", ".join(f"robot{i}" for i in range(10_000))
+    assert run_main("prog", fail_with(InputError(f"x.mcap: no camera for {names}")), []) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("prog: error: x.mcap: no camera for robot0, robot1")
+    assert err.endswith("...\n") and err.count("\n") == 1
+    assert len(err) == MAX_ERROR_CHARS + len("...\n")

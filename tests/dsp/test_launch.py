@@ -47,3 +47,31 @@ def test_the_scripts_are_the_entry_points() -> None:
         "dsp-record": "dsp.launch:record", "dsp-replay": "dsp.launch:replay",
         "dsp-calibrate": "dsp.launch:calibrate", "dsp-eval": "dsp.launch:evaluate",
         "dsp-info": "dsp.launch:info", "dsp-compare": "dsp.launch:compare"}
+
+
+STUCK = """
+import sys, threading, types
+import dsp.launch as launch
+
+class Stuck:
+    '''A native writer that failed: whoever collects it waits for ever.'''
+    def __del__(self):
+        threading.Event().wait()
+
+def main():
+    launch.end_without_finalising(Stuck())
+    print("prog: error: out.rrd: cannot write", file=sys.stderr)
+    return 1
+
+sys.modules["stuck_command"] = types.SimpleNamespace(main=main)
+sys.exit(launch._launch("prog", "stuck_command"))
+"""
+
+
+def test_a_command_with_a_stuck_writer_still_ends() -> None:
+    """Guards the end of a replay whose Rerun file writer failed (a file-size limit): its
+    error printed, the command exits with its code instead of waiting for ever when the
+    interpreter collects the writer."""
+    proc = subprocess.run([sys.executable, "-c", STUCK], capture_output=True, text=True,
+                          timeout=60, check=False)
+    assert (proc.returncode, proc.stderr) == (1, "prog: error: out.rrd: cannot write\n")

@@ -41,6 +41,7 @@ REPLAY: list[tuple[list[str], str]] = [
     (["--out-mcap", "e.json"], "--out-mcap e.json: the file name must end in .mcap"),
     (["--save", "r.json"], "--save r.json: the file name must end in .rrd (e.g. r.rrd)"),
     (["--out-dir", "d", "--workers", "99999"], "--workers 99999: give at most 1024"),
+    (["--threads", "1000000000"], "--threads 1000000000: give a whole number in [1, 1024]"),
 ]
 
 RECORD: list[tuple[list[str], str]] = [
@@ -50,9 +51,20 @@ RECORD: list[tuple[list[str], str]] = [
     (["--duration", "1e300"], "--duration 1e+300"),
     (["--frames", "0"], "--frames 0: give a whole number in [1, 10000000]"),
     (["--frames", "100000000000"], "--frames 100000000000"),
-    (["--rate", "nan"], "--rate nan: give a finite number in (0, 1000] Hz"),
+    (["--rate", "nan"], "--rate nan: give a finite number in [0.1, 1000] Hz"),
     (["--rate", "inf"], "--rate inf"),
     (["--rate", "0"], "--rate 0.0"),
+    (["--rate", "1e-9"], "--rate 1e-09: give a finite number in [0.1, 1000] Hz"),
+    (["--rate", "1e-300"], "--rate 1e-300"),
+    (["--frames", "10000000", "--rate", "0.5"],
+     "--frames 10000000 at 0.5 Hz is 2e+07 s of simulated time; record at most 86400 s"),
+    (["--scenario", "match", "--pose-rate", "1e-300"], "--pose-rate 1e-300: give a finite "
+     "number in [0.1, 240] Hz"),
+    (["--scenario", "match", "--image-noise", "1e9"], "--image-noise 1000000000.0: give a "
+     "finite number in [0, 255] grey levels"),
+    (["--scenario", "match", "--gain-jitter", "1e300"], "--gain-jitter 1e+300"),
+    (["--scenario", "match", "--pose-bias", "1e300"], "--pose-bias 1e+300"),
+    (["--scenario", "match", "--pose-bias-tau", "1e300"], "--pose-bias-tau 1e+300"),
     (["--seed", "-1"], "--seed -1: give a whole number in [0, 9223372036854775807]"),
     (["--seed", str(2**64)], f"--seed {2**64}"),
     (["--jpeg-quality", "101"], "--jpeg-quality 101: give a whole number in [1, 100]"),
@@ -65,6 +77,8 @@ RECORD: list[tuple[list[str], str]] = [
 ]
 
 CALIBRATE: list[tuple[list[str], str]] = [
+    (["--directions", ",".join(str(d) for d in range(37))],
+     "--directions: 37 directions; give at most 36"),
     (["--start-m", "nan"], "--start-m nan: give a finite number in (0, 30] m"),
     (["--start-m", "0"], "--start-m 0.0"),
     (["--stop-m", "inf"], "--stop-m inf"),
@@ -144,3 +158,18 @@ def test_eval_never_writes_its_table_over_the_calibration(
                                  "file; an output never overwrites an input, choose another "
                                  "file\n")
     assert calib.read_text() == before and [p.name for p in tmp_path.iterdir()] == [calib.name]
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"web_port": 99_999_999}, "--port 99999999: give a whole number in [0, 65535]"),
+    ({"grpc_port": -1}, "--grpc-port -1: give a whole number in [0, 65535]"),
+])
+def test_a_port_out_of_range_is_refused_before_a_server_starts(
+        kwargs: dict[str, int], message: str) -> None:
+    """--serve --port 99999999 was an OverflowError traceback from the socket's bind."""
+    from dsp.errors import UsageError
+    from replay.sinks.rerun.live import ViewerServer
+
+    with pytest.raises(UsageError) as info:
+        ViewerServer(**kwargs)  # type: ignore[arg-type]
+    assert str(info.value) == message

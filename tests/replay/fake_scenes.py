@@ -39,4 +39,5 @@ class FakeRecorder:
                 robots["robot3"] = (ball[0], ball[1] - 9.8, math.pi / 2)
         else:
             robots, ball = PAPER_ROBOTS[scenario], PAPER_TRUTH[scenario]
-        write_log(path, robots=robots, ball=ball, duration_s=0.3, image_hz=10.0)
+        write_log(path, robots=robots, ball=ball, duration_s=0.3, image_hz=10.0,
+                  scenario=(scenario, seed))

@@ -206,3 +206,28 @@ def test_a_bad_calibration_model_and_a_fresh_part_per_replay() -> None:
     first, second = new_part("fusion", spec), new_part("fusion", spec)
     assert first is not second and type(first) is type(second)
     assert first is not load_part("fusion", spec).obj
+
+
+FACTORY = '''
+from estimator.fusion import MeanFusion
+
+
+def make_mean():
+    """A factory: a function that makes the part, as a plug-in may offer instead of a class."""
+    return MeanFusion()
+'''
+
+
+def test_a_factory_function_is_called_for_its_part(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """Guards how a spec's object becomes a part: a function is a factory, called (anew for
+    each replay), never taken as the part itself."""
+    from estimator.fusion import MeanFusion
+
+    (tmp_path / "dsp_factory_parts.py").write_text(FACTORY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    spec = "dsp_factory_parts:make_mean"
+    part = load_part("fusion", spec)
+    assert isinstance(part.obj, MeanFusion) and part.name == "mean"
+    first, second = new_part("fusion", spec), new_part("fusion", spec)
+    assert isinstance(first, MeanFusion) and first is not second

@@ -42,8 +42,8 @@ import numpy.typing as npt
 
 from estimator.errors import BallModelError
 
-__all__ = ["COLOUR_BINS", "FIELD_BINS", "FORMAT", "BallModel", "model_from_dict",
-           "model_to_dict"]
+__all__ = ["COLOUR_BINS", "FIELD_BINS", "FORMAT", "MAX_LEVELS", "MAX_SIZE_OFFSET_PX",
+           "MAX_SIZE_SLOPE", "BallModel", "model_from_dict", "model_to_dict"]
 
 FORMAT = "dual-sight ball model"
 VERSION = 1
@@ -56,6 +56,16 @@ HEAD_SIZE = 40
 OFFSET = 128
 SCALE = 16.0
 """A table byte b stands for the log-likelihood ratio ``(b - OFFSET) / SCALE``."""
+
+
+MAX_LEVELS = 16
+"""The most table levels a ball model may cut blobs at (each is a pass over every image;
+a fitted model has 3)."""
+MAX_SIZE_SLOPE = 100.0
+"""The steepest size line [px of diameter per px of row] a ball model may hold (a fitted
+one is under 1)."""
+MAX_SIZE_OFFSET_PX = 1e5
+"""The largest size line offset [px] a ball model may hold."""
 
 
 @dataclass(frozen=True)
@@ -91,9 +101,9 @@ class BallModel:
             raise BallModelError(f"field mask has shape {self.field_mask.shape}; expected "
                                  f"{FIELD_BINS} uint8")
         if not self.levels or list(self.levels) != sorted(set(self.levels)) or not all(
-                0 < t <= 255 for t in self.levels):
-            raise BallModelError(f"levels {self.levels} must be distinct bytes 1-255, "
-                                 "ascending")
+                0 < t <= 255 for t in self.levels) or len(self.levels) > MAX_LEVELS:
+            raise BallModelError(f"levels {self.levels} must be at most {MAX_LEVELS} distinct "
+                                 "bytes 1-255, ascending")
         if not (0 < self.min_diameter_px <= self.max_diameter_px
                 and math.isfinite(self.max_diameter_px)):
             raise BallModelError(f"diameter range [{self.min_diameter_px}, "
@@ -102,6 +112,12 @@ class BallModel:
             raise BallModelError(f"threshold {self.threshold} is not a probability 0-1")
         if not 0.0 <= self.centre_blend <= 1.0:
             raise BallModelError(f"centre_blend {self.centre_blend} is not a weight 0-1")
+        a, b = self.size_line
+        if not (math.isfinite(a) and math.isfinite(b) and 0.0 <= a <= MAX_SIZE_SLOPE
+                and abs(b) <= MAX_SIZE_OFFSET_PX):
+            raise BallModelError(f"size_line ({a}, {b}) must be finite, its slope in "
+                                 f"[0, {MAX_SIZE_SLOPE:g}] and its offset within "
+                                 f"{MAX_SIZE_OFFSET_PX:g} px")
         if self.check_head is not None and (len(self.check_head) != HEAD_SIZE or not all(
                 math.isfinite(v) for v in self.check_head)):
             raise BallModelError(f"check_head must be {HEAD_SIZE} finite numbers")

@@ -29,12 +29,14 @@ from pathlib import Path
 from types import TracebackType
 from urllib.parse import quote, urlsplit
 
+from dsp.checks import check_int
 from dsp.errors import DspError, UsageError
 
 __all__ = [
     "DEFAULT_BIND",
     "DEFAULT_GRPC_PORT",
     "DEFAULT_WEB_PORT",
+    "MAX_PORT",
     "Liveness",
     "ViewerServer",
     "ViewerUnavailableError",
@@ -155,6 +157,10 @@ def _signals_as_flag(asked: list[int]) -> Iterator[None]:
                 signal.signal(sig, handler)
 
 
+MAX_PORT = 65535
+"""The largest TCP port."""
+
+
 class ViewerServer:
     """The Rerun web viewer and gRPC server as a child process (see the module docstring).
 
@@ -163,6 +169,8 @@ class ViewerServer:
 
     def __init__(self, *, bind: str = DEFAULT_BIND, web_port: int = DEFAULT_WEB_PORT,
                  grpc_port: int = DEFAULT_GRPC_PORT, start_s: float = 15.0) -> None:
+        check_int("--port", web_port, low=0, high=MAX_PORT)
+        check_int("--grpc-port", grpc_port, low=0, high=MAX_PORT)
         self.bind = bind
         self.web_port = web_port or _free_port(bind)
         self.grpc_port = grpc_port or _free_port(bind)

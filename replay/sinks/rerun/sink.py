@@ -166,7 +166,7 @@ class RerunSink(SinkBase):
                                      recording=self.rec.to_native(), write_footer=True)
             except RuntimeError as err:
                 self.broken = True
-                raise write_failure(self._save.path, err) from err
+                raise write_failure(self._save.path, err, self.rec) from err
         elif mode == "spawn":
             check_display()
             self.rec.spawn(default_blueprint=bp)
@@ -431,7 +431,7 @@ class RerunSink(SinkBase):
                 except RuntimeError as err:  # a full disk, or the gRPC connection broke
                     if self._save is not None:
                         self.broken = True
-                        raise write_failure(self._save.path, err) from err
+                        raise write_failure(self._save.path, err, self.rec) from err
                     print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
                     self.lost = str(err)
             if ok and self._save is not None:

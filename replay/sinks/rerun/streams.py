@@ -25,8 +25,9 @@ import rerun.blueprint as rrb
 import rerun_bindings as bindings
 
 from dsp.errors import OutputError
+from dsp.launch import end_without_finalising
 
-__all__ = ["MIN_FREE_BYTES", "blueprint_storage", "check_room", "release"]
+__all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_room", "release"]
 
 MIN_FREE_BYTES = 1 << 20
 """1 MiB: less room than this for an .rrd is a full disk."""
@@ -72,12 +73,28 @@ def check_room(path: Path) -> None:
         raise OutputError(path, f"No space left on device ({free // 1024} KiB free)")
 
 
-def write_failure(path: Path, err: RuntimeError) -> OutputError:
-    """What a failing Rerun file writer means, naming the output."""
+def abandon(rec: rr.RecordingStream) -> None:
+    """Give up on ``rec`` after its file writer failed: it is never flushed again, at exit
+    neither. Rerun's exit handler flushes every recording and waits without a limit for a
+    writer that stopped (a file-size limit: the command printed its error and never
+    ended), and so does collecting the recording: it is kept until the command ends at once
+(:func:`dsp.launch.end_without_finalising`)."""
+    with contextlib.suppress(Exception):
+        rr.unregister_shutdown()
+    end_without_finalising(rec)  # collecting it would flush it, and wait for ever
+
+
+def write_failure(path: Path, err: RuntimeError, rec: rr.RecordingStream) -> OutputError:
+    """What a failing Rerun file writer means, naming the output; ``rec``, the recording
+    it wrote, is given up (:func:`abandon`)."""
+    abandon(rec)
     free = free_bytes(path.parent)
     if free is not None and free < MIN_FREE_BYTES:
         return OutputError(path, "No space left on device")
     text = str(err)
+    if "Flush timed out" in text:
+        return OutputError(path, "the Rerun file writer did not finish in time; is the disk "
+                           "full, or a file-size limit reached?")
     if "os error" in text or "File too large" in text or "shut down prematurely" in text:
         return OutputError(path, f"the Rerun file writer stopped ({text}); is the disk full?")
     return OutputError(path, text)

@@ -98,3 +98,27 @@ def test_the_detector_gives_no_ball_to_blobs_far_under_the_size_line() -> None:
         elif max(w, h) > math.exp(SMALLEST_R) * expected * 1.05:
             assert c.check_score != pytest.approx(floor, rel=1e-6, abs=0)
     assert len(small) >= 3 and small == pytest.approx([floor] * len(small), rel=1e-6, abs=0)
+
+
+@pytest.mark.parametrize("lam", [0.3, 3.0, 30.0])
+def test_the_head_s_fit_is_the_minimum_of_its_penalised_loss(lam: float) -> None:
+    """Guards Newton's steps of the head's fit (no files needed): at the (w, b) found, the
+    gradient of the weighted log-loss plus lam |(w, b)|^2, taken here by central
+    differences of that objective, is zero; a ridge gradient without its factor 2 stops
+    elsewhere."""
+    from estimator.detection.real.head import HeadSamples, _objective, _solve, _weights
+
+    rng = np.random.default_rng(5)
+    n, k = 200, 6
+    feat = rng.normal(size=(n, k))
+    y = (feat @ rng.normal(size=k) + rng.normal(0.0, 1.0, n) > 0.8).astype(np.float64)
+    s = HeadSamples(rng.normal(0.0, 0.5, n), feat, y, np.arange(n, dtype=np.int64))
+    theta = _solve(s, lam)
+    x = np.hstack([feat, np.ones((n, 1))])
+    sw = _weights(s)
+    h = 1e-6
+    grad = np.array([(_objective(s, x, sw, theta + h * e, lam)
+                      - _objective(s, x, sw, theta - h * e, lam)) / (2 * h)
+                     for e in np.eye(k + 1)])
+    assert np.abs(grad).max() < 1e-4 * max(1.0, lam * float(np.abs(theta).max())), grad
+    assert np.abs(theta).max() > 1e-3  # a fit that moved, not the zero start

@@ -249,3 +249,23 @@ def test_the_hold_carries_a_correction_over_failed_frames() -> None:
     stale = hold.update("r1", 3_000_000_000, later, PRIOR_COV,
                         _correction(FitStatus.JUMP, later))
     assert stale.source == "prior" and stale.pose == later
+
+
+def test_the_lines_information_is_divided_by_its_scale() -> None:
+    """Guards H_L / information_scale: halving the scale doubles the lines' information
+    (the same points, the same pose), and the covariance is (P0^-1 + H_L / s)^-1 plus the
+    floor; information multiplied by the scale would halve it instead."""
+    model, truth = CAMERA_MODELS[0], RobotPose(-4.3, 1.7, math.radians(35.0))
+    prior = RobotPose(truth.x_m + 0.08, truth.y_m - 0.06, truth.yaw_rad + math.radians(1.5))
+    pts = detect_line_points(render_carpet(make_camera(model), truth), GROUND[model])
+    fits = {s: correct_pose(prior, PRIOR_COV, pts, GRID, LINES,
+                            PoseFitParams(information_scale=s)) for s in (0.5, 0.25)}
+    assert all(f.status is FitStatus.OK for f in fits.values())
+    assert fits[0.5].pose == fits[0.25].pose
+    np.testing.assert_allclose(fits[0.25].line_information, 2.0 * fits[0.5].line_information,
+                               rtol=1e-12)
+    floor = np.diag(np.square(PoseFitParams().floor_sigma))
+    for f in fits.values():
+        expected = np.linalg.inv(np.linalg.inv(PRIOR_COV) + f.line_information) + floor
+        np.testing.assert_allclose(f.covariance, expected, rtol=1e-9)
+    assert np.all(np.diag(fits[0.25].covariance) < np.diag(fits[0.5].covariance))

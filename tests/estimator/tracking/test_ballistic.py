@@ -390,3 +390,50 @@ def test_a_kick_up_restarts_with_the_way_between_crossed_points() -> None:
     assert tr.x is not None and tr.x[:3] == pytest.approx(_kicked_up(1.05), abs=0.01)
     assert math.hypot(tr.x[3] - KICK[0], tr.x[4] - KICK[1]) < 1.0, tr.x[3:]
     assert tr.P[3, 3] == pytest.approx(tr.params.launch_sigma_mps ** 2)
+
+
+def test_a_high_lob_under_the_top_is_followed_by_rays_to_its_apex() -> None:
+    """Guards the apex (z + vz^2 / 2g): a lob thrown up at 7 m/s peaks at 2.6 m, under
+    ``top_m`` (3.5 m); every ray of two robots is taken and the track stays in the air. An
+    apex of vz^2 / g (5 m) would give the flight up as one no ball flies."""
+    rng = np.random.default_rng(21)
+    v = (3.0, 0.0, 7.0)
+    assert R + v[2] ** 2 / (2 * G_MPS2) < BallisticParams().top_m < v[2] ** 2 / G_MPS2
+    tr = BallisticTracker()
+    tr.update(round(0.1 * NS_PER_S), arc(0.1, v), np.eye(3) * 0.02 ** 2)
+    for k in range(1, 12):
+        t = 0.1 + 0.05 * k
+        robot = "robot1" if k % 2 else "robot2"
+        assert tr.update_ray(round(t * NS_PER_S), _ray(robot, arc(t, v), rng)), k
+        assert tr.airborne and tr.x is not None
+    assert tr.x is not None and abs(tr.x[2] - arc(0.65, v)[2]) < 0.1  # near the apex
+
+
+def _offset_ray(tr: BallisticTracker, robot: str, d2: float) -> BallRay:
+    """A ray of ``robot`` that misses the track sideways by as much as gives the
+    Mahalanobis distance ``d2`` (2 directions across the ray), its sigmas 1 mrad."""
+    assert tr.x is not None
+    p = tr.x[:3]
+    u = p - np.array(CAMERAS[robot])
+    length = float(np.linalg.norm(u))
+    u /= length
+    exact = BallRay(robot, CAMERAS[robot], (float(u[0]), float(u[1]), float(u[2])),
+                    0.001, 0.001)
+    e_az, e_el = exact.across()
+    H = np.vstack([e_az, e_el])
+    S = H @ tr.P[:3, :3] @ H.T + np.eye(2) * (length * 0.001) ** 2
+    delta = math.sqrt(d2 / float(np.linalg.inv(S)[0, 0]))
+    origin = p + delta * np.array(e_az) - length * u  # moved across: the ray misses by delta
+    return BallRay(robot, (float(origin[0]), float(origin[1]), float(origin[2])),
+                   exact.direction, 0.001, 0.001)
+
+
+@pytest.mark.parametrize(("d2", "taken"), [(12.5, True), (15.0, False)])
+def test_a_ray_is_gated_at_the_chi_square_of_its_two_directions(d2: float,
+                                                                 taken: bool) -> None:
+    """Guards the ray gate: a ray measures 2 directions, so it is refused past chi-square(2)
+    at 99.9 % (13.82), not chi-square(3)'s 16.27: a miss of d^2 = 15 is refused."""
+    tr = BallisticTracker()
+    tr.update(0, (1.0, 0.5, 1.5), np.eye(3) * 0.05 ** 2)
+    assert tr.airborne
+    assert tr.update_ray(0, _offset_ray(tr, "robot1", d2)) is taken

@@ -251,3 +251,20 @@ def test_logs_may_follow_the_options_and_pool_workers_replay_on_one_thread(
                             "--workers", "2", str(logs / "run1.mcap")]) == 0
     assert sorted(p.name for p in out.glob("run*.json")) == ["run0.json", "run1.json"]
     assert seen == [1, 1]  # the workers already use the cores: no thread pool per log
+
+
+def test_an_out_dir_that_cannot_be_made_is_the_project_s_one_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """--out-dir under a read-only folder printed a raw "[Errno 30] ..." line."""
+    log = tmp_path / "run.mcap"
+    write_log(log, duration_s=0.2)
+    out = tmp_path / "ro" / "results"
+
+    def read_only(self: Path, *args: Any, **kwargs: Any) -> None:
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(self))
+
+    monkeypatch.setattr(Path, "mkdir", read_only)
+    assert replay.cli.main([str(log), "--out-dir", str(out), "-q"]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert err == f"dsp-replay: error: {out}: cannot write: {os.strerror(errno.EROFS)}\n"

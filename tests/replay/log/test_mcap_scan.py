@@ -186,3 +186,21 @@ def test_the_codec_names_opcodes_not_bytes() -> None:
         text = (root / f"{name}.py").read_text()
         assert not re.search(r"\b0x[0-9a-fA-F]{1,2}\b", text), name
         assert text.count('"<BQ"') == (1 if name == "mcap_records" else 0), name
+
+
+@pytest.mark.parametrize("short", [1, 5, 9])
+def test_a_resync_never_takes_a_chunk_that_runs_past_the_end(chunked: bytes,
+                                                             short: int) -> None:
+    """Guards the resync's bound: after damage, a chunk record whose declared length runs
+    ``short`` bytes (up to its 9-byte head) past the end of a cut file is not taken: the
+    damage runs to the end."""
+    chunks = [r for r in records(chunked) if r.op == Op.CHUNK]
+    victim, after = chunks[1], chunks[2]
+    bad = bytearray(chunked)
+    bad[victim.offset + 9:victim.offset + 9 + 32] = b"\xff" * 32  # its header unreadable
+    cut = bytes(bad[:after.offset + 9 + after.length - short])  # its length is the body's
+    found = scan(cut, recover=True)
+    [d] = found.damage  # one damage, from the victim to the end: nothing resynced on
+    assert (d.offset, d.offset + d.length) == (victim.offset, len(cut))
+    assert found.truncated and found.cut_chunk is None
+    assert after.offset not in [c.offset for c in found.chunks]

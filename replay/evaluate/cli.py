@@ -26,10 +26,11 @@ from pathlib import Path
 from typing import TypeVar
 
 from dsp.atomic import atomic_output, check_distinct
-from dsp.ball_file import read_check_file, shipped_check
+from dsp.ball_file import read_ball_file, read_check_file, shipped_check, shipped_generic
 from dsp.checks import check_int, check_number
 from dsp.cli import add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
+from dsp.image_groups import read_grouping
 from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
@@ -144,7 +145,15 @@ def _add_images_arguments(p: argparse.ArgumentParser) -> None:
                    "labelled images is fitted and scored apart")
     g.add_argument("--train-count", type=int, default=10, metavar="N",
                    help="fit on each folder's first N labelled images by name, score the rest "
-                   "(default %(default)s)")
+                   "(default %(default)s; 0: fit nothing, score every image with the generic "
+                   "ball model, as at a venue with no labelled frame)")
+    g.add_argument("--group-by", default="folder", metavar="folder|day|FILE",
+                   help="fit and score each folder apart (default), each day (a folder's "
+                   "first path part) or each group of a grouping file (lines of NAME "
+                   "PATTERN ...; train/msl-events.txt groups the shared set by event)")
+    g.add_argument("--ball", type=Path, metavar="BALL.json",
+                   help="with --train-count 0: the ball model to score with (default: the "
+                   "shipped generic one, dsp-calibrate --ball-generic)")
     g.add_argument("--train-from", type=int, default=0, metavar="K",
                    help="fit on the N labelled images from the K-th on (counted from 0) "
                    "instead, score every other one (default 0: the first N)")
@@ -320,21 +329,33 @@ def _run_images(args: argparse.Namespace) -> int:
     out_dir: Path = args.out_dir
     if not args.dirs:
         raise UsageError("--suite images needs one or more folders of labelled images (DIR)")
-    check_int("--train-count", args.train_count, low=1, high=MAX_COUNT)
+    check_int("--train-count", args.train_count, low=0, high=MAX_COUNT)
     check_int("--train-from", args.train_from, low=0, high=MAX_COUNT)
+    if args.train_count == 0 and (args.train_from or args.no_head):
+        raise UsageError("--train-count 0 fits nothing: --train-from and --no-head do not "
+                         "go with it")
+    if args.ball is not None and args.train_count != 0:
+        raise UsageError("--ball goes with --train-count 0 (a fitted model is each venue's)")
+    grouping = read_grouping(args.group_by)
     check_number("--threshold", args.threshold, low=0.0, high=1.0)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: is not a folder")
     check = shipped_check() if args.check is None else read_check_file(args.check)
+    generic = None
+    if args.train_count == 0 and args.detector == "real":
+        generic = shipped_generic() if args.ball is None else read_ball_file(args.ball)
     t0 = time.perf_counter()
     doc, rows = run_images_suite(args.dirs, train_count=args.train_count,
                                  detector=args.detector, ball_class=args.ball_class,
                                  check=check, head=not args.no_head,
-                                 threshold=args.threshold, train_from=args.train_from)
+                                 threshold=args.threshold, train_from=args.train_from,
+                                 grouping=grouping, generic=generic)
     out_dir.mkdir(parents=True, exist_ok=True)
     text = images_markdown(doc)
     doc["check"] = "shipped" if args.check is None else args.check.name
     doc["threshold"] = args.threshold  # None: each folder's model's own
+    if generic is not None:
+        doc["ball"] = "generic (shipped)" if args.ball is None else args.ball.name
     for name, content in (("images-summary.json", strict_json(doc, sort_keys=True, indent=2)
                            + "\n"), ("images-summary.md", text),
                           ("images.csv", images_csv(rows))):

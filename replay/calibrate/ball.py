@@ -91,6 +91,12 @@ def fit_from_labelled(source: Path | str, labelled: Sequence[Labelled], *,
 def format_fit(model: BallModel) -> str:
     """One line: what the model was fitted from."""
     fit = model.fit
+    if fit.get("generic"):
+        events = fit.get("events")
+        return (f"generic ball model from {fit.get('images')} images of "
+                f"{len(events) if isinstance(events, dict) else '?'} events, "
+                f"{fit.get('balls')} balls, diameters {model.min_diameter_px:.0f}-"
+                f"{model.max_diameter_px:.0f} px, no venue head")
     head = ("no venue head" if model.check_head is None
             else f"venue head (penalty {fit.get('head_lambda')})")
     left = (f", {fit['left_out']} left out (the ball hidden or cut by the image's edge)"

@@ -151,6 +151,9 @@ def _add_images_arguments(p: argparse.ArgumentParser) -> None:
                    help="fit and score each folder apart (default), each day (a folder's "
                    "first path part) or each group of a grouping file (lines of NAME "
                    "PATTERN ...; train/msl-events.txt groups the shared set by event)")
+    g.add_argument("--only", action="append", default=[], metavar="GROUP",
+                   help="score this folder or group alone (repeatable), e.g. an event held "
+                   "out of the check given")
     g.add_argument("--ball", type=Path, metavar="BALL.json",
                    help="with --train-count 0: the ball model to score with (default: the "
                    "shipped generic one, dsp-calibrate --ball-generic)")
@@ -349,7 +352,7 @@ def _run_images(args: argparse.Namespace) -> int:
                                  detector=args.detector, ball_class=args.ball_class,
                                  check=check, head=not args.no_head,
                                  threshold=args.threshold, train_from=args.train_from,
-                                 grouping=grouping, generic=generic)
+                                 grouping=grouping, generic=generic, only=args.only)
     out_dir.mkdir(parents=True, exist_ok=True)
     text = images_markdown(doc)
     doc["check"] = "shipped" if args.check is None else args.check.name

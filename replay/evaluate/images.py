@@ -173,15 +173,25 @@ def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str =
                      ball_class: int = 0, check: bytes, head: bool = True,
                      threshold: float | None = None,
                      on_folder: Callable[[str], None] | None = None, train_from: int = 0,
-                     grouping: Grouping | None = None, generic: BallModel | None = None
-                     ) -> tuple[dict[str, Json], list[ImageRow]]:
+                     grouping: Grouping | None = None, generic: BallModel | None = None,
+                     only: Sequence[str] = ()) -> tuple[dict[str, Json], list[ImageRow]]:
     """The summary document (per folder, or per group under "groups" with "group_by", and
-    "total"; "train_from" only when not 0) and the per-image rows."""
+    "total"; "train_from" only when not 0) and the per-image rows; ``only``: score these
+    groups (or folders) alone."""
     grouping = grouping or Grouping(BY_FOLDER)
     groups: dict[str, Json] = {}
     every: list[ImageRow] = []
     end = train_from + train_count
-    for name, members in group_folders(grouping, _folders(roots)).items():
+    found_groups = group_folders(grouping, _folders(roots))
+    unknown = [name for name in only if name not in found_groups]
+    if unknown:
+        unit = "folder" if grouping.kind == BY_FOLDER else "group"
+        raise InputError(f"--only {unknown[0]}: no such {unit} under "
+                         f"{', '.join(map(str, roots))} (there are "
+                         f"{', '.join(list(found_groups)[:12])})")
+    for name, members in found_groups.items():
+        if only and name not in only:
+            continue
         found = _group_images(members)
         labelled = [item for _, item in found]
         source = str(members[0][1]) if len(members) == 1 else f"{name} ({members[0][1]} ...)"

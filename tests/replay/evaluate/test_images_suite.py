@@ -198,6 +198,13 @@ def test_group_by_day_fits_and_scores_one_day_of_several_folders(tmp_path: Path)
     assert [r["image"] for r in rows] == names[10:]
     assert {r["folder"] for r in rows} == {"20990101/r1", "20990101/r2"}
     assert "| 20990101 | 4 |" in (out / "images-summary.md").read_text()
+    one = tmp_path / "one"  # --only: one folder alone, here fitted on 4 of its 7
+    assert main(["--suite", "images", str(day), "--train-count", "4", "--only", "20990101/r2",
+                 "--out-dir", str(one), "-q"]) == 0
+    assert list(json.loads((one / "images-summary.json").read_text())["folders"]) == [
+        "20990101/r2"]
+    assert main(["--suite", "images", str(day), "--group-by", "day", "--only", "20990102",
+                 "--out-dir", str(one), "-q"]) == 1
 
 
 def test_train_count_0_scores_every_image_with_the_generic_model(tmp_path: Path) -> None:

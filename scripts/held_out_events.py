@@ -20,10 +20,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from dsp.ball_file import read_ball_file, read_check_file
+from dsp.cli import run_main
+from dsp.errors import UsageError
 from dsp.image_groups import read_grouping
 from replay.evaluate.images import ImageRow, run_images_suite, summarise
 
@@ -41,15 +44,17 @@ def _cells(s: dict[str, Any], with_px: bool) -> list[str]:
     return [*out, str(s["centroid_median_px"])] if with_px else out
 
 
-def main() -> int:
+def _main(argv: Sequence[str] | None) -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("roots", type=Path, nargs="+")
     ap.add_argument("--groups", required=True)
     ap.add_argument("--checks", type=Path, required=True,
                     help="folder of lovo-EVENT.onnx and generic-EVENT.json")
     ap.add_argument("--out", type=Path, help="also write the figures as JSON")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     grouping = read_grouping(args.groups)
+    if grouping.kind != "file":
+        raise UsageError(f"--groups {args.groups}: give a grouping file (one event a line)")
     names = [name for name, _ in grouping.lines]
     doc: dict[str, Any] = {}
     all10: list[ImageRow] = []
@@ -93,6 +98,10 @@ def main() -> int:
                 s.pop("ms_per_image", None)
         args.out.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_main("held_out_events.py", _main, argv)
 
 
 if __name__ == "__main__":

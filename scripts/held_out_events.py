@@ -28,7 +28,7 @@ from dsp.ball_file import read_ball_file, read_check_file
 from dsp.cli import run_main
 from dsp.errors import UsageError
 from dsp.image_groups import read_grouping
-from replay.evaluate.images import ImageRow, run_images_suite, summarise
+from replay.evaluate.images import ImageRow, images_csv, run_images_suite, summarise
 
 TARGET_10 = (0.95, 0.90, 2.0)
 TARGET_0 = (0.90, 0.85)
@@ -50,7 +50,8 @@ def _main(argv: Sequence[str] | None) -> int:
     ap.add_argument("--groups", required=True)
     ap.add_argument("--checks", type=Path, required=True,
                     help="folder of lovo-EVENT.onnx and generic-EVENT.json")
-    ap.add_argument("--out", type=Path, help="also write the figures as JSON")
+    ap.add_argument("--out", type=Path, help="also write the figures as JSON, and beside it "
+                    "one row per image (OUT stem + -10.csv and -0.csv, as dsp-eval's images.csv)")
     args = ap.parse_args(argv)
     grouping = read_grouping(args.groups)
     if grouping.kind != "file":
@@ -97,6 +98,9 @@ def _main(argv: Sequence[str] | None) -> int:
             for s in part.values():
                 s.pop("ms_per_image", None)
         args.out.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        for suffix, rows in (("-10.csv", all10), ("-0.csv", all0)):
+            args.out.with_name(args.out.stem + suffix).write_text(images_csv(rows),
+                                                                  encoding="utf-8")
     return 0
 
 

@@ -10,7 +10,10 @@ machine's load moves all figures together. OpenCV runs on one thread
 (``cv2.setNumThreads(1)``); the figures are wall-clock medians per image, with the 90th
 percentile of the detector beside them.
 
-Run: python benchmarks/bench_real_detection.py [--repeat 3]
+``--generic``: every folder's detector is the shipped generic ball model instead (no frame
+of the venue fitted, no venue head), as at a venue with no labelled frame.
+
+Run: python benchmarks/bench_real_detection.py [--repeat 3] [--generic]
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from bench_detection import medians_ms
 
-from dsp.ball_file import shipped_check
+from dsp.ball_file import shipped_check, shipped_generic
 from dsp.labelled import find_labelled, labelled_folders
 from estimator.detection import detect_ball
 from estimator.detection.real import BallCheck, RealBallDetector
@@ -49,6 +52,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3,
                         help="passes of each function over the images")
+    parser.add_argument("--generic", action="store_true",
+                        help="the shipped generic ball model instead of each folder's fit")
     args = parser.parse_args()
     cv2.setNumThreads(1)
     root = SHARED if SHARED.is_dir() else SUBSET
@@ -57,8 +62,9 @@ def main() -> None:
     every: dict[str, list[float]] = {"real": [], "paper": [], "copy": []}
     singles: list[float] = []
     for folder in labelled_folders(root):
-        detector = RealBallDetector(fit_from_folder(folder, train_count=10, check=check),
-                                    BallCheck(check))
+        model = (shipped_generic() if args.generic
+                 else fit_from_folder(folder, train_count=10, check=check))
+        detector = RealBallDetector(model, BallCheck(check))
         frames = [item.read(0)[0] for item in find_labelled(folder)[10:]]
         detector.detect(frames[0])  # the network's first call sets it up
         ms = medians_ms({"real": detector.detect, "paper": detect_ball,

@@ -8,7 +8,8 @@ and the field. The models are fitted on someone's labelled images: the file says
 (``fit``), and a model fitted on the robocup_ml images keeps their notice (Apache-2.0,
 ``estimator/detection/real/NOTICE``).
 
-:func:`shipped_check` is the shared check's ONNX bytes, read from the installed package.
+:func:`shipped_check` is the shared check's ONNX bytes, read from the installed package;
+:func:`shipped_generic` the ball model that needs no frame of the venue.
 """
 
 from __future__ import annotations
@@ -25,10 +26,11 @@ from estimator.detection.real import BallModel, model_from_dict, model_to_dict
 from estimator.errors import BallModelError
 
 __all__ = ["MAX_BALL_FILE_BYTES", "MAX_CHECK_BYTES", "ball_file_text", "read_ball_file",
-           "read_check_file", "shipped_check"]
+           "read_check_file", "shipped_check", "shipped_generic"]
 
 MAX_BALL_FILE_BYTES = 1 << 20
 """A fitted model is about 13 kB."""
+GENERIC_NAME = "ball_generic.json"
 MAX_CHECK_BYTES = 16 << 20
 """The shipped check is 81 kB."""
 
@@ -52,6 +54,17 @@ def ball_file_text(model: BallModel) -> str:
     """The JSON text of a model (sorted keys, one item per line: the same model, the same
     bytes)."""
     return json.dumps(model_to_dict(model), indent=1, sort_keys=True) + "\n"
+
+
+@cache
+def shipped_generic() -> BallModel:
+    """The shipped generic ball model (``estimator/detection/real/ball_generic.json``,
+    made by ``train/generic.py``): what a team uses before it labels a frame of its venue."""
+    text = files("estimator.detection.real").joinpath(GENERIC_NAME).read_text("utf-8")
+    try:
+        return model_from_dict(json.loads(text))
+    except (json.JSONDecodeError, BallModelError) as err:  # pragma: no cover: packaging
+        raise InputError(f"the shipped {GENERIC_NAME}: {err}") from err
 
 
 @cache

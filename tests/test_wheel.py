@@ -84,9 +84,11 @@ def test_the_wheel_holds_every_package_module_and_marker(wheel: Path) -> None:
     assert [m for m in modules if m not in names] == []
     assert [p for p in PACKAGES if f"{p}/py.typed" not in names] == []
     assert not [n for n in names if n.split("/")[0] in ("tests", "scripts", "benchmarks")]
-    # the real-ball detector's shared check travels with its images' licence
+    # the real-ball detector's shared check and generic ball model travel with their
+    # images' licence
     real = "estimator/detection/real/"
-    assert {real + n for n in ("ball_check.onnx", "NOTICE", "LICENSE-images")} <= names
+    assert {real + n for n in ("ball_check.onnx", "ball_generic.json", "NOTICE",
+                               "LICENSE-images")} <= names
     assert not [n for n in names if n.split("/")[0] == "train"]
 
 

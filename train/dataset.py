@@ -21,15 +21,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from dsp.labelled import find_labelled
+from dsp.labelled import Labelled, find_labelled
 from estimator.detection.real.candidates import find_coarse
 from estimator.detection.real.check import SPEC, crop_input, field_share
 from estimator.detection.real.colour import ColourTables
 from estimator.detection.real.fit import fit_ball_model
 from estimator.detection.real.head import context
+from estimator.detection.real.model import BallModel
 
 TRAIN_COUNT = 10
 MAX_CANDIDATES = 48
+GENERIC_CANDIDATES = 24
 LABEL_COPIES = 6
 MARGIN_PX = 2.0
 Box = tuple[float, float, float, float]
@@ -77,37 +79,59 @@ def _label_squares(balls: Sequence[Box], rng: np.random.Generator) -> list[tuple
 
 
 def _image_samples(image: np.ndarray, balls: list[Box], model, tables: ColourTables,
-                   rng: np.random.Generator) -> list[tuple]:
+                   rng: np.random.Generator, generic=None) -> list[tuple]:
     rows = []
-    for c in find_coarse(image, tables, model, max_count=MAX_CANDIDATES):
-        cx, cy, side = SPEC.square(*c.centre())
-        box = _inside(cx, cy, balls)
-        target = (0.0, 0.0, 0.0) if box is None else _target(box, cx, cy, side)
-        rows.append(((cx, cy, side), float(box is not None), target, False, image,
-                     c.full_box()))
+    sources = [(model, tables, MAX_CANDIDATES)]
+    if generic is not None:
+        sources.append((generic[0], generic[1], GENERIC_CANDIDATES))
+    seen: set[tuple[int, int, int]] = set()
+    for k, (m, t, count) in enumerate(sources):
+        for c in find_coarse(image, t, m, max_count=count):
+            cx, cy, side = SPEC.square(*c.centre())
+            key = (round(cx), round(cy), round(side))
+            if k == 0:
+                seen.add(key)
+            elif key in seen:
+                continue
+            box = _inside(cx, cy, balls)
+            target = (0.0, 0.0, 0.0) if box is None else _target(box, cx, cy, side)
+            rows.append(((cx, cy, side), float(box is not None), target, False, image,
+                         c.full_box(), m))
     for cx, cy, side, box in _label_squares(balls, rng):
         gain = float(rng.uniform(0.75, 1.3))
         bias = float(rng.uniform(-15, 15))
         lit = np.clip(image.astype(np.float32) * gain + bias, 0, 255).astype(np.uint8) \
             if abs(gain - 1) > 0.02 else image
-        rows.append(((cx, cy, side), 1.0, _target(box, cx, cy, side), True, lit, box))
+        rows.append(((cx, cy, side), 1.0, _target(box, cx, cy, side), True, lit, box, model))
     return rows
 
 
 def build_folder(folder: Path, seed: int = 0, ball_class: int = 0) -> Samples:
     """Every sample of one folder of labelled images."""
+    return build_items(find_labelled(folder), seed, ball_class)
+
+
+def build_items(labelled: Sequence[Labelled], seed: int = 0, ball_class: int = 0,
+                generic: BallModel | None = None) -> Samples:
+    """Every sample of one venue's labelled images (a folder's, or an event's of several
+    folders, in the order given): the venue model fitted on the first ``TRAIN_COUNT``; with
+    ``generic`` (a model that never saw the venue), its candidates too (up to
+    ``GENERIC_CANDIDATES`` an image, those the venue model found already left out), so the
+    check also learns the look-alikes a venue with no labelled frame meets."""
     cv2.setNumThreads(1)
-    items = [it.read(ball_class) for it in find_labelled(folder)]
+    items = [it.read(ball_class) for it in labelled]
     model = fit_ball_model(items[:TRAIN_COUNT], info={"images": TRAIN_COUNT})
     tables = ColourTables.of(model)
+    gen = None if generic is None else (generic, ColourTables.of(generic))
     rng = np.random.default_rng(seed)
     xs, ys, offs, idx, lab, ctx = [], [], [], [], [], []
     for index, (image, balls) in enumerate(items):
-        for square, y, off, from_label, img, box in _image_samples(image, balls, model,
-                                                                   tables, rng):
-            x = crop_input(img, [square], tables).crops
+        for square, y, off, from_label, img, box, m in _image_samples(image, balls, model,
+                                                                      tables, rng, gen):
+            t = tables if m is model else gen[1]
+            x = crop_input(img, [square], t).crops
             xs.append(x[0])
-            ctx.append(context(np.asarray([box], np.float64), field_share(x), model)[0])
+            ctx.append(context(np.asarray([box], np.float64), field_share(x), m)[0])
             ys.append(y)
             offs.append(off)
             idx.append(index)

@@ -40,11 +40,13 @@ import torch
 from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from dataset import TRAIN_COUNT, build_folder
+from dataset import TRAIN_COUNT, Samples, build_folder, build_items
+from generic import events, fit_generic, pick
 
 from dsp.labelled import labelled_folders
 
 EPOCHS = 32
+SAMPLE_FIELDS = ("x", "y", "offset", "image", "label_crop", "ctx")
 NEG_SHARE = 0.5
 """Share of the negatives drawn afresh for each epoch (all positives every epoch)."""
 BATCH = 128
@@ -118,6 +120,52 @@ def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
             np.concatenate(ctxs))
 
 
+def cached_samples(roots: list[Path], groups: str, cache: Path | None
+                   ) -> dict[str, Samples]:
+    """:func:`event_samples`, kept in ``cache`` (an .npz of plain arrays, read without
+    pickle) so that several checks train from one build; a cache is the build's bytes, so
+    a check trained from it is the check trained without it."""
+    if cache is not None and cache.is_file():
+        with np.load(cache, allow_pickle=False) as z:
+            names = [str(n) for n in z["events"]]
+            return {n: Samples(*(z[f"{n}/{f}"] for f in SAMPLE_FIELDS)) for n in names}
+    samples = event_samples(roots, groups)
+    if cache is not None:
+        arrays = {f"{n}/{f}": getattr(s, f) for n, s in samples.items() for f in SAMPLE_FIELDS}
+        np.savez(cache, events=np.asarray(list(samples)), **arrays)
+    return samples
+
+
+def event_samples(roots: list[Path], groups: str, generic: bool = True
+                  ) -> dict[str, Samples]:
+    """Each event's samples (``--groups``): its venue model fitted on the event's first
+    ``TRAIN_COUNT`` labelled images (by name, then folder, as ``dsp-eval --group-by``
+    orders them); with ``generic``, also the candidates of the generic model fitted
+    without the event (``generic.py --without EVENT``: what that event meets with no
+    labelled frame)."""
+    found = events(roots, groups)
+    out = {}
+    for name, items in found.items():
+        gen = fit_generic({n: pick(v) for n, v in found.items() if n != name}
+                          ) if generic else None
+        out[name] = build_items(items, generic=gen)
+        print(f"  {name}: {len(items)} images, {len(out[name].y)} samples "
+              f"({int(out[name].y.sum())} balls)", flush=True)
+    return out
+
+
+def select_events(samples: dict[str, Samples], split: str) -> tuple[np.ndarray, ...]:
+    """x, y, offset, context of the events the split allows: ``all`` or ``lovo:EVENT``
+    (every event but EVENT, whole)."""
+    kind, _, name = split.partition(":")
+    if kind not in ("all", "lovo") or (kind == "lovo" and name not in samples):
+        raise SystemExit(f"split {split!r}: with --groups, all or lovo:EVENT (one of "
+                         f"{', '.join(samples)})")
+    chosen = [s for n, s in samples.items() if kind == "all" or n != name]
+    return tuple(np.concatenate([getattr(s, f) for s in chosen])
+                 for f in ("x", "y", "offset", "ctx"))
+
+
 def _hue_turn(angle: float, sat: float) -> np.ndarray:
     """3 x 3 on (B, G, R): turn the colour about the grey axis by angle, scale its
     saturation by sat (grey stays grey)."""
@@ -154,13 +202,13 @@ def augment(x: np.ndarray, off: np.ndarray, rng: np.random.Generator, hue: float
     return x, off
 
 
-def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS, hue: float = 0.0
-          ) -> CheckNet:
+def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS, hue: float = 0.0,
+          data: tuple[np.ndarray, ...] | None = None) -> CheckNet:
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(seed)
-    x, y, off, ctx = select(root, split)
+    x, y, off, ctx = select(root, split) if data is None else data
     net = CheckNet()
     opt = torch.optim.Adam(net.parameters(), lr=LR, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
@@ -224,22 +272,63 @@ def verify(net: CheckNet, data: bytes, x: np.ndarray, ctx: np.ndarray) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    ap.add_argument("root", type=Path, help="folder of labelled folders (each venue-day one)")
+    ap.add_argument("roots", type=Path, nargs="+",
+                    help="folder(s) of labelled folders (each venue-day one)")
+    ap.add_argument("--groups", metavar="FILE",
+                    help="train by event: the grouping file (train/msl-events.txt); the "
+                    "splits are then all and lovo:EVENT, and the samples include the "
+                    "generic model's candidates")
     ap.add_argument("--split", default="all")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--epochs", type=int, default=EPOCHS)
     ap.add_argument("--hue", type=float, default=0.0, metavar="SHARE",
                     help="share of the crops turned to a random hue and saturation (default "
                          "0: none; the shipped and held-out checks are made without)")
+    ap.add_argument("--held-out", type=Path, metavar="DIR",
+                    help="with --groups: also one check per event trained without it "
+                    "(DIR/lovo-EVENT.onnx) and the generic model without it "
+                    "(DIR/generic-EVENT.json), from the same samples")
+    ap.add_argument("--cache", type=Path, metavar="NPZ",
+                    help="with --groups: keep the samples in this file (made when missing, "
+                    "read when there) to train several checks from one build")
     ap.add_argument("-o", "--output", required=True)
     args = ap.parse_args()
     t0 = time.perf_counter()
-    net = train(args.root, args.split, args.seed, args.epochs, args.hue)
-    data = export(net, args.output)
-    x, _, _, ctx = select(args.root, args.split)
+    if args.groups is None:
+        if len(args.roots) != 1 or args.held_out is not None:
+            raise SystemExit("several roots and --held-out go with --groups")
+        net = train(args.roots[0], args.split, args.seed, args.epochs, args.hue)
+        data = export(net, args.output)
+        x, _, _, ctx = select(args.roots[0], args.split)
+        _report(args.output, net, data, x, ctx, t0)
+        return
+    samples = cached_samples(args.roots, args.groups, args.cache)
+    runs = []
+    if args.held_out is not None:
+        from dsp.ball_file import ball_file_text
+        found = events(args.roots, args.groups)
+        args.held_out.mkdir(parents=True, exist_ok=True)
+        for name in samples:
+            runs.append((f"lovo:{name}", str(args.held_out / f"lovo-{name}.onnx")))
+            model = fit_generic({n: pick(v) for n, v in found.items() if n != name})
+            (args.held_out / f"generic-{name}.json").write_text(ball_file_text(model),
+                                                                encoding="utf-8")
+    runs.append((args.split, args.output))
+    for split, output in runs:
+        t0 = time.perf_counter()
+        data_xy = select_events(samples, split)
+        print(f"{output}: {split}, {len(data_xy[1])} samples", flush=True)
+        net = train(Path(), split, args.seed, args.epochs, args.hue, data=data_xy)
+        data = export(net, output)
+        _report(output, net, data, data_xy[0], data_xy[3], t0)
+
+
+def _report(output: str, net: CheckNet, data: bytes, x: np.ndarray, ctx: np.ndarray,
+            t0: float) -> None:
     diff = verify(net, data, x, ctx)
-    print(f"{args.output}: {len(data)} bytes, sha256 {hashlib.sha256(data).hexdigest()[:16]}, "
-          f"OpenCV dnn vs torch max |diff| {diff:.2e}, {time.perf_counter() - t0:.0f} s")
+    print(f"{output}: {len(data)} bytes, sha256 {hashlib.sha256(data).hexdigest()[:16]}, "
+          f"OpenCV dnn vs torch max |diff| {diff:.2e}, {time.perf_counter() - t0:.0f} s",
+          flush=True)
 
 
 if __name__ == "__main__":

@@ -21,17 +21,17 @@ import numpy.typing as npt
 
 from dsp.ball_file import shipped_check
 from dsp.errors import InputError, UsageError
-from dsp.labelled import find_labelled
+from dsp.labelled import Labelled, find_labelled
 from estimator.detection.real import BallCheck, BallModel, Box, adapt, fit_ball_model
 from estimator.errors import EstimatorError
 from replay.calibrate.ball_log import frames_from_log
 
-__all__ = ["fit_ball", "fit_from_folder", "fit_samples", "format_fit"]
+__all__ = ["fit_ball", "fit_from_folder", "fit_from_labelled", "fit_samples", "format_fit"]
 
 Sample = tuple[npt.NDArray[np.uint8], Sequence[Box]]
 
 
-def fit_samples(source: Path, samples: Sequence[Sample], info: Mapping[str, Any], *,
+def fit_samples(source: Path | str, samples: Sequence[Sample], info: Mapping[str, Any], *,
                 head: bool = True, check: bytes | None = None) -> BallModel:
     """The ball model of labelled frames (BGR image, ball boxes), however they were
     labelled; errors name ``source``."""
@@ -65,20 +65,38 @@ def fit_from_folder(folder: Path, *, ball_class: int = 0, train_count: int | Non
     labelled = find_labelled(folder)
     if not labelled:
         raise InputError(f"{folder}: no image with a YOLO label file (NAME.txt) beside it")
+    return fit_from_labelled(folder, labelled, ball_class=ball_class,
+                             train_count=train_count, head=head, check=check,
+                             train_from=train_from)
+
+
+def fit_from_labelled(source: Path | str, labelled: Sequence[Labelled], *,
+                      ball_class: int = 0, train_count: int | None = None,
+                      head: bool = True, check: bytes | None = None,
+                      train_from: int = 0) -> BallModel:
+    """The ball model of the ``train_count`` labelled images (None: all) of ``labelled``
+    from its ``train_from``-th on (a folder's, or a day's or event's of several folders);
+    errors name ``source``."""
     chosen = labelled[train_from:] if train_count is None else labelled[
         train_from:train_from + train_count]
     if not chosen:
-        raise InputError(f"{folder}: {len(labelled)} labelled images, none from number "
+        raise InputError(f"{source}: {len(labelled)} labelled images, none from number "
                          f"{train_from + 1} on to fit on")
     samples = [item.read(ball_class) for item in chosen]
     info = {"images": len(chosen), "first": chosen[0].image.name,
             "last": chosen[-1].image.name, "ball_class": ball_class}
-    return fit_samples(folder, samples, info, head=head, check=check)
+    return fit_samples(source, samples, info, head=head, check=check)
 
 
 def format_fit(model: BallModel) -> str:
     """One line: what the model was fitted from."""
     fit = model.fit
+    if fit.get("generic"):
+        events = fit.get("events")
+        return (f"generic ball model from {fit.get('images')} images of "
+                f"{len(events) if isinstance(events, dict) else '?'} events, "
+                f"{fit.get('balls')} balls, diameters {model.min_diameter_px:.0f}-"
+                f"{model.max_diameter_px:.0f} px, no venue head")
     head = ("no venue head" if model.check_head is None
             else f"venue head (penalty {fit.get('head_lambda')})")
     left = (f", {fit['left_out']} left out (the ball hidden or cut by the image's edge)"

@@ -5,6 +5,7 @@
     dsp-calibrate --from-log calib.mcap --ball-at 0,0 -o cameras.yaml [--image-topic ...]
     dsp-calibrate --ball-from frames/ -o ball.json          (the ball model, labelled frames)
     dsp-calibrate --ball-from sim.mcap -o ball.json         (... or a simulated log's truth)
+    dsp-calibrate --ball-generic -o ball.json               (... or none: the generic one)
 
 Without ``--from-*`` the simulated procedure runs (:mod:`recorder.calibrate_cli`). With
 them a real camera is calibrated (:mod:`replay.calibrate.run`): the image centre and the
@@ -22,7 +23,7 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.atomic import atomic_output, check_distinct, declare_files
-from dsp.ball_file import ball_file_text
+from dsp.ball_file import ball_file_text, shipped_generic
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_number, check_suffix, check_topic_pattern
 from dsp.cli import echo, run_main
@@ -91,6 +92,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="fit the ball model (-o ball.json, dsp-replay --ball reads it) from "
                       "a folder of images with YOLO labels beside them (NAME.txt), or from a "
                       "simulated log (.mcap), the ball's boxes drawn from its ground truth")
+    ball.add_argument("--ball-generic", action="store_true",
+                      help="write the generic ball model (fitted on many venues' images, no "
+                      "venue head): a working detector before a frame of the venue is "
+                      "labelled; ten labelled frames and --ball-from do better")
     ball.add_argument("--ball-class", type=int, default=0, metavar="N",
                       help="with --ball-from DIR: the labels' class of the ball (default 0)")
     ball.add_argument("--train-count", type=int, metavar="N",
@@ -106,10 +111,16 @@ def build_parser() -> argparse.ArgumentParser:
 def _run_ball(args: argparse.Namespace) -> int:
     out: Path = args.out
     check_suffix("-o/--out", out, (".json",))
-    check_distinct([("--out", out)], [("the input", args.ball_from)])
+    if args.ball_generic:
+        if args.ball_from is not None or args.train_count is not None or args.no_head:
+            raise UsageError("--ball-generic fits nothing: --ball-from, --train-count and "
+                             "--no-head do not go with it")
+    else:
+        check_distinct([("--out", out)], [("the input", args.ball_from)])
     with atomic_output(out, force=args.force, label="--out") as tmp:
-        model = fit_ball(args.ball_from, ball_class=args.ball_class,
-                         train_count=args.train_count, head=not args.no_head)
+        model = shipped_generic() if args.ball_generic else fit_ball(
+            args.ball_from, ball_class=args.ball_class, train_count=args.train_count,
+            head=not args.no_head)
         tmp.write_text(ball_file_text(model), encoding="utf-8")
     echo(args, format_fit(model))
     echo(args, f"wrote {out}")
@@ -178,7 +189,7 @@ def _run_measured(args: argparse.Namespace) -> int:
 
 def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
-    if args.ball_from is not None:
+    if args.ball_from is not None or args.ball_generic:
         if args.from_measurements is not None or args.from_log is not None:
             raise UsageError("--ball-from fits a ball model; calibrate the camera apart")
         return _run_ball(args)

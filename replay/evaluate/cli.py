@@ -26,10 +26,11 @@ from pathlib import Path
 from typing import TypeVar
 
 from dsp.atomic import atomic_output, check_distinct, declare_files
-from dsp.ball_file import read_check_file, shipped_check
+from dsp.ball_file import read_ball_file, read_check_file, shipped_check, shipped_generic
 from dsp.checks import check_int, check_number
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
+from dsp.image_groups import read_grouping
 from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
@@ -94,7 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_images_arguments(p)
     add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
-    declare_files(p, inputs=("--calibration", "dirs", "--check-model"), output_dirs=("--out-dir",))
+    declare_files(p, inputs=("--calibration", "dirs", "--check-model", "--ball", "--group-by"),
+                  output_dirs=("--out-dir",), names=("folder", "day"))
     return p
 
 
@@ -147,7 +149,18 @@ def _add_images_arguments(p: argparse.ArgumentParser) -> None:
                    "labelled images is fitted and scored apart")
     g.add_argument("--train-count", type=int, default=10, metavar="N",
                    help="fit on each folder's first N labelled images by name, score the rest "
-                   "(default %(default)s)")
+                   "(default %(default)s; 0: fit nothing, score every image with the generic "
+                   "ball model, as at a venue with no labelled frame)")
+    g.add_argument("--group-by", default="folder", metavar="folder|day|FILE",
+                   help="fit and score each folder apart (default), each day (a folder's "
+                   "first path part) or each group of a grouping file (lines of NAME "
+                   "PATTERN ...; train/msl-events.txt groups the shared set by event)")
+    g.add_argument("--only", action="append", default=[], metavar="GROUP",
+                   help="score this folder or group alone (repeatable), e.g. an event held "
+                   "out of the check given")
+    g.add_argument("--ball", type=Path, metavar="BALL.json",
+                   help="with --train-count 0: the ball model to score with (default: the "
+                   "shipped generic one, dsp-calibrate --ball-generic)")
     g.add_argument("--train-from", type=int, default=0, metavar="K",
                    help="fit on the N labelled images from the K-th on (counted from 0) "
                    "instead, score every other one (default 0: the first N)")
@@ -323,24 +336,38 @@ def _run_images(args: argparse.Namespace) -> int:
     out_dir: Path = args.out_dir
     if not args.dirs:
         raise UsageError("--suite images needs one or more folders of labelled images (DIR)")
-    check_int("--train-count", args.train_count, low=1, high=MAX_COUNT)
+    check_int("--train-count", args.train_count, low=0, high=MAX_COUNT)
     check_int("--train-from", args.train_from, low=0, high=MAX_COUNT)
+    if args.train_count == 0 and (args.train_from or args.no_head):
+        raise UsageError("--train-count 0 fits nothing: --train-from and --no-head do not "
+                         "go with it")
+    if args.ball is not None and args.train_count != 0:
+        raise UsageError("--ball goes with --train-count 0 (a fitted model is each venue's)")
     check_number("--threshold", args.threshold, low=0.0, high=1.0)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"--out-dir {out_dir}: is not a folder")
+    grouping_file = None if args.group_by in ("folder", "day") else Path(args.group_by)
     check_distinct([(f"the output {name}", out_dir / name) for name in IMAGES_OUTPUTS],
-                   [("the --check file", args.check),
+                   [("the --check-model file", args.check), ("the --ball file", args.ball),
+                    ("the --group-by file", grouping_file),
                     *((f"the input folder {d}", d) for d in args.dirs)])
+    grouping = read_grouping(args.group_by)
     check = shipped_check() if args.check is None else read_check_file(args.check)
+    generic = None
+    if args.train_count == 0 and args.detector == "real":
+        generic = shipped_generic() if args.ball is None else read_ball_file(args.ball)
     t0 = time.perf_counter()
     doc, rows = run_images_suite(args.dirs, train_count=args.train_count,
                                  detector=args.detector, ball_class=args.ball_class,
                                  check=check, head=not args.no_head,
-                                 threshold=args.threshold, train_from=args.train_from)
+                                 threshold=args.threshold, train_from=args.train_from,
+                                 grouping=grouping, generic=generic, only=args.only)
     out_dir.mkdir(parents=True, exist_ok=True)
     text = images_markdown(doc)
     doc["check"] = "shipped" if args.check is None else args.check.name
     doc["threshold"] = args.threshold  # None: each folder's model's own
+    if generic is not None:
+        doc["ball"] = "generic (shipped)" if args.ball is None else args.ball.name
     for name, content in zip(IMAGES_OUTPUTS, (strict_json(doc, sort_keys=True, indent=2)
                                               + "\n", text, images_csv(rows)), strict=True):
         with atomic_output(out_dir / name, force=True) as tmp:

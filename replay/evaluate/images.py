@@ -20,6 +20,12 @@ reported, to score a venue at another one.
 
 ``detector`` "paper" scores the paper's chain (default parameters, no fit) on the same
 images, for comparison.
+
+``grouping`` (:mod:`dsp.image_groups`; default: each folder apart) fits and scores by
+group instead: a group's labelled images, by file name (then folder), are one venue's, its
+first ``train_count`` the fit; so a day or an event of many small folders is one row.
+``train_count`` 0 fits nothing: every image is scored with ``generic``, a ball model that
+needs no frame of the venue (``dsp-calibrate --ball-generic``), as a team's first match.
 """
 
 from __future__ import annotations
@@ -35,11 +41,12 @@ from pathlib import Path
 import numpy as np
 
 from dsp.errors import InputError
+from dsp.image_groups import BY_FOLDER, Grouping, group_folders
 from dsp.jsonio import Json
 from dsp.labelled import Labelled, find_labelled, labelled_folders
 from estimator.detection import detect_ball
-from estimator.detection.real import BallCheck, RealBallDetector
-from replay.calibrate.ball import fit_from_folder
+from estimator.detection.real import BallCheck, BallModel, RealBallDetector
+from replay.calibrate.ball import fit_from_labelled
 
 __all__ = ["KEYS", "MARGIN_PX", "ImageRow", "images_csv", "images_markdown", "judge",
            "run_images_suite", "summarise"]
@@ -101,13 +108,20 @@ def _paper(image: np.ndarray) -> Report:
     return None if det is None else (det.cx_px, det.cy_px, 1.0)
 
 
-def _scorer(folder: Path, *, detector: str, train_count: int, ball_class: int,
-            check: bytes, head: bool, threshold: float | None = None, train_from: int = 0
+def _scorer(source: str, labelled: Sequence[Labelled], *, detector: str, train_count: int,
+            ball_class: int, check: bytes, head: bool, threshold: float | None = None,
+            train_from: int = 0, generic: BallModel | None = None
             ) -> Callable[[np.ndarray], Report]:
     if detector == "paper":
         return _paper
-    model = fit_from_folder(folder, ball_class=ball_class, train_count=train_count,
-                            head=head, check=check, train_from=train_from)
+    if train_count == 0:
+        if generic is None:
+            raise InputError(f"{source}: --train-count 0 needs a generic ball model")
+        model = generic
+    else:
+        model = fit_from_labelled(source, labelled, ball_class=ball_class,
+                                  train_count=train_count, head=head, check=check,
+                                  train_from=train_from)
     real = RealBallDetector(model, BallCheck(check))
     cut = model.threshold if threshold is None else threshold
 
@@ -121,12 +135,12 @@ def _scorer(folder: Path, *, detector: str, train_count: int, ball_class: int,
     return score
 
 
-def _score_folder(key: str, tests: Sequence[Labelled], score: Callable[[np.ndarray], Report],
-                  ball_class: int) -> list[ImageRow]:
+def _score_folder(keys: Sequence[str], tests: Sequence[Labelled],
+                  score: Callable[[np.ndarray], Report], ball_class: int) -> list[ImageRow]:
     rows = []
     if tests:  # untimed: the first call sets the network up
         score(tests[0].read(ball_class)[0])
-    for item in tests:
+    for key, item in zip(keys, tests, strict=True):
         image, balls = item.read(ball_class)
         t0 = time.perf_counter()
         report = score(image)
@@ -136,48 +150,75 @@ def _score_folder(key: str, tests: Sequence[Labelled], score: Callable[[np.ndarr
     return rows
 
 
-def _folders(roots: Sequence[Path]) -> list[tuple[str, Path]]:
+def _folders(roots: Sequence[Path]) -> list[tuple[str, str, Path]]:
+    """(key, path under its root, path) of every folder of labelled images."""
     found = []
     for root in roots:
         for folder in labelled_folders(root):
             rel = folder.relative_to(root).as_posix()
             key = rel if len(roots) == 1 else f"{root.name}/{rel}".removesuffix("/.")
-            found.append((key, folder))
+            found.append((key, rel, folder))
     if not found:
         raise InputError(f"{', '.join(map(str, roots))}: no folder of images with YOLO labels")
     return found
 
 
+def _group_images(members: Sequence[tuple[str, Path]]) -> list[tuple[str, Labelled]]:
+    """A group's labelled images with their folders' keys, by file name, then folder."""
+    found = [(key, item) for key, folder in members for item in find_labelled(folder)]
+    return sorted(found, key=lambda ki: (ki[1].image.name, ki[0]))
+
+
 def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str = "real",
                      ball_class: int = 0, check: bytes, head: bool = True,
                      threshold: float | None = None,
-                     on_folder: Callable[[str], None] | None = None, train_from: int = 0
-                     ) -> tuple[dict[str, Json], list[ImageRow]]:
-    """The summary document (per folder and "total"; "train_from" only when not 0) and
-    the per-image rows."""
-    folders: dict[str, Json] = {}
+                     on_folder: Callable[[str], None] | None = None, train_from: int = 0,
+                     grouping: Grouping | None = None, generic: BallModel | None = None,
+                     only: Sequence[str] = ()) -> tuple[dict[str, Json], list[ImageRow]]:
+    """The summary document (per folder, or per group under "groups" with "group_by", and
+    "total"; "train_from" only when not 0) and the per-image rows; ``only``: score these
+    groups (or folders) alone."""
+    grouping = grouping or Grouping(BY_FOLDER)
+    groups: dict[str, Json] = {}
     every: list[ImageRow] = []
     end = train_from + train_count
-    for key, folder in _folders(roots):
-        labelled = find_labelled(folder)
+    found_groups = group_folders(grouping, _folders(roots))
+    unknown = [name for name in only if name not in found_groups]
+    if unknown:
+        unit = "folder" if grouping.kind == BY_FOLDER else "group"
+        raise InputError(f"--only {unknown[0]}: no such {unit} under "
+                         f"{', '.join(map(str, roots))} (there are "
+                         f"{', '.join(list(found_groups)[:12])})")
+    for name, members in found_groups.items():
+        if only and name not in only:
+            continue
+        found = _group_images(members)
+        labelled = [item for _, item in found]
+        source = str(members[0][1]) if len(members) == 1 else f"{name} ({members[0][1]} ...)"
         if len(labelled) < end or len(labelled) == train_count:
             which = f"{train_count}" if not train_from else f"numbers {train_from + 1}-{end}"
             left = "needs more" if train_from and len(labelled) < end else "leaves none to score"
-            raise InputError(f"{folder}: {len(labelled)} labelled images; fitting on "
+            raise InputError(f"{source}: {len(labelled)} labelled images; fitting on "
                              f"{which} {left}")
-        score = _scorer(folder, detector=detector, train_count=train_count,
+        score = _scorer(source, labelled, detector=detector, train_count=train_count,
                         ball_class=ball_class, check=check, head=head,
-                        threshold=threshold, train_from=train_from)
-        rows = _score_folder(key, labelled[:train_from] + labelled[end:], score, ball_class)
-        folders[key] = summarise(rows)
+                        threshold=threshold, train_from=train_from, generic=generic)
+        tests = found[:train_from] + found[end:]
+        rows = _score_folder([k for k, _ in tests], [it for _, it in tests], score,
+                             ball_class)
+        groups[name] = summarise(rows)
         every += rows
         if on_folder is not None:
-            on_folder(key)
+            on_folder(name)
     doc: dict[str, Json] = {
         "format": "dsp-eval images", "version": 1, "detector": detector,
         "train_count": train_count, "ball_class": ball_class,
-        "venue_head": head if detector == "real" else None,
-        "margin_px": MARGIN_PX, "folders": folders, "total": summarise(every)}
+        "venue_head": head and train_count > 0 if detector == "real" else None,
+        "margin_px": MARGIN_PX, "total": summarise(every)}
+    if grouping.kind == BY_FOLDER:
+        doc["folders"] = groups
+    else:
+        doc["groups"], doc["group_by"] = groups, grouping.label
     if train_from:
         doc["train_from"] = train_from
     return doc, every
@@ -188,16 +229,20 @@ def _cell(v: Json) -> str:
 
 
 def images_markdown(doc: dict[str, Json]) -> str:
-    """The summary as a Markdown table, a row per folder and the total."""
-    folders = doc["folders"]
+    """The summary as a Markdown table, a row per folder (or group) and the total."""
+    grouped = "groups" in doc
+    folders = doc["groups" if grouped else "folders"]
     assert isinstance(folders, dict)
     start, count = doc.get("train_from", 0), doc["train_count"]
     assert isinstance(start, int) and isinstance(count, int)
+    unit = f"group ({doc['group_by']})" if grouped else "folder"
     which = (f"first {count} labelled images" if not start
              else f"labelled images {start + 1}-{start + count} by name")
-    lines = [f"Detector: {doc['detector']}; fitted on each folder's {which}, scored on "
-             "the rest.", "",
-             "| folder | " + " | ".join(KEYS) + " |", "|---" * (len(KEYS) + 1) + "|"]
+    fitted = (f"no frame fitted on (the generic ball model); every {unit}'s images scored"
+              if count == 0 else f"fitted on each {unit}'s {which}, scored on the rest")
+    lines = [f"Detector: {doc['detector']}; {fitted}.", "",
+             f"| {'group' if grouped else 'folder'} | " + " | ".join(KEYS) + " |",
+             "|---" * (len(KEYS) + 1) + "|"]
     for key, row in [*folders.items(), ("total", doc["total"])]:
         assert isinstance(row, dict)
         lines.append(f"| {key} | " + " | ".join(_cell(row[k]) for k in KEYS) + " |")

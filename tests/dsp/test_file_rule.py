@@ -118,6 +118,15 @@ def _eval_images(tmp: Path, victim: Path, as_out: Path) -> list[str]:
             "--out-dir", str(victim.parent)]
 
 
+def _eval_images_with(option: str) -> Case:
+    def argv(tmp: Path, victim: Path, as_out: Path) -> list[str]:
+        (tmp / "images").mkdir(exist_ok=True)
+        extra = ["--train-count", "0"] if option == "--ball" else []
+        return ["--suite", "images", str(tmp / "images"), *extra, option, str(victim),
+                "--out-dir", str(victim.parent)]
+    return argv
+
+
 def _eval_table(tmp: Path, victim: Path, as_out: Path) -> list[str]:
     return ["--calibration", str(victim), "--out-dir", str(victim.parent)]
 
@@ -150,6 +159,8 @@ CASES: dict[str, dict[tuple[str, str], tuple[str, Case]]] = {
     "dsp-info": {("log", "--out"): ("victim.json", _info)},
     "dsp-eval": {
         ("--check-model", "--out-dir"): ("images-summary.json", _eval_images),
+        ("--ball", "--out-dir"): ("images-summary.json", _eval_images_with("--ball")),
+        ("--group-by", "--out-dir"): ("images-summary.json", _eval_images_with("--group-by")),
         ("--calibration", "--out-dir"): ("paper-ideal.json", _eval_table),
     },
 }

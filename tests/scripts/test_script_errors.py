@@ -47,3 +47,14 @@ def test_fuzz_merge_names_a_report_it_cannot_use(tmp_path: Path, content: str | 
     assert run.returncode == 1, run.stderr
     assert len(lines) == 1 and lines[0].startswith(f"fuzz_replay.py: error: {report}: ")
     assert problem in lines[0] and "Traceback" not in run.stderr
+
+
+def test_held_out_events_names_a_missing_check(tmp_path: Path) -> None:
+    """A grouping whose event has no held-out check in --checks: one line naming the file."""
+    (tmp_path / "g.txt").write_text("e r7\n")
+    images = ROOT / "tests" / "data" / "msl-images" / "20220715"
+    run = _run("held_out_events.py", str(images), "--groups", str(tmp_path / "g.txt"),
+               "--checks", str(tmp_path), cwd=tmp_path)
+    lines = run.stderr.strip().splitlines()
+    assert run.returncode == 1 and len(lines) == 1, run.stderr
+    assert lines[0].startswith("held_out_events.py: error: ") and "lovo-e.onnx" in lines[0]

@@ -147,3 +147,21 @@ def test_an_image_that_does_not_decode_is_named(tmp_path: Path,
     assert code != 0 and not out.exists()
     assert err.strip().splitlines() == [f"dsp-calibrate: error: {folder / 'a.jpg'}: not a "
                                         "readable JPEG or PNG image"]
+
+
+def test_ball_generic_writes_the_shipped_generic_model(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--ball-generic: no frame of the venue, the package's generic model (no venue head,
+    fitted on every event of the shared set), which dsp-replay --ball reads; it fits
+    nothing, so --ball-from and --train-count are refused beside it."""
+    out = tmp_path / "generic.json"
+    code, text, _ = _run(["--ball-generic", "-o", out], capsys)
+    assert code == 0 and "generic ball model from" in text and "of 8 events" in text
+    model = read_ball_file(out)
+    assert model.check_head is None and model.threshold == 0.5
+    assert model.fit["generic"] is True and len(model.fit["events"]) == 8
+    assert out.read_bytes() == (ROOT / "estimator" / "detection" / "real"
+                                / "ball_generic.json").read_bytes()
+    code, _, err = _run(["--ball-generic", "--ball-from", SUBSET, "-o", out, "--force"],
+                        capsys)
+    assert code == 2 and "--ball-generic fits nothing" in err

@@ -166,3 +166,67 @@ def test_the_shared_real_images_score_as_the_golden(tmp_path: Path) -> None:
     assert list(doc["folders"]) == ["20190606/r2", "20190606/r4", "20220715/r7",
                                     "20230709/r5"]
     assert _without_times(doc) == _golden("msl")
+
+
+def _two_robots(tmp_path: Path) -> Path:
+    """The 14 subset images split between two robots of one day (7 each: too few to fit
+    either on its own and score the rest)."""
+    names = sorted(p.name for p in mg.IMAGE_SETS["subset"].rglob("*.jpg"))
+    src = next(mg.IMAGE_SETS["subset"].rglob("*.jpg")).parent
+    for i, name in enumerate(names):
+        robot = tmp_path / "day" / "20990101" / ("r1" if i % 2 == 0 else "r2")
+        robot.mkdir(parents=True, exist_ok=True)
+        for suffix in (".jpg", ".txt"):
+            shutil.copy(src / Path(name).with_suffix(suffix), robot)
+    return tmp_path / "day"
+
+
+def test_group_by_day_fits_and_scores_one_day_of_several_folders(tmp_path: Path) -> None:
+    """Apart, each 7-image folder is refused (fitting on 10 leaves none); by day the two
+    are one venue: fitted on its first 10 by name (from both robots), scored on the last
+    4, one table row for the day, the rows keeping their folders."""
+    day = _two_robots(tmp_path)
+    assert main(["--suite", "images", str(day), "--out-dir", str(tmp_path / "f"), "-q"]) == 1
+    out = tmp_path / "d"
+    assert main(["--suite", "images", str(day), "--group-by", "day", "--out-dir", str(out),
+                 "-q"]) == 0
+    doc = json.loads((out / "images-summary.json").read_text())
+    assert doc["group_by"] == "day" and "folders" not in doc
+    assert list(doc["groups"]) == ["20990101"] and doc["total"]["test_images"] == 4
+    rows = list(csv.DictReader((out / "images.csv").read_text().splitlines()))
+    names = sorted(p.name for p in mg.IMAGE_SETS["subset"].rglob("*.jpg"))
+    assert [r["image"] for r in rows] == names[10:]
+    assert {r["folder"] for r in rows} == {"20990101/r1", "20990101/r2"}
+    assert "| 20990101 | 4 |" in (out / "images-summary.md").read_text()
+    one = tmp_path / "one"  # --only: one folder alone, here fitted on 4 of its 7
+    assert main(["--suite", "images", str(day), "--train-count", "4", "--only", "20990101/r2",
+                 "--out-dir", str(one), "-q"]) == 0
+    assert list(json.loads((one / "images-summary.json").read_text())["folders"]) == [
+        "20990101/r2"]
+    assert main(["--suite", "images", str(day), "--group-by", "day", "--only", "20990102",
+                 "--out-dir", str(one), "-q"]) == 1
+
+
+def test_train_count_0_scores_every_image_with_the_generic_model(tmp_path: Path) -> None:
+    """No frame of the venue: every one of the 14 images is scored with the shipped generic
+    ball model (no venue head, so P 0.5), and the summary says so; a ball file given is
+    used instead, and --ball without --train-count 0 is refused."""
+    out = tmp_path / "g"
+    assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--train-count", "0",
+                 "--out-dir", str(out), "-q"]) == 0
+    doc = json.loads((out / "images-summary.json").read_text())
+    assert doc["ball"] == "generic (shipped)" and doc["venue_head"] is False
+    assert doc["total"]["test_images"] == 14
+    assert doc["total"]["tp"] >= 10  # a yellow ball the generic colour table knows
+    rows = list(csv.DictReader((out / "images.csv").read_text().splitlines()))
+    assert all(float(r["p_ball"]) >= 0.5 for r in rows if r["p_ball"])
+    from dsp.ball_file import ball_file_text, shipped_generic
+    ball = tmp_path / "ball.json"
+    ball.write_text(ball_file_text(shipped_generic()))
+    again = tmp_path / "again"
+    assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--train-count", "0",
+                 "--ball", str(ball), "--out-dir", str(again), "-q"]) == 0
+    assert (again / "images.csv").read_text().replace(",", " ").split()[::9] == \
+        (out / "images.csv").read_text().replace(",", " ").split()[::9]
+    assert main(["--suite", "images", str(mg.IMAGE_SETS["subset"]), "--ball", str(ball),
+                 "--out-dir", str(tmp_path / "x"), "-q"]) == 2

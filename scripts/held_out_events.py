@@ -1,0 +1,112 @@
+"""The real-ball detector held out by event: each event of a grouping scored with the check
+trained without it and, with no labelled frame, with the generic model fitted without it.
+
+    python scripts/held_out_events.py ../shared/real/msl-images ../shared/real/msl-more \
+        --groups train/msl-events.txt --checks train/checks [--out held-out.json]
+
+For each event E of the grouping (``train/train.py --groups ... --held-out DIR`` makes
+DIR/lovo-E.onnx and DIR/generic-E.json): ``dsp-eval --suite images ROOTS --group-by GROUPS
+--only E --check DIR/lovo-E.onnx`` (fitted on E's first 10 labelled frames, scored on the
+rest) and the same with ``--train-count 0 --ball DIR/generic-E.json`` (no frame fitted,
+every image scored; and, to compare the two on the same images, on the images after the
+first 10 alone). Prints one Markdown table, a row per event and the totals, with the
+targets (precision >= 0.95, recall >= 0.90, centroid median <= 2 px with 10 frames on an
+event of 30 or more test images; precision >= 0.90, recall >= 0.85 with none) marked.
+Everything but the time is the same on every run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from dsp.ball_file import read_ball_file, read_check_file
+from dsp.cli import run_main
+from dsp.errors import UsageError
+from dsp.image_groups import read_grouping
+from replay.evaluate.images import ImageRow, images_csv, run_images_suite, summarise
+
+TARGET_10 = (0.95, 0.90, 2.0)
+TARGET_0 = (0.90, 0.85)
+MIN_TEST = 30
+
+
+def _mark(ok: bool) -> str:
+    return "" if ok else " (no)"
+
+
+def _cells(s: dict[str, Any], with_px: bool) -> list[str]:
+    out = [f"{s['tp']} / {s['fp']} / {s['fn']}", str(s["precision"]), str(s["recall"])]
+    return [*out, str(s["centroid_median_px"])] if with_px else out
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
+    ap.add_argument("roots", type=Path, nargs="+")
+    ap.add_argument("--groups", required=True)
+    ap.add_argument("--checks", type=Path, required=True,
+                    help="folder of lovo-EVENT.onnx and generic-EVENT.json")
+    ap.add_argument("--out", type=Path, help="also write the figures as JSON, and beside it "
+                    "one row per image (OUT stem + -10.csv and -0.csv, as dsp-eval's images.csv)")
+    args = ap.parse_args(argv)
+    grouping = read_grouping(args.groups)
+    if grouping.kind != "file":
+        raise UsageError(f"--groups {args.groups}: give a grouping file (one event a line)")
+    names = [name for name, _ in grouping.lines]
+    doc: dict[str, Any] = {}
+    all10: list[ImageRow] = []
+    all0: list[ImageRow] = []
+    same0: list[ImageRow] = []
+    lines = ["| event | test images | 10 frames: tp / fp / fn | precision | recall | "
+             "centroid median px | no frame (every image): tp / fp / fn | precision | recall | "
+             "no frame, the same test images: precision | recall |",
+             "|---" * 11 + "|"]
+    for name in names:
+        check = read_check_file(args.checks / f"lovo-{name}.onnx")
+        generic = read_ball_file(args.checks / f"generic-{name}.json")
+        common: dict[str, Any] = {"check": check, "grouping": grouping, "only": [name]}
+        d10, rows10 = run_images_suite(args.roots, train_count=10, **common)
+        d0, rows0 = run_images_suite(args.roots, train_count=0, generic=generic, **common)
+        tested = {(r.folder, r.image) for r in rows10}
+        rows_same = [r for r in rows0 if (r.folder, r.image) in tested]
+        s10, s0, ss = d10["total"], d0["total"], summarise(rows_same)
+        all10 += rows10
+        all0 += rows0
+        same0 += rows_same
+        doc[name] = {"fitted_10": s10, "no_frame": s0, "no_frame_same_images": ss}
+        big = s10["test_images"] >= MIN_TEST
+        ok10 = (not big or ((s10["precision"] or 0) >= TARGET_10[0]
+                            and (s10["recall"] or 0) >= TARGET_10[1]
+                            and (s10["centroid_median_px"] or 99) <= TARGET_10[2]))
+        ok0 = ((s0["precision"] or 0) >= TARGET_0[0] and (s0["recall"] or 0) >= TARGET_0[1])
+        lines.append(f"| {name}{_mark(ok10 and ok0)} | {s10['test_images']} | "
+                     + " | ".join(_cells(s10, True) + _cells(s0, False)
+                                  + [str(ss["precision"]), str(ss["recall"])]) + " |")
+        print(f"{name} done", file=sys.stderr, flush=True)
+    t10, t0, ts = summarise(all10), summarise(all0), summarise(same0)
+    doc["total"] = {"fitted_10": t10, "no_frame": t0, "no_frame_same_images": ts}
+    lines.append(f"| total | {t10['test_images']} | " + " | ".join(
+        _cells(t10, True) + _cells(t0, False) + [str(ts["precision"]), str(ts["recall"])])
+        + " |")
+    print("\n".join(lines))
+    if args.out is not None:
+        for part in doc.values():
+            for s in part.values():
+                s.pop("ms_per_image", None)
+        args.out.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        for suffix, rows in (("-10.csv", all10), ("-0.csv", all0)):
+            args.out.with_name(args.out.stem + suffix).write_text(images_csv(rows),
+                                                                  encoding="utf-8")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_main("held_out_events.py", _main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -169,4 +169,6 @@ class HopFollower:
                 self._flight, self._joined = BallisticFusion(self.noise), False
                 self._vouched_ns = None
                 return None
-        return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots)
+        return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
+                             z_m=fused.z_m, covariance_3d=fused.covariance_3d,
+                             triangulated=fused.triangulated)

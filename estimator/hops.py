@@ -57,6 +57,7 @@ from estimator.estimates import BallEstimate, FusedEstimate
 from estimator.fusion import BallisticFusion
 from estimator.noise import Noise
 from estimator.tracking import TrackState
+from estimator.tracking.params import BallisticParams
 
 __all__ = ["HopFollower"]
 
@@ -81,9 +82,14 @@ class HopFollower:
     """A rolling 3-D track whose level velocity is this far from the ground track's..."""
     kick_sigma_mps: float = 3.0
     """...takes a kick of this sigma each way before this step's estimates [m/s]."""
+    flight_accel_sigma_mps2: float = 1.0
+    """The 3-D track's acceleration noise in flight [m/s^2] (BallisticParams)."""
+    hidden_radii: float = 4.0
+    """A partly hidden ball's elevation sigma is widened by this many of its angular radii
+    times the share hidden (:class:`~estimator.fusion.TriangulateFusion`)."""
 
     def __post_init__(self) -> None:
-        self._flight = BallisticFusion(self.noise)
+        self._flight = self._new_flight()
         self._joined = False
         """The 3-D track has been within ``guard_m`` of the ground track."""
         self._own = False
@@ -93,6 +99,11 @@ class HopFollower:
         self._vouched_ns: int | None = None
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
+
+    def _new_flight(self) -> BallisticFusion:
+        params = BallisticParams(flight_accel_sigma_mps2=self.flight_accel_sigma_mps2)
+        return BallisticFusion(self.noise, params, rays_in_flight=True,
+                               hidden_radii=self.hidden_radii)
 
     def peek(self, stamp_ns: int, track: TrackState | None) -> FusedEstimate | None:
         """What :meth:`step` would give at ``stamp_ns`` with no estimates, changing
@@ -166,7 +177,7 @@ class HopFollower:
         else:
             vouched = self._vouched_ns
             if not self._joined or vouched is None or stamp_ns - vouched > self.keep_ns:
-                self._flight, self._joined = BallisticFusion(self.noise), False
+                self._flight, self._joined = self._new_flight(), False
                 self._vouched_ns = None
                 return None
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,

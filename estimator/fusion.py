@@ -359,7 +359,12 @@ class BallisticFusion:
     ray to cross it with: a flying track takes the ray itself
     (:meth:`~estimator.tracking.ballistic.BallisticTracker.update_ray`); one that rolls,
     or has no height, the point the ray crosses another robot's recent ray at
-    (:class:`~estimator.tracking.ray_pairs.RayPairs`), else the image's ground estimate."""
+    (:class:`~estimator.tracking.ray_pairs.RayPairs`), else the image's ground estimate.
+
+    ``rays_in_flight``: a step of several rays that do not cross gives a flying track each
+    ray across itself, not the nearest robot's ground point. ``hidden_radii``: the
+    triangulation's (:class:`TriangulateFusion`). Both off by default (``--fusion
+    ballistic``); the 3-D track of :mod:`estimator.hops` sets them."""
 
     def __init__(self, noise: Noise | None = None, params: BallisticParams | None = None,
                  coast_s: float = 1.0, *, rays_in_flight: bool = False,

@@ -41,7 +41,19 @@ a far robot whose lifted estimates the 3-D track followed too, as the ground tra
 or, at the start, a box the ground tracker did not confirm): the ground track's position is
 given and the 3-D track starts afresh. A false flight that keeps taking rays is kept too,
 so the poses should be good ones (the lines' corrections, ``--localise lines``), or the
-rays as unsure as the poses (``--pose-uncertainty``). Pure and deterministic.
+rays as unsure as the poses (``--pose-uncertainty``).
+
+The fused estimate carries the 3-D track's height (z, its 3 x 3 covariance): a lob is
+given where it flies, not on the ground under it. A lob is first seen by two robots often
+as it enters one robot's image at the edge, the ball partly cut off and its centroid below
+its centre by up to its angular radius, where the noise model allows a tenth of that: two
+such rays crossing at a shallow angle meet far too low (or miss) and the rolling track runs
+on along the ground. So the 3-D track's triangulation widens a partly hidden ball's
+elevation sigma by ``hidden_radii`` angular radii times the share hidden; in flight, rays
+that still miss each other each go in across themselves
+(:class:`~estimator.fusion.BallisticFusion` ``rays_in_flight``), and the flight's
+acceleration noise is ``flight_accel_sigma_mps2`` (a ball in the air is pushed by gravity
+and drag alone). Pure and deterministic.
 """
 
 from __future__ import annotations

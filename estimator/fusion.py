@@ -71,31 +71,6 @@ def _fused(position: Matrix, covariance: Matrix, robots: Sequence[str]) -> Fused
                          covariance=covariance_rows(cov), robots=tuple(robots))
 
 
-def _rays_of(estimates: Sequence[BallEstimate], noise: Noise, hidden_radii: float
-             ) -> list[BallRay]:
-    """The rays of the estimates with a camera height. A partly hidden ball's (visibility
-    v < 1) elevation sigma is widened by ``hidden_radii`` (1 - v) of the ball's angular
-    radius, R over the ray's length to its ground point, added in quadrature: a ball cut by
-    the edge of the image (a lob above the mirror's horizon, a ball entering the picture)
-    shows a part of itself, and its centroid lies up to its radius from its centre, farther
-    the more is hidden, where the noise model's sigmas (made for balls on the ground) say
-    a tenth of that."""
-    rays: list[BallRay] = []
-    for e in estimates:
-        if e.camera_height_m is None:
-            continue
-        try:
-            ray = ray_of(e, noise.covariance)
-        except EstimatorError:
-            continue
-        if hidden_radii and e.visibility < 1.0:
-            length = float(np.linalg.norm(np.array(ray.ground_point) - np.array(ray.origin)))
-            spread = hidden_radii * (1.0 - e.visibility) * BALL_RADIUS_M / max(length, 0.1)
-            ray = replace(ray, sigma_elevation_rad=math.hypot(ray.sigma_elevation_rad, spread))
-        rays.append(ray)
-    return rays
-
-
 @runtime_checkable
 class Fusion(Protocol):
     """Several robots' estimates -> one, or None for no estimates."""
@@ -269,9 +244,6 @@ class TriangulateFusion:
     n_sigma: float = 4.0
     top_m: float = 3.5
     """The highest a ball flies (a lob's apex is at most 3 m) [m]."""
-    hidden_radii: float = 0.0
-    """A partly hidden ball's elevation sigma is widened by this many of its angular radii
-    times the share hidden (:func:`_rays_of`; 0: as the noise model gives it)."""
 
     @property
     def name(self) -> str:
@@ -280,7 +252,13 @@ class TriangulateFusion:
     def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
         if not estimates:
             return None
-        rays = _rays_of(estimates, self.noise, self.hidden_radii)
+        rays: list[BallRay] = []
+        for e in estimates:
+            if e.camera_height_m is not None:
+                try:
+                    rays.append(ray_of(e, self.noise.covariance))
+                except EstimatorError:
+                    continue
         inliers = self._consistent(rays)
         if inliers:
             solved = triangulate(inliers)
@@ -359,19 +337,11 @@ class BallisticFusion:
     ray to cross it with: a flying track takes the ray itself
     (:meth:`~estimator.tracking.ballistic.BallisticTracker.update_ray`); one that rolls,
     or has no height, the point the ray crosses another robot's recent ray at
-    (:class:`~estimator.tracking.ray_pairs.RayPairs`), else the image's ground estimate.
-
-    ``rays_in_flight``: a step of several rays that do not cross gives a flying track each
-    ray across itself, not the nearest robot's ground point. ``hidden_radii``: the
-    triangulation's (:class:`TriangulateFusion`). Both off by default (``--fusion
-    ballistic``); the 3-D track of :mod:`estimator.hops` sets them."""
+    (:class:`~estimator.tracking.ray_pairs.RayPairs`), else the image's ground estimate."""
 
     def __init__(self, noise: Noise | None = None, params: BallisticParams | None = None,
-                 coast_s: float = 1.0, *, rays_in_flight: bool = False,
-                 hidden_radii: float = 0.0) -> None:
-        self.rays_in_flight = rays_in_flight
-        self.triangulate = TriangulateFusion(noise or CalibratedNoise(),
-                                             hidden_radii=hidden_radii)
+                 coast_s: float = 1.0) -> None:
+        self.triangulate = TriangulateFusion(noise or CalibratedNoise())
         self.tracker = BallisticTracker(params)
         self.pairs = RayPairs()
         self.coast_ns = round(coast_s * NS_PER_S)
@@ -394,13 +364,7 @@ class BallisticFusion:
             point = self.triangulate.fuse(estimates) if estimates else None
             taken, robots = False, point.robots if point is not None else ()
             crossed = point is not None and point.triangulated
-            if self.rays_in_flight and not crossed and len(rays) > 1 and tracker.airborne:
-                # rays that miss each other in the air: each across itself, not the
-                # nearest robot's ground point, which says nothing of the other rays
-                took = [tracker.update_ray(stamp_ns, ray) for ray in rays]
-                taken, robots = any(took), tuple(r.robot for r, t in zip(rays, took, strict=True)
-                                                 if t)
-            elif point is not None and point.z_m is not None and point.covariance_3d is not None:
+            if point is not None and point.z_m is not None and point.covariance_3d is not None:
                 taken = tracker.update(stamp_ns, (point.x_m, point.y_m, point.z_m),
                                        np.array(point.covariance_3d, dtype=np.float64))
             else:
@@ -427,7 +391,14 @@ class BallisticFusion:
         return None if crossed is None else crossed[0]
 
     def _rays(self, estimates: Sequence[BallEstimate]) -> list[BallRay]:
-        return _rays_of(estimates, self.triangulate.noise, self.triangulate.hidden_radii)
+        rays = []
+        for e in estimates:
+            if e.camera_height_m is not None:
+                try:
+                    rays.append(ray_of(e, self.triangulate.noise.covariance))
+                except EstimatorError:
+                    continue
+        return rays
 
     def _one_ray(self, stamp_ns: int, estimates: Sequence[BallEstimate], ray: BallRay
                  ) -> tuple[bool, tuple[str, ...], bool]:

@@ -41,19 +41,7 @@ a far robot whose lifted estimates the 3-D track followed too, as the ground tra
 or, at the start, a box the ground tracker did not confirm): the ground track's position is
 given and the 3-D track starts afresh. A false flight that keeps taking rays is kept too,
 so the poses should be good ones (the lines' corrections, ``--localise lines``), or the
-rays as unsure as the poses (``--pose-uncertainty``).
-
-The fused estimate carries the 3-D track's height (z, its 3 x 3 covariance): a lob is
-given where it flies, not on the ground under it. A lob is first seen by two robots often
-as it enters one robot's image at the edge, the ball partly cut off and its centroid below
-its centre by up to its angular radius, where the noise model allows a tenth of that: two
-such rays crossing at a shallow angle meet far too low (or miss) and the rolling track runs
-on along the ground. So the 3-D track's triangulation widens a partly hidden ball's
-elevation sigma by ``hidden_radii`` angular radii times the share hidden; in flight, rays
-that still miss each other each go in across themselves
-(:class:`~estimator.fusion.BallisticFusion` ``rays_in_flight``), and the flight's
-acceleration noise is ``flight_accel_sigma_mps2`` (a ball in the air is pushed by gravity
-and drag alone). Pure and deterministic.
+rays as unsure as the poses (``--pose-uncertainty``). Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -69,7 +57,6 @@ from estimator.estimates import BallEstimate, FusedEstimate
 from estimator.fusion import BallisticFusion
 from estimator.noise import Noise
 from estimator.tracking import TrackState
-from estimator.tracking.params import BallisticParams
 
 __all__ = ["HopFollower"]
 
@@ -94,14 +81,9 @@ class HopFollower:
     """A rolling 3-D track whose level velocity is this far from the ground track's..."""
     kick_sigma_mps: float = 3.0
     """...takes a kick of this sigma each way before this step's estimates [m/s]."""
-    flight_accel_sigma_mps2: float = 1.0
-    """The 3-D track's acceleration noise in flight [m/s^2] (BallisticParams)."""
-    hidden_radii: float = 4.0
-    """A partly hidden ball's elevation sigma is widened by this many of its angular radii
-    times the share hidden (:class:`~estimator.fusion.TriangulateFusion`)."""
 
     def __post_init__(self) -> None:
-        self._flight = self._new_flight()
+        self._flight = BallisticFusion(self.noise)
         self._joined = False
         """The 3-D track has been within ``guard_m`` of the ground track."""
         self._own = False
@@ -111,11 +93,6 @@ class HopFollower:
         self._vouched_ns: int | None = None
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
-
-    def _new_flight(self) -> BallisticFusion:
-        params = BallisticParams(flight_accel_sigma_mps2=self.flight_accel_sigma_mps2)
-        return BallisticFusion(self.noise, params, rays_in_flight=True,
-                               hidden_radii=self.hidden_radii)
 
     def peek(self, stamp_ns: int, track: TrackState | None) -> FusedEstimate | None:
         """What :meth:`step` would give at ``stamp_ns`` with no estimates, changing
@@ -189,7 +166,7 @@ class HopFollower:
         else:
             vouched = self._vouched_ns
             if not self._joined or vouched is None or stamp_ns - vouched > self.keep_ns:
-                self._flight, self._joined = self._new_flight(), False
+                self._flight, self._joined = BallisticFusion(self.noise), False
                 self._vouched_ns = None
                 return None
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,

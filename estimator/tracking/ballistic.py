@@ -128,11 +128,7 @@ class BallisticTracker:
             x[2], x[5] = BALL_RADIUS_M, 0.0
             F[2, 5] = 0.0
             F[5, :] = 0.0
-        p = self.params
-        sigma = p.accel_sigma_mps2
-        if self.airborne and p.flight_accel_sigma_mps2 is not None:
-            sigma = p.flight_accel_sigma_mps2
-        q = sigma ** 2
+        q = self.params.accel_sigma_mps2 ** 2
         G = np.vstack([np.eye(3) * 0.5 * dt * dt, np.eye(3) * dt])
         Q = G @ G.T * q
         if not self.airborne:

@@ -69,10 +69,6 @@ class TrackerParams:
 class BallisticParams:
     accel_sigma_mps2: float = 3.0
     """White acceleration noise [m/s^2] (the ball's unmodelled manoeuvres: kicks, drag)."""
-    flight_accel_sigma_mps2: float | None = None
-    """The same in flight (None: ``accel_sigma_mps2``): a ball in the air is pushed by
-    nothing but gravity and drag, and a smaller one lets rays that cross at a shallow angle
-    be placed by the flight they lie on [m/s^2]."""
     restitution: float = 0.6
     """A bounce keeps this much of the normal speed (a football on turf)."""
     bounce_sigma: float = 0.15

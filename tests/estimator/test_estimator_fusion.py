@@ -9,7 +9,6 @@ import pytest
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from estimator.constants import BALL_RADIUS_M
 from estimator.errors import FusionError, UnknownFusionError
 from estimator.estimates import BallEstimate
 from estimator.fusion import (
@@ -19,11 +18,10 @@ from estimator.fusion import (
     MeanFusion,
     NearestFusion,
     RobustFusion,
-    TriangulateFusion,
     WeightedFusion,
     get_fusion,
 )
-from estimator.noise import CalibratedNoise, NoiseModel, range_sigma_m
+from estimator.noise import NoiseModel, range_sigma_m
 
 
 def est(robot: str, rx: float, ry: float, bx: float, by: float) -> BallEstimate:
@@ -184,35 +182,3 @@ def test_rotating_everything_rotates_the_fused_estimate(
         assert (f1.x_m, f1.y_m) == pytest.approx(turn(f0.x_m, f0.y_m), abs=1e-6)
         expected_cov = rotation @ np.array(f0.covariance) @ rotation.T
         assert np.array(f1.covariance) == pytest.approx(expected_cov, abs=1e-9)
-
-
-def _sees_at(robot: str, at: tuple[float, float], point: tuple[float, float, float],
-             visibility: float = 1.0) -> BallEstimate:
-    """A robot at ``at`` (camera 0.85 m up) whose ray passes through ``point``: its
-    ground-plane estimate."""
-    h = 0.85
-    rx, ry = at
-    s = (h - BALL_RADIUS_M) / (h - point[2])
-    x, y = rx + s * (point[0] - rx), ry + s * (point[1] - ry)
-    return BallEstimate(robot, rx, ry, math.hypot(x - rx, y - ry), math.atan2(y - ry, x - rx),
-                        x, y, visibility=visibility, camera_height_m=h)
-
-
-def test_a_partly_hidden_balls_elevation_is_widened_so_its_low_centroid_crosses() -> None:
-    """A lob 0.6 m up, seen by two robots 1.2 m apart 8 m away (rays crossing at 8 deg);
-    one sees 60 % of the ball, cut at the edge of its image, and its centroid 3 cm below
-    the centre. With the noise model's sigmas the rays miss each other and the ground-plane
-    fusion puts the ball metres off; with the hidden share's spread they cross at the ball.
-    Whole balls' rays are as they were."""
-    ball = (0.05, -5.37, 0.6)
-    a = _sees_at("a", (-3.59, 1.34), ball)
-    hidden = _sees_at("b", (-4.75, 1.27), (ball[0], ball[1], ball[2] - 0.03), visibility=0.6)
-    whole = _sees_at("b", (-4.75, 1.27), ball)
-    plain, widened = (TriangulateFusion(CalibratedNoise(), hidden_radii=k) for k in (0.0, 4.0))
-    off = plain.fuse([a, hidden])
-    assert off is not None and not off.triangulated
-    assert math.hypot(off.x_m - ball[0], off.y_m - ball[1]) > 5.0
-    on = widened.fuse([a, hidden])
-    assert on is not None and on.triangulated and on.z_m is not None
-    assert math.dist((on.x_m, on.y_m, on.z_m), ball) < 0.02
-    assert widened.fuse([a, whole]) == plain.fuse([a, whole])

@@ -41,7 +41,9 @@ a far robot whose lifted estimates the 3-D track followed too, as the ground tra
 or, at the start, a box the ground tracker did not confirm): the ground track's position is
 given and the 3-D track starts afresh. A false flight that keeps taking rays is kept too,
 so the poses should be good ones (the lines' corrections, ``--localise lines``), or the
-rays as unsure as the poses (``--pose-uncertainty``). Pure and deterministic.
+rays as unsure as the poses (``--pose-uncertainty``). The fused estimate carries the 3-D
+track's height (z and its 3 x 3 covariance): a lob is given where it flies, not on the
+ground under it. Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -169,4 +171,6 @@ class HopFollower:
                 self._flight, self._joined = BallisticFusion(self.noise), False
                 self._vouched_ns = None
                 return None
-        return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots)
+        return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
+                             z_m=fused.z_m, covariance_3d=fused.covariance_3d,
+                             triangulated=fused.triangulated)

@@ -42,6 +42,7 @@ import numpy as np
 
 from dsp.errors import UsageError
 from estimator import corrected, fusion, paper
+from estimator.constants import BALL_RADIUS_M
 from estimator.detection import Detection, detect_ball
 from estimator.detection.real import Candidate
 from estimator.errors import EstimatorError
@@ -396,9 +397,12 @@ class FrameEstimator:
                       else hops.peek(stamp_ns, confirmed))
         if confirmed is None:  # a tentative track may be a false blob
             return None, None, None
-        x, y, cov = ((confirmed.x_m, confirmed.y_m, confirmed.position_covariance)
-                     if flight is None else (flight.x_m, flight.y_m, flight.covariance))
-        fused = FusedEstimate(x, y, cov, tracker.accepted_at(stamp_ns))
+        robots = tracker.accepted_at(stamp_ns)
+        if flight is not None:  # the 3-D track's position, its height with it
+            fused = replace(flight, robots=robots)
+        else:  # the ground track's: with --hops a ball on the ground, its centre at R
+            fused = FusedEstimate(confirmed.x_m, confirmed.y_m, confirmed.position_covariance,
+                                  robots, z_m=None if hops is None else BALL_RADIUS_M)
         return fused, (confirmed.vx_m_s, confirmed.vy_m_s), confirmed.velocity_covariance
 
     def _bias_prior(self, tracker: BallTracker, f: FrameResult) -> TrackState | None:

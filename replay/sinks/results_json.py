@@ -48,12 +48,14 @@ sqrt(mean(error^2)). The velocity keys are there only when the fusion estimates 
 (``track``): the velocity [m/s] and its covariance [m^2/s^2]; the truth's velocity and the
 error's norm [m/s] only when the log holds the ball's true velocity
 (``/ground_truth/ball/odometry``), and so the summary's ``fused.velocity``. The 3-D keys are
-there only when the fusion gives a height (``triangulate``): the height of the ball's
-centre [m], the 3 x 3 covariance of (x, y, z) [m^2], whether rays crossed (else the height
-is assumed, z = R, and the covariance spreads along a ray), and against the truth's height
-when the log has one: z - z_true and the 3-D error [m]. ``vz_m_s`` and ``landing`` only
-from the ballistic tracker (``ballistic``): its vertical velocity [m/s] and where and when
-it predicts the ball next meets the ground (null while the ball is not flying). The
+there only when the fusion gives a height (``triangulate``, ``ballistic``, ``track`` with
+``--hops``): the height of the ball's centre [m], the 3 x 3 covariance of (x, y, z) [m^2],
+whether rays crossed (else the height is assumed, z = R, and the covariance spreads along
+a ray; with ``--hops`` a step the ground track gives has z = R and no covariance), and
+against the truth's height when the log has one: z - z_true and the 3-D error [m].
+``vz_m_s`` and ``landing`` only from the ballistic tracker (``ballistic``): its vertical
+velocity [m/s] and where and when it predicts the ball next meets the ground (null while
+the ball is not flying). The
 estimate's ``range_sigma_m`` and ``ray_range_m`` only with ``--width-range``, on the
 estimates whose blob's width placed a ball in the air under itself: the range's sigma
 (the width's) and where the blob's ray meets the ground-plane; the summary's ``width``

@@ -329,3 +329,28 @@ def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None
     assert len(plain) > 30
     assert run("peek") == plain
     assert run("step") != plain
+
+
+def test_a_lob_is_given_at_its_height_not_on_the_ground() -> None:
+    """Cameras in sync: the near and side robots see the lob at each step, their rays
+    crossed; the 3-D track's position is given with its height, within a few centimetres
+    of the ball's centre in 3-D while it flies (on the ground the ball is 0.4 m below)."""
+    tracker, hops = BallTracker(), HopFollower(CalibratedNoise())
+    errors = []
+    for k in range(40):  # 0.8 s at 50 Hz: still, then kicked up at 0.2 s
+        t_ns = k * 20 * MS
+        ball = _lob(t_ns / 1e9)
+        taken = []
+        for robot in ("near", "side"):
+            e = _sees(robot, ROBOTS[robot], ball)
+            accepted = tracker.update(Measurement(t_ns, robot, e.x_m, e.y_m,
+                                                  covariance_rows(hops.noise.covariance(e))))
+            if hops.takes(e, accepted, tracker.state_at(t_ns), t_ns):
+                taken.append(e)
+        state = tracker.state_at(t_ns)
+        flight = hops.step(t_ns, taken, state if state is not None and state.confirmed else None)
+        if ball[2] > BALL_RADIUS_M + 0.3:
+            assert flight is not None and flight.z_m is not None
+            errors.append(math.dist((flight.x_m, flight.y_m, flight.z_m), ball))
+    assert len(errors) > 10
+    assert max(errors) < 0.05

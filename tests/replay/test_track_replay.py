@@ -244,6 +244,10 @@ def test_hops_give_a_lofted_ball_s_position_from_the_3d_track(tmp_path: Path) ->
     assert hopped["frames"] == plain["frames"]
     assert plain["summary"]["fused"]["rmse_m"] > 0.3
     assert hopped["summary"]["fused"]["rmse_m"] < 0.01
+    # ...at its height: every step in 3-D, the ball in the air within centimetres
+    aloft = [s for s in hopped["fused"] if s.get("truth_z_m", 0.0) > 0.3]
+    assert aloft and all(s["error_3d_m"] < 0.05 for s in aloft)
+    assert all("z_m" not in s for s in plain["fused"])
     # the velocity stays the tracker's
     assert [s.get("velocity_m_s") for s in hopped["fused"]] == [
         s.get("velocity_m_s") for s in plain["fused"]]

@@ -81,6 +81,7 @@ __all__ = [
     "match_tasks",
     "run_match_suite",
     "run_match_task",
+    "score_match_log",
     "score_rows",
     "serial_map",
 ]
@@ -232,9 +233,15 @@ def _distractors(log: Path) -> list[tuple[float, float]]:
 
 
 def run_match_task(task: MatchTask) -> MatchLogScore:
-    """Record the match when its log is missing, replay it with each fusion, score it."""
+    """Record the match when its log is missing (else check the log there is it), replay it
+    with each fusion, score it."""
     prepare_log(task.log, "match", task.seed,
                 lambda: MatchRecorder(task.options, task.phase)(task.log, task.seed))
+    return score_match_log(task)
+
+
+def score_match_log(task: MatchTask) -> MatchLogScore:
+    """Replay the log at ``task.log`` with each fusion and score it (whatever scene it is)."""
     distractors = _distractors(task.log)
     fused: dict[str, Scores] = {}
     robots: dict[str, list[float]] = {}

@@ -58,9 +58,10 @@ def test_dsp_record_refuses_in_one_line(tmp_path: Path, capsys: pytest.CaptureFi
     out = tmp_path / "x.mcap"
     assert cli.main([str(out), "--frames", "1", "-q", "--renderer", "tiny", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    if message.startswith("invalid"):  # argparse's own: its usage, then the one error line
-        assert err[0].startswith("usage:") and err[-1].startswith("dsp-record: error:")
-        err = err[-1:]
+    if message.startswith("invalid"):  # argparse's own: the error line, then the hint
+        assert err[0].startswith("dsp-record: error:")
+        assert err[1:] == ["Try 'dsp-record --help' for the options."]
+        err = err[:1]
     assert len(err) == 1 and message in err[0], err
     assert not list(tmp_path.iterdir())
 

@@ -56,6 +56,6 @@ def test_dsp_replay_keeps_image_buffers(tmp_path: Path, monkeypatch: pytest.Monk
     log = ROOT / "logs" / "golden" / "scenario2.mcap"
     assert replay.cli.main([str(log), "--out", str(tmp_path / "r.json"), "-q"]) == 0
     assert calls == [platform.libc_ver()[0] == "glibc"]
-    # the same bytes as the golden results (made without the tuning)
+    # the same bytes as the golden results of the default (made without the tuning)
     assert (tmp_path / "r.json").read_bytes() == \
-        (ROOT / "logs" / "golden" / "scenario2.corrected-track.json").read_bytes()
+        (ROOT / "logs" / "golden" / "scenario2.profile-best.json").read_bytes()

@@ -23,7 +23,7 @@ from replay.evaluate.match import (
     MatchOptions,
     MatchSuite,
     MatchTask,
-    run_match_task,
+    score_match_log,
 )
 from replay.evaluate.scenes import Config, configs_for
 from replay.evaluate.suites import PAPER_SCENARIOS, PAPER_TRUTH, PaperSuite, ScenarioScore
@@ -122,7 +122,8 @@ def test_cli_options_and_the_fit_covariance_under_lines(carpet_log: Path,
     covariance than the belief's; the option is stated in the results."""
     log = carpet_log
     outs = {}
-    for name, extra in (("plain", []), ("prior", ["--pose-uncertainty"]),
+    for name, extra in (("plain", ["--no-pose-uncertainty", "--localise", "none"]),
+                        ("prior", ["--pose-uncertainty", "--localise", "none"]),
                         ("lines", ["--pose-uncertainty", "--localise", "lines"])):
         out = tmp_path / f"{name}.json"
         assert main([str(log), "--fusion", "weighted", "--out", str(out), "--threads", "1",
@@ -141,7 +142,7 @@ def test_cli_options_and_the_fit_covariance_under_lines(carpet_log: Path,
 
 
 def test_match_task_scores_believed_and_corrected_poses(carpet_log: Path) -> None:
-    score = run_match_task(MatchTask(1, "random", carpet_log, MatchOptions(localise="lines"),
+    score = score_match_log(MatchTask(1, "random", carpet_log, MatchOptions(localise="lines"),
                                      fusions=("weighted",)))
     assert set(score.fused) == {"weighted", "weighted" + LINES_SUFFIX}
     assert set(score.robots) == {r + s for r in CARPET_ROBOTS for s in ("", LINES_SUFFIX)}

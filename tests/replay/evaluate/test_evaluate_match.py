@@ -21,7 +21,7 @@ from replay.evaluate.match import (
     match_markdown,
     match_tasks,
     run_match_suite,
-    run_match_task,
+    score_match_log,
     score_rows,
 )
 
@@ -121,7 +121,7 @@ def test_cli_refuses_a_negative_sync_count(capsys: pytest.CaptureFixture[str]) -
 
 def test_the_match_suite_passes_hops_to_the_tracker_rows_only() -> None:
     lob = Path(__file__).resolve().parents[3] / "logs" / "golden" / "lobs.mcap"
-    runs = {hops: run_match_task(MatchTask(1, "sync", lob, MatchOptions(hops=hops),
+    runs = {hops: score_match_log(MatchTask(1, "sync", lob, MatchOptions(hops=hops),
                                            fusions=("mean", "track")))
             for hops in (False, True)}
     assert runs[False].fused["mean"].errors == runs[True].fused["mean"].errors

@@ -43,7 +43,15 @@ given and the 3-D track starts afresh. A false flight that keeps taking rays is 
 so the poses should be good ones (the lines' corrections, ``--localise lines``), or the
 rays as unsure as the poses (``--pose-uncertainty``). The fused estimate carries the 3-D
 track's height (z and its 3 x 3 covariance): a lob is given where it flies, not on the
-ground under it. Pure and deterministic.
+ground under it.
+
+Two rules give the ground track's position for a step while the 3-D track is kept: a 3-D
+track that refused every estimate of its last step with estimates (the ground tracker took
+a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the ground
+track is the surer), and a rolling 3-D track whose largest position variance is more than
+``loose_ratio`` times the ground track's (begun on one robot's images it knows little along
+their rays, where the ground tracker's motion model does). A flying track is never given up
+for its looseness: the ground tracker knows nothing of a lob. Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -55,7 +63,7 @@ from dataclasses import dataclass
 from typing import TypeGuard
 
 from estimator.constants import BALL_RADIUS_M
-from estimator.estimates import BallEstimate, FusedEstimate
+from estimator.estimates import BallEstimate, Covariance, FusedEstimate
 from estimator.fusion import BallisticFusion
 from estimator.noise import Noise
 from estimator.tracking import TrackState
@@ -83,6 +91,9 @@ class HopFollower:
     """A rolling 3-D track whose level velocity is this far from the ground track's..."""
     kick_sigma_mps: float = 3.0
     """...takes a kick of this sigma each way before this step's estimates [m/s]."""
+    loose_ratio: float = 4.0
+    """A rolling 3-D track whose position variance (its largest) is this many times the
+    ground track's gives the ground track's position."""
 
     def __post_init__(self) -> None:
         self._flight = BallisticFusion(self.noise)
@@ -95,6 +106,10 @@ class HopFollower:
         self._vouched_ns: int | None = None
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
+        self._refusing = False
+        """At the last step with estimates it refused them all."""
+        self._loose = False
+        """At the last step with estimates, rolling, it was looser than the ground track."""
 
     def peek(self, stamp_ns: int, track: TrackState | None) -> FusedEstimate | None:
         """What :meth:`step` would give at ``stamp_ns`` with no estimates, changing
@@ -155,8 +170,11 @@ class HopFollower:
             # crossing with one in the air is where the ball is not, no lob
             if self._lob(self._flight.crossing(stamp_ns, taken[0])):
                 self._flight.pairs.forget()
-        self._kicking = kick
+        if taken:  # a kick seen at a step without estimates is acted on at the next one
+            self._kicking = kick
         flight = self._flight.step(stamp_ns, taken)
+        if taken:
+            self._refusing = tracker.last_accepted_ns != stamp_ns
         if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:
             self._vouched_ns = stamp_ns
         self._own = False
@@ -171,6 +189,22 @@ class HopFollower:
                 self._flight, self._joined = BallisticFusion(self.noise), False
                 self._vouched_ns = None
                 return None
+        if taken:
+            self._loose = not tracker.airborne and self._looser(
+                fused.covariance, track.position_covariance)
+        if self._refusing or self._loose:
+            return None  # the ground track's position, the 3-D track kept
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
                              z_m=fused.z_m, covariance_3d=fused.covariance_3d,
                              triangulated=fused.triangulated)
+
+    def _looser(self, flight: Covariance, ground: Covariance) -> bool:
+        """Whether the 3-D track's position variance (its largest) exceeds ``loose_ratio``
+        times the ground track's."""
+        return _largest(flight) > self.loose_ratio * _largest(ground)
+
+
+def _largest(c: Covariance) -> float:
+    """The largest eigenvalue of a 2 x 2 covariance."""
+    (a, b), (_, d) = c
+    return 0.5 * (a + d) + math.hypot(0.5 * (a - d), b)

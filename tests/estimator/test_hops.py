@@ -91,7 +91,7 @@ def _still_ball(hops: HopFollower, steps: int) -> None:
 
 
 def test_it_starts_afresh_where_the_ground_track_is_far_from_it_and_nothing_came() -> None:
-    hops = HopFollower(CalibratedNoise())
+    hops = HopFollower(CalibratedNoise(), loose_ratio=math.inf)  # a new track is loose
     _still_ball(hops, 10)  # the last estimate at 180 ms
     # the ground track is 3 m away (more than guard_m) and the 3-D track took nothing for
     # more than keep_ns (100 ms): no 3-D position, and the next estimates there start the
@@ -248,10 +248,11 @@ def _kicked_along_the_rays(hops: HopFollower) -> list[float]:
         t = t_ns / 1e9
         ball = (-1.0 + t if t < 0.5 else -0.5 + 8.0 * (t - 0.5), 0.0, BALL_RADIUS_M)
         robot = ("east", "west")[k % 2]
-        _, flight = _fed(tracker, hops, _sees(robot, at[robot], ball), t_ns)
+        _fed(tracker, hops, _sees(robot, at[robot], ball), t_ns)
+        x = hops._flight.tracker.x
         if t > 0.525:
-            assert flight is not None
-            errors.append(math.hypot(flight.x_m - ball[0], flight.y_m - ball[1]))
+            assert x is not None
+            errors.append(math.hypot(float(x[0]) - ball[0], float(x[1]) - ball[1]))
     return errors
 
 
@@ -263,11 +264,13 @@ def test_a_kick_along_the_rays_is_followed_from_the_second_image_after_it() -> N
     assert max(_kicked_along_the_rays(HopFollower(CalibratedNoise(), kick_mps=math.inf))) > 0.06
 
 
-def _kicked_across_shallow_rays(hops: HopFollower) -> tuple[float, float]:
+def _kicked_across_shallow_rays(hops: HopFollower, tick: bool = False
+                                ) -> tuple[float, float]:
     """Two robots 8.8 and 12 m away whose rays meet at 7 deg see a ball rolling at 1 m/s in
     turn; 1 ms after the second one's image the ball is kicked to 9 m/s across their rays,
     and the ground track (given) follows. The first robot's next image, 25 ms on: the 3-D
-    track's error and height."""
+    track's error and height. ``tick``: a step without images (a clock's) between the kick
+    and that image, the ground track already kicked there."""
     at = {"a": (8.3, 2.55), "b": (10.95, 4.7)}
     v0, vk = (0.84, -0.64), (-1.0, 9.0)
     t_ns = 0
@@ -277,13 +280,17 @@ def _kicked_across_shallow_rays(hops: HopFollower) -> tuple[float, float]:
         robot = "ab"[k % 2]
         hops.step(t_ns, [_sees(robot, at[robot], ball)], _moving(t_ns, ball, v0))
     kick = t_ns / 1e9 + 0.001
+    if tick:
+        t = kick + 0.010
+        at_tick = (v0[0] * kick + vk[0] * 0.010, v0[1] * kick + vk[1] * 0.010, BALL_RADIUS_M)
+        hops.step(round(t * 1e9), [], _moving(round(t * 1e9), at_tick, vk))
     t_ns += 25 * MS
     dt = t_ns / 1e9 - kick
     ball = (v0[0] * kick + vk[0] * dt, v0[1] * kick + vk[1] * dt, BALL_RADIUS_M)
-    out = hops.step(t_ns, [_sees("a", at["a"], ball)], _moving(t_ns, ball, vk))
+    hops.step(t_ns, [_sees("a", at["a"], ball)], _moving(t_ns, ball, vk))
     x = hops._flight.tracker.x
-    assert out is not None and x is not None
-    return math.hypot(out.x_m - ball[0], out.y_m - ball[1]), float(x[2])
+    assert x is not None
+    return math.hypot(float(x[0]) - ball[0], float(x[1]) - ball[1]), float(x[2])
 
 
 def _moving(t_ns: int, ball: tuple[float, float, float], v: tuple[float, float]
@@ -304,6 +311,44 @@ def test_after_a_kick_a_ray_is_not_crossed_with_one_from_before_it(
     monkeypatch.setattr(RayPairs, "forget", lambda self: None)
     error, z = _kicked_across_shallow_rays(HopFollower(CalibratedNoise()))
     assert error > 1.0 and z > 0.2
+
+
+def test_a_kick_seen_between_images_is_acted_on_at_the_next_image() -> None:
+    """The ground track's kick read at a step without images (a clock's tick): the first
+    image after it still forgets the rays of before the kick: the ball on the ground, 0.24 m
+    behind (moved to the tick with the velocity before the kick), not 1.8 m off in the air."""
+    error, z = _kicked_across_shallow_rays(HopFollower(CalibratedNoise()), tick=True)
+    assert error < 0.3 and z == pytest.approx(BALL_RADIUS_M, abs=0.01)
+
+
+def test_a_rolling_3d_track_far_looser_than_the_ground_track_gives_its_position() -> None:
+    """A 3-D track begun on one robot's image knows little along its ray; where the ground
+    track is much surer (loose_ratio), its position is given, the 3-D track kept."""
+    e = _seen("near", 0.0)
+    sure, unsure = ((1e-4, 0.0), (0.0, 1e-4)), ((1.0, 0.0), (0.0, 1.0))
+    for cov, given in ((sure, False), (unsure, True)):
+        hops = HopFollower(CalibratedNoise())
+        _joined(hops)  # a track of two robots' crossed rays, then a fresh one of one image
+        hops._flight = type(hops._flight)(hops.noise)
+        track = TrackState(200 * MS, e.x_m, e.y_m, 0.0, 0.0, cov, cov, True)
+        assert (hops.step(200 * MS, [e], track) is not None) is given
+        assert hops._flight.tracker.x is not None  # kept either way
+
+
+def test_a_3d_track_that_refuses_what_the_ground_tracker_took_gives_its_position() -> None:
+    """The ground tracker moved 0.8 m with an estimate the 3-D track refused: the ground
+    track's position is given until the 3-D track takes an estimate again."""
+    hops = HopFollower(CalibratedNoise())
+    _joined(hops)  # on the still ball at (-1, 0)
+    jumped = _sees("near", ROBOTS["near"], (-0.2, 0.0, BALL_RADIUS_M))
+    track = _track(200 * MS, -0.2, 0.0)
+    assert hops.takes(jumped, True, track, 200 * MS)
+    assert hops.step(200 * MS, [jumped], track) is None
+    assert hops._flight.tracker.last_accepted_ns == 180 * MS  # refused, not followed
+    assert hops.step(210 * MS, [], track) is None  # still refusing at a tick
+    back = _seen("side", 0.0)
+    flight = hops.step(220 * MS, [back], _track(220 * MS, -1.0, 0.0))
+    assert flight is not None and math.hypot(flight.x_m + 1.0, flight.y_m) < 0.02
 
 
 def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None:

@@ -18,8 +18,12 @@ from pathlib import Path
 from dsp.errors import UsageError
 
 __all__ = [
+    "MAX_DISTRACTORS",
+    "MAX_FACE_PX",
+    "MAX_RATE_HZ",
     "MAX_THREADS",
     "MAX_TIME_S",
+    "MIN_RATE_HZ",
     "check_int",
     "check_number",
     "check_suffix",
@@ -32,6 +36,15 @@ share of the memory, and no machine runs more at once."""
 MAX_TIME_S = 9e9
 """The largest time [s] an option takes, either sign: stamps of real robots' logs are Unix
 times (1.7e9 s today), and 9e9 s in nanoseconds still fits a signed 64-bit integer."""
+MIN_RATE_HZ = 0.1
+"""The slowest camera or pose rate a recording takes [Hz] (slower ones stepped the
+simulation for ever)."""
+MAX_RATE_HZ = 1000.0
+"""The fastest camera rate a recording takes [Hz]."""
+MAX_FACE_PX = 4096
+"""Six faces of 4096^2 RGB are ~300 MB; larger would exhaust memory, not sharpen the image."""
+MAX_DISTRACTORS = 20
+"""The most boxes of the ball's colour beside a simulated field."""
 
 
 def _num(x: float) -> str:

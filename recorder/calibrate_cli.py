@@ -20,7 +20,7 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from dsp.atomic import atomic_output, check_distinct, declare_files
-from dsp.checks import check_int, check_number, check_suffix
+from dsp.checks import MAX_FACE_PX, check_int, check_number, check_suffix
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.jsonio import dumps as strict_json
@@ -32,7 +32,6 @@ from recorder.calibrate import PAPER_FIT, CalibrationRun, calibrate, distances_m
 from recorder.calibrate import sample_ranges as _sample_ranges
 from recorder.calibrate_figure import calibration_figure
 from recorder.omni import DEFAULT_FACE_PX
-from recorder.record import MAX_FACE_PX
 
 __all__ = ["build_parser", "format_report", "main", "run_simulated"]
 

@@ -36,7 +36,7 @@ import numpy as np
 from dsp import contract as c
 from dsp import metadata as meta
 from dsp.atomic import AtomicFile, check_output_path, partial_paths
-from dsp.checks import check_int, check_number, check_suffix
+from dsp.checks import MAX_FACE_PX, MAX_RATE_HZ, MIN_RATE_HZ, check_int, check_number, check_suffix
 from dsp.errors import UsageError
 from dsp.progress import progress_bar
 from dsp.realism import Realism
@@ -73,10 +73,6 @@ MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 86_400.0
 """The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
 MAX_FRAMES = 10_000_000
-MIN_RATE_HZ = 0.1
-"""The slowest --rate and --pose-rate [Hz] (slower ones stepped the simulation for ever)."""
-MAX_FACE_PX = 4096
-"""Six faces of 4096^2 RGB are ~300 MB; larger would exhaust memory, not sharpen the image."""
 MAX_POSE_NOISE_M = 100.0
 
 
@@ -212,7 +208,7 @@ class RecordOptions:
         check_int("--frames", self.frames, low=1, high=MAX_FRAMES)
         check_number("--duration", self.duration_s, low=0, high=MAX_DURATION_S, low_open=True,
                      unit="s")
-        check_number("--rate", self.rate_hz, low=MIN_RATE_HZ, high=1000, unit="Hz")
+        check_number("--rate", self.rate_hz, low=MIN_RATE_HZ, high=MAX_RATE_HZ, unit="Hz")
         check_int("--robot-count", self.robots, low=1, high=8)
 
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from dsp.checks import MAX_DISTRACTORS, check_int
 from dsp.contract import robot_name
 from dsp.errors import UsageError
 from recorder.errors import UnknownScenarioError
@@ -159,8 +160,7 @@ def _check_extras(name: str, distractors: int, lob_fraction: float, people: int,
                   light_pools: int) -> None:
     if distractors and name not in ("match", "lobs"):
         raise UsageError(f"--distractors is for the match scenario (and lobs), not {name}")
-    if not 0 <= distractors <= 20:
-        raise UsageError(f"--distractors must be between 0 and 20, got {distractors}")
+    check_int("--distractors", distractors, low=0, high=MAX_DISTRACTORS)
     if lob_fraction and name != "match":
         raise UsageError(f"--lob-fraction is for the match scenario (lobs kicks only lobs), "
                          f"not {name}")

@@ -27,7 +27,14 @@ from typing import TypeVar
 
 from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.ball_file import read_ball_file, read_check_file, shipped_check, shipped_generic
-from dsp.checks import check_int, check_number
+from dsp.checks import (
+    MAX_DISTRACTORS,
+    MAX_FACE_PX,
+    MAX_RATE_HZ,
+    MIN_RATE_HZ,
+    check_int,
+    check_number,
+)
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import UsageError
 from dsp.image_groups import read_grouping
@@ -210,6 +217,10 @@ def _check(args: argparse.Namespace) -> None:
     check_int("--seed", args.seed, low=0, high=MAX_SEED)
     check_int("--sync-count", args.sync_count, low=0, high=MAX_COUNT)
     check_number("--duration", args.duration, low=0, high=3600, low_open=True, unit="s")
+    # the recorder's own ranges, checked here so a suite refuses them before its folder
+    check_number("--rate", args.rate, low=MIN_RATE_HZ, high=MAX_RATE_HZ, unit="Hz")
+    check_int("--face-px", args.face_px, low=256, high=MAX_FACE_PX)
+    check_int("--distractors", args.distractors, low=0, high=MAX_DISTRACTORS)
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise UsageError(f"--out-dir {args.out_dir}: is not a folder")
     if args.calibration is not None:  # a bad file would otherwise only show at the first replay
@@ -338,6 +349,7 @@ def _run_images(args: argparse.Namespace) -> int:
         raise UsageError("--suite images needs one or more folders of labelled images (DIR)")
     check_int("--train-count", args.train_count, low=0, high=MAX_COUNT)
     check_int("--train-from", args.train_from, low=0, high=MAX_COUNT)
+    check_int("--ball-class", args.ball_class, low=0, high=MAX_COUNT)
     if args.train_count == 0 and (args.train_from or args.no_head):
         raise UsageError("--train-count 0 fits nothing: --train-from and --no-head do not "
                          "go with it")

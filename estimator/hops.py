@@ -18,11 +18,12 @@ the ground tracker's. The 3-D track is slow to see a kick along the robots' rays
 one-robot point says nothing along its ray, and rays of different instants are crossed with
 the velocity before the kick): when the ground tracker's velocity, which follows a kick at
 the first estimate that shows it, is more than ``kick_mps`` from the rolling 3-D track's,
-the 3-D track takes a kick of ``kick_sigma_mps`` before the step's estimates; and at the
-first such step, a ray crossed with another robot's from before the kick (moved with the
-velocity before it) that puts the ball more than ``lob_m`` up is not taken for a lob: the
-rays kept are forgotten (two rays a few degrees apart cross metres along them when one
-moved 0.2 m across, in the air in front of the robots). It also takes
+the 3-D track takes a kick of ``kick_sigma_mps`` before the step's estimates; and at each
+such step, a ray crossed with another robot's from before the kick or from its first images
+(moved with a velocity the 3-D track has not yet found) that puts the ball more than
+``lob_m`` up is not taken for a lob: the rays kept are forgotten (two rays a few degrees
+apart cross metres along them when one moved 0.2 m across, in the air in front of the
+robots). It also takes
 an estimate whose ray crosses another robot's recent ray that it took, within ``near_m`` of
 the estimate and more than ``lob_m`` above a ball on the ground: in a lob the near robot
 sees the ball in the air close to where it places it, and the far robot's ray passes
@@ -45,10 +46,12 @@ rays as unsure as the poses (``--pose-uncertainty``). The fused estimate carries
 track's height (z and its 3 x 3 covariance): a lob is given where it flies, not on the
 ground under it.
 
-Two rules give the ground track's position for a step while the 3-D track is kept: a 3-D
+Three rules give the ground track's position for a step while the 3-D track is kept: a 3-D
 track that refused every estimate of its last step with estimates (the ground tracker took
 a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the ground
-track is the surer), and a rolling 3-D track whose largest position variance is more than
+track is the surer); a rolling 3-D track that takes nothing at a step where its velocity is
+``kick_mps`` from the ground track's (it would be moved on with a velocity it has not yet
+found); and a rolling 3-D track whose largest position variance is more than
 ``loose_ratio`` times the ground track's (begun on one robot's images it knows little along
 their rays, where the ground tracker's motion model does). A flying track is never given up
 for its looseness: the ground tracker knows nothing of a lob. Pure and deterministic.
@@ -101,8 +104,6 @@ class HopFollower:
         """The 3-D track has been within ``guard_m`` of the ground track."""
         self._own = False
         """It takes, at this step, an estimate the ground tracker refused."""
-        self._kicking = False
-        """At the last step the ground track's velocity was ``kick_mps`` from this one's."""
         self._vouched_ns: int | None = None
         """The last step at which it took an estimate the ground tracker refused, or took
         one while flying."""
@@ -165,13 +166,12 @@ class HopFollower:
                        track.vy_m_s - float(tracker.x[4])) > self.kick_mps)
         if kick and taken:
             tracker.kicked(self.kick_sigma_mps)  # the ground tracker saw a kick
-        if kick and not self._kicking and len(taken) == 1:
-            # the rays kept are from before the kick, moved with the velocity before it: a
-            # crossing with one in the air is where the ball is not, no lob
+        if kick and len(taken) == 1:
+            # the rays kept are from before the kick, or from its first images, moved with a
+            # velocity the 3-D track has not yet found: a crossing with one in the air is
+            # where the ball is not, no lob
             if self._lob(self._flight.crossing(stamp_ns, taken[0])):
                 self._flight.pairs.forget()
-        if taken:  # a kick seen at a step without estimates is acted on at the next one
-            self._kicking = kick
         flight = self._flight.step(stamp_ns, taken)
         if taken:
             self._refusing = tracker.last_accepted_ns != stamp_ns
@@ -192,7 +192,7 @@ class HopFollower:
         if taken:
             self._loose = not tracker.airborne and self._looser(
                 fused.covariance, track.position_covariance)
-        if self._refusing or self._loose:
+        if self._refusing or self._loose or (kick and not taken and not tracker.airborne):
             return None  # the ground track's position, the 3-D track kept
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
                              z_m=fused.z_m, covariance_3d=fused.covariance_3d,

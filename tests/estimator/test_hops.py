@@ -354,6 +354,8 @@ def test_a_3d_track_that_refuses_what_the_ground_tracker_took_gives_its_position
 def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None:
     """A clock's tick reads the 3-D track (peek); the next images' steps are those of a
     track never peeked at, though stepping it there (step with no estimates) moves them."""
+    reads = []
+
     def run(between: str) -> list[tuple[float, float]]:
         tracker, hops = BallTracker(), HopFollower(CalibratedNoise())
         out = []
@@ -364,8 +366,7 @@ def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None
                 out.append((flight.x_m, flight.y_m))
             tick = t_ns + 5 * MS
             if between == "peek":
-                read = hops.peek(tick, tracker.state_at(tick))
-                assert (read is None) == (flight is None)
+                reads.append(hops.peek(tick, tracker.state_at(tick)))
             elif between == "step":
                 hops.step(tick, [], tracker.state_at(tick))
         return out
@@ -373,6 +374,7 @@ def test_a_peek_between_images_changes_nothing_the_track_does_after_it() -> None
     plain = run("none")
     assert len(plain) > 30
     assert run("peek") == plain
+    assert sum(r is not None for r in reads) > 30  # the ticks read the 3-D track
     assert run("step") != plain
 
 
@@ -399,3 +401,16 @@ def test_a_lob_is_given_at_its_height_not_on_the_ground() -> None:
             errors.append(math.dist((flight.x_m, flight.y_m, flight.z_m), ball))
     assert len(errors) > 10
     assert max(errors) < 0.05
+
+
+def test_a_rolling_3d_track_that_takes_nothing_while_the_ground_track_is_kicked_gives_way(
+        ) -> None:
+    """At a step without estimates for it, a rolling 3-D track whose velocity is kick_mps
+    from the ground track's would move on with a velocity it has not found yet: the ground
+    track's position is given; with the velocities alike, its own."""
+    for v, given in ((5.0, False), (0.5, True)):
+        hops = HopFollower(CalibratedNoise())
+        _joined(hops)  # a still ball at (-1, 0), the last image at 180 ms
+        cov = ((1e-2, 0.0), (0.0, 1e-2))
+        kicked = TrackState(200 * MS, -1.0 + 0.02 * v, 0.0, v, 0.0, cov, cov, True)
+        assert (hops.step(200 * MS, [], kicked) is not None) is given

@@ -23,6 +23,7 @@ __all__ = [
     "MAX_RATE_HZ",
     "MAX_THREADS",
     "MAX_TIME_S",
+    "MIN_FACE_PX",
     "MIN_RATE_HZ",
     "check_int",
     "check_number",
@@ -41,6 +42,8 @@ MIN_RATE_HZ = 0.1
 simulation for ever)."""
 MAX_RATE_HZ = 1000.0
 """The fastest camera rate a recording takes [Hz]."""
+MIN_FACE_PX = 256
+"""The smallest cube-map face a recording renders [px]."""
 MAX_FACE_PX = 4096
 """Six faces of 4096^2 RGB are ~300 MB; larger would exhaust memory, not sharpen the image."""
 MAX_DISTRACTORS = 20

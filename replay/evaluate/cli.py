@@ -31,6 +31,7 @@ from dsp.checks import (
     MAX_DISTRACTORS,
     MAX_FACE_PX,
     MAX_RATE_HZ,
+    MIN_FACE_PX,
     MIN_RATE_HZ,
     check_int,
     check_number,
@@ -219,7 +220,7 @@ def _check(args: argparse.Namespace) -> None:
     check_number("--duration", args.duration, low=0, high=3600, low_open=True, unit="s")
     # the recorder's own ranges, checked here so a suite refuses them before its folder
     check_number("--rate", args.rate, low=MIN_RATE_HZ, high=MAX_RATE_HZ, unit="Hz")
-    check_int("--face-px", args.face_px, low=256, high=MAX_FACE_PX)
+    check_int("--face-px", args.face_px, low=MIN_FACE_PX, high=MAX_FACE_PX)
     check_int("--distractors", args.distractors, low=0, high=MAX_DISTRACTORS)
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise UsageError(f"--out-dir {args.out_dir}: is not a folder")

@@ -33,18 +33,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from dsp import checks
 from dsp import contract as c
 from dsp import metadata as meta
 from dsp.atomic import AtomicFile, check_output_path, partial_paths
-from dsp.checks import (
-    MAX_FACE_PX,
-    MAX_RATE_HZ,
-    MIN_FACE_PX,
-    MIN_RATE_HZ,
-    check_int,
-    check_number,
-    check_suffix,
-)
+from dsp.checks import MAX_FACE_PX, MAX_RATE_HZ, MIN_RATE_HZ, check_int, check_number, check_suffix
 from dsp.errors import UsageError
 from dsp.progress import progress_bar
 from dsp.realism import Realism
@@ -206,7 +199,7 @@ class RecordOptions:
         check_int("--jpeg-quality", self.jpeg_quality, low=1, high=100)
         check_number("--pose-noise", self.pose_noise_m, low=0, high=MAX_POSE_NOISE_M, unit="m")
         check_number("--yaw-noise", self.yaw_noise_deg, low=0, high=180, unit="deg")
-        check_int("--face-px", self.face_px, low=MIN_FACE_PX, high=MAX_FACE_PX)
+        check_int("--face-px", self.face_px, low=checks.MIN_FACE_PX, high=MAX_FACE_PX)
         field_spec(self.field)
         if self.renderer not in c.RENDERERS:
             raise UsageError(

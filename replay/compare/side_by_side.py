@@ -23,7 +23,7 @@ import rerun.blueprint as rrb
 
 from dsp import contract
 from dsp.atomic import AtomicFile
-from dsp.errors import InputError
+from dsp.errors import InputError, OutputError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
 from dsp.jsonio import Json
 from replay.cameras import cameras_for
@@ -34,6 +34,7 @@ from replay.runner import file_digest, replay
 from replay.sinks.rerun.blueprint import cameras_view, field_view
 from replay.sinks.rerun.live import check_display
 from replay.sinks.rerun.sink import APPLICATION_ID, RerunSink, recording_id
+from replay.sinks.rerun.streams import check_room, flush, write_failure
 from replay.sinks.style import FUSED_COLOUR, TRACK_COLOUR
 
 __all__ = ["PREFIXES", "replay_options", "side_by_side", "side_by_side_blueprint"]
@@ -149,7 +150,11 @@ def side_by_side(log: Path, a: ResultsRun, b: ResultsRun, *, save: Path | None,
     out = AtomicFile(save, force=force) if save is not None else None
     try:
         if out is not None:
-            rec.save(out.tmp, default_blueprint=bp)
+            check_room(out.path)  # a nearly full disk can block Rerun's writer
+            try:
+                rec.save(out.tmp, default_blueprint=bp)
+            except RuntimeError as err:
+                raise write_failure(out.path, err, rec) from err
         else:
             check_display()
             rec.spawn(default_blueprint=bp)
@@ -157,7 +162,12 @@ def side_by_side(log: Path, a: ResultsRun, b: ResultsRun, *, save: Path | None,
             sink = _PrefixedSink(rec, prefix, info=info, digest=digest, centres=centres,
                                  options=dataclasses.replace(opts))
             replay(log, opts, sinks=[sink])
-        rec.flush(timeout_sec=30.0)
+        try:
+            flush(rec, None if out is None else out.tmp)
+        except RuntimeError as err:  # the file writer stopped, or the viewer went away
+            if out is not None:
+                raise write_failure(out.path, err, rec) from err
+            raise OutputError(Path("the Rerun viewer"), str(err)) from err
         rec.disconnect()
         if out is not None:
             out.commit()

@@ -51,3 +51,29 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(log: Path, tmp_path: Path, f
     assert proc.stderr.startswith(f"dsp-replay: error: {out}: cannot write: "), proc.stderr
     assert proc.stderr.count("\n") == 1 and "\x1b" not in proc.stderr, proc.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("room", [0, 20_000])
+def test_a_full_disk_under_compare_save_is_one_line(log: Path, tmp_path: Path,
+                                                     room: int) -> None:
+    from replay.cli import main as replay_main
+
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name, extra in (("a.json", ["--profile", "paper"]), ("b.json", [])):
+        assert replay_main([str(log), "--out", str(runs / name), "-q", "--no-progress",
+                            *extra]) == 0
+    out = tmp_path / "out"
+    out.mkdir()
+    rrd = out / "c.rrd"
+    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys; from dsp.launch import compare; sys.exit(compare())",
+         str(runs / "a.json"), str(runs / "b.json"), "--log", str(log), "--save", str(rrd),
+         "-q"],
+        preexec_fn=lambda: limited(room), capture_output=True, text=True, timeout=120,
+        env=env, check=False)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.startswith(f"dsp-compare: error: {rrd}: cannot write: "), proc.stderr
+    assert proc.stderr.count("\n") == 1 and "\x1b" not in proc.stderr, proc.stderr
+    assert list(out.iterdir()) == []

@@ -54,7 +54,7 @@ from replay.sinks.rerun.shapes import (
     landing_mark,
     truth_mark,
 )
-from replay.sinks.rerun.streams import blueprint_storage, check_room, release, write_failure
+from replay.sinks.rerun.streams import blueprint_storage, check_room, flush, release, write_failure
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
@@ -427,7 +427,7 @@ class RerunSink(SinkBase):
         try:
             if self.lost is None:
                 try:
-                    self.rec.flush(timeout_sec=10.0)
+                    flush(self.rec, None if self._save is None else self._save.tmp)
                 except RuntimeError as err:  # a full disk, or the gRPC connection broke
                     if self._save is not None:
                         self.broken = True

@@ -27,10 +27,16 @@ import rerun_bindings as bindings
 from dsp.errors import OutputError
 from dsp.launch import end_without_finalising
 
-__all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_room", "release"]
+__all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_room", "flush", "release"]
 
 MIN_FREE_BYTES = 1 << 20
 """1 MiB: less room than this for an .rrd is a full disk."""
+FLUSH_TIMEOUT_S = 10.0
+"""How long a flush to a viewer is waited for."""
+FLUSH_STEP_S = 0.5
+FLUSH_STALLS = 3
+"""A flush to an .rrd is waited for in steps of FLUSH_STEP_S for as long as the file grows;
+FLUSH_STALLS steps in a row without a byte written mean its writer has stopped."""
 
 
 @contextlib.contextmanager
@@ -54,6 +60,32 @@ def release(rec: rr.RecordingStream) -> None:
     """Disconnect ``rec`` (closing its file or connection) and free closed recordings."""
     rec.disconnect()
     bindings.flush_and_cleanup_orphaned_recordings()
+
+
+def flush(rec: rr.RecordingStream, saving: Path | None) -> None:
+    """Flush ``rec``; RuntimeError when it does not finish. A recording written to the file
+    ``saving`` is waited for while that file grows, so a writer stopped by a full disk or a
+    file-size limit is given up in about FLUSH_STEP_S * FLUSH_STALLS seconds, while a long
+    save on a slow disk still completes."""
+    if saving is None:
+        rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+        return
+    size, still = -1, 0
+    while True:
+        try:
+            rec.flush(timeout_sec=FLUSH_STEP_S)
+            return
+        except RuntimeError as err:
+            if "timed out" not in str(err):
+                raise
+            try:
+                now = saving.stat().st_size
+            except OSError:
+                raise err from None
+            still = still + 1 if now == size else 0
+            size = now
+            if still >= FLUSH_STALLS:
+                raise
 
 
 def free_bytes(folder: Path) -> int | None:

@@ -13,6 +13,7 @@ import pytest
 
 from dsp.ball_file import read_ball_file
 from dsp.errors import InputError, UsageError
+from estimator.detection.real.head import HEAD_THRESHOLD
 from replay import ReplayOptions, replay
 from replay.calibrate.cli import main
 
@@ -158,7 +159,7 @@ def test_ball_generic_writes_the_shipped_generic_model(
     code, text, _ = _run(["--ball-generic", "-o", out], capsys)
     assert code == 0 and "generic ball model from" in text and "of 8 events" in text
     model = read_ball_file(out)
-    assert model.check_head is None and model.threshold == 0.5
+    assert model.check_head is None and model.threshold == HEAD_THRESHOLD  # logit 1
     assert model.fit["generic"] is True and len(model.fit["events"]) == 8
     assert out.read_bytes() == (ROOT / "estimator" / "detection" / "real"
                                 / "ball_generic.json").read_bytes()

@@ -16,7 +16,14 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.atomic import check_distinct, check_output_path
-from dsp.checks import MAX_THREADS, MAX_TIME_S, check_int, check_number, check_topic_pattern
+from dsp.checks import (
+    MAX_THREADS,
+    MAX_TIME_S,
+    MIN_RATE_HZ,
+    check_int,
+    check_number,
+    check_topic_pattern,
+)
 from dsp.errors import UsageError
 from dsp.jsonio import Json
 from estimator.calibration import Calibration
@@ -227,7 +234,7 @@ class ReplayOptions:
                      unit="s")
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
             check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
-        check_number("--clock", self.clock_hz, low=0, high=MAX_CLOCK_HZ, low_open=True, unit="Hz")
+        check_number("--clock", self.clock_hz, low=MIN_RATE_HZ, high=MAX_CLOCK_HZ, unit="Hz")
         check_number("--max-chunk-mib", self.max_chunk_mib, low=0, high=1 << 20, low_open=True,
                      unit="MiB")
         check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,

@@ -208,8 +208,9 @@ def test_clock_ticks_add_steps_without_images_and_leave_the_image_steps_alone(
     replay(moving_log, ReplayOptions(fusion="weighted", clock_hz=40.0, out=window,
                                      progress=False))
     assert all(s["x_m"] is None for s in _results(window)["fused"] if s.get("tick"))
-    with pytest.raises(UsageError, match="--clock"):
-        ReplayOptions(clock_hz=0.0)
+    for hz in (0.0, 1e-300, 5e-324, 0.09):  # a tick 1e300 s apart overflowed a stamp
+        with pytest.raises(UsageError, match="--clock"):
+            ReplayOptions(clock_hz=hz)
 
 
 def test_hops_give_the_same_track_at_the_images_with_a_clock_or_without(tmp_path: Path

@@ -77,3 +77,20 @@ def test_a_full_disk_under_compare_save_is_one_line(log: Path, tmp_path: Path,
     assert proc.stderr.startswith(f"dsp-compare: error: {rrd}: cannot write: "), proc.stderr
     assert proc.stderr.count("\n") == 1 and "\x1b" not in proc.stderr, proc.stderr
     assert list(out.iterdir()) == []
+
+
+def test_a_file_size_limit_too_small_for_an_rrd_is_refused_before_it_starts(
+        log: Path, tmp_path: Path) -> None:
+    """Rerun's writer can block for good when a limit stops it in its first kilobytes (a
+    third of the runs under 2-30 kB), so a limit under 1 MiB is refused at the start."""
+    out = tmp_path / "r.rrd"
+    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys; from dsp.launch import replay; sys.exit(replay())",
+         str(log), "--save", str(out), "-q", "--no-progress"],
+        preexec_fn=lambda: limited(20_000), capture_output=True, text=True, timeout=120,
+        env=env, check=False)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr == (f"dsp-replay: error: {out}: cannot write: File too large (a "
+                           "file-size limit of 19 KiB)\n"), proc.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -99,10 +99,24 @@ def free_bytes(folder: Path) -> int | None:
 
 def check_room(path: Path) -> None:
     """Raise :class:`~dsp.errors.OutputError` when ``path``'s disk has less than
-    :data:`MIN_FREE_BYTES` left."""
+    :data:`MIN_FREE_BYTES` left, or the process may write no file that large."""
     free = free_bytes(path.parent)
     if free is not None and free < MIN_FREE_BYTES:
         raise OutputError(path, f"No space left on device ({free // 1024} KiB free)")
+    limit = file_size_limit()
+    if limit is not None and limit < MIN_FREE_BYTES:  # Rerun's writer can block as well
+        raise OutputError(path, f"File too large (a file-size limit of {limit // 1024} KiB)")
+
+
+def file_size_limit() -> int | None:
+    """The bytes a file this process writes may hold (RLIMIT_FSIZE; None: no limit)."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        return None
+    return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
 def abandon(rec: rr.RecordingStream) -> None:

@@ -77,8 +77,12 @@ def _outputs(args: argparse.Namespace) -> list[tuple[str, Path | None]]:
                          "a viewer or to a file)")
     outs = [("--out", args.out), ("--out-csv", args.out_csv), ("--out-md", args.out_md),
             ("--plot", args.plot), ("--save", args.save)]
-    check_distinct(outs, [("the input A", args.a), ("the input B", args.b),
-                          ("the --log log", args.log)])
+    inputs: list[tuple[str, Path | None]] = [("the input A", args.a), ("the input B", args.b),
+                                             ("the --log log", args.log)]
+    for name, run in (("A", args.a), ("B", args.b)):  # a folder's results files are read too
+        if run.is_dir():
+            inputs += [(f"a results file of run {name}", p) for p in sorted(run.glob("*.json"))]
+    check_distinct(outs, inputs)
     for flag, path in outs:
         if path is not None:
             check_output_path(path, force=args.force, label=flag)

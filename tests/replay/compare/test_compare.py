@@ -202,3 +202,23 @@ def test_a_folder_missing_a_log_is_refused_unless_allowed(tmp_path: Path,
     assert code == 1 and "l2.json" in err and "l2.mcap" in err
     r = compare(a, b, allow_different_logs=True, replicates=10)
     assert [p.log for p in r.pairs] == ["l1.mcap"] and list(r.left_out) == ["l2.mcap"]
+
+
+@pytest.mark.parametrize("run", ["A", "B"])
+def test_an_output_never_overwrites_a_results_file_inside_a_run_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], run: str) -> None:
+    """A folder run reads each of its *.json: --out naming one (or a link to it) is refused
+    before any work, with --force too, and the file is left as it was."""
+    for name in ("a", "b"):
+        write(tmp_path / name / "x.json", results_doc(noisy_errors(1, 20), log="x.mcap"))
+    target = tmp_path / run.lower() / "x.json"
+    before = target.read_bytes()
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    for out in (target, link):
+        code = main([str(tmp_path / "a"), str(tmp_path / "b"), "-q", "--force",
+                     "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and f"a results file of run {run}" in err, err
+        assert err.count("\n") <= 2
+    assert target.read_bytes() == before

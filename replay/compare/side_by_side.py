@@ -167,7 +167,7 @@ def side_by_side(log: Path, a: ResultsRun, b: ResultsRun, *, save: Path | None,
         except RuntimeError as err:  # the file writer stopped, or the viewer went away
             if out is not None:
                 raise write_failure(out.path, err, rec) from err
-            raise OutputError(Path("the Rerun viewer"), str(err)) from err
+            raise OutputError("the Rerun viewer", str(err)) from err
         rec.disconnect()
         if out is not None:
             out.commit()

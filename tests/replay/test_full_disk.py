@@ -24,6 +24,17 @@ def limited(room: int) -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (room, room))
 
 
+def run_limited(command: str, args: list[str], room: int) -> subprocess.CompletedProcess[str]:
+    """``command`` (a dsp.launch entry point) run with ``args`` in a child that may write
+    files of ``room`` bytes at most; Rerun's own log lines off, as the commands set them."""
+    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
+    return subprocess.run(
+        [sys.executable, "-c", f"import sys; from dsp.launch import {command}; "
+         f"sys.exit({command}())", *args],
+        preexec_fn=lambda: limited(room), capture_output=True, text=True, timeout=120,
+        env=env, check=False)
+
+
 @pytest.fixture(scope="module")
 def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return write_log(tmp_path_factory.mktemp("log") / "in.mcap", duration_s=1.0).path
@@ -41,12 +52,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(log: Path, tmp_path: Path, f
                                                     name: str, when: str) -> None:
     room = 0 if when == "full" else 3000
     out = tmp_path / name
-    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
-    proc = subprocess.run(
-        [sys.executable, "-c", "import sys; from dsp.launch import replay; sys.exit(replay())",
-         str(log), flag, str(out), "-q", "--no-progress"],
-        preexec_fn=lambda: limited(room), capture_output=True, text=True, timeout=120,
-        env=env, check=False)
+    proc = run_limited("replay", [str(log), flag, str(out), "-q", "--no-progress"], room)
     assert proc.returncode == 1, proc.stderr
     assert proc.stderr.startswith(f"dsp-replay: error: {out}: cannot write: "), proc.stderr
     assert proc.stderr.count("\n") == 1 and "\x1b" not in proc.stderr, proc.stderr
@@ -66,13 +72,8 @@ def test_a_full_disk_under_compare_save_is_one_line(log: Path, tmp_path: Path,
     out = tmp_path / "out"
     out.mkdir()
     rrd = out / "c.rrd"
-    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
-    proc = subprocess.run(
-        [sys.executable, "-c", "import sys; from dsp.launch import compare; sys.exit(compare())",
-         str(runs / "a.json"), str(runs / "b.json"), "--log", str(log), "--save", str(rrd),
-         "-q"],
-        preexec_fn=lambda: limited(room), capture_output=True, text=True, timeout=120,
-        env=env, check=False)
+    proc = run_limited("compare", [str(runs / "a.json"), str(runs / "b.json"), "--log",
+                                   str(log), "--save", str(rrd), "-q"], room)
     assert proc.returncode == 1, proc.stderr
     assert proc.stderr.startswith(f"dsp-compare: error: {rrd}: cannot write: "), proc.stderr
     assert proc.stderr.count("\n") == 1 and "\x1b" not in proc.stderr, proc.stderr
@@ -84,12 +85,7 @@ def test_a_file_size_limit_too_small_for_an_rrd_is_refused_before_it_starts(
     """Rerun's writer can block for good when a limit stops it in its first kilobytes (a
     third of the runs under 2-30 kB), so a limit under 1 MiB is refused at the start."""
     out = tmp_path / "r.rrd"
-    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
-    proc = subprocess.run(
-        [sys.executable, "-c", "import sys; from dsp.launch import replay; sys.exit(replay())",
-         str(log), "--save", str(out), "-q", "--no-progress"],
-        preexec_fn=lambda: limited(20_000), capture_output=True, text=True, timeout=120,
-        env=env, check=False)
+    proc = run_limited("replay", [str(log), "--save", str(out), "-q", "--no-progress"], 20_000)
     assert proc.returncode == 1, proc.stderr
     assert proc.stderr == (f"dsp-replay: error: {out}: cannot write: File too large (a "
                            "file-size limit of 19 KiB)\n"), proc.stderr

@@ -77,14 +77,24 @@ def infer_patterns(types: Mapping[str, str]) -> TopicPatterns | None:
 
 
 def _pose_pattern(robots: Iterable[str], poses: list[str]) -> str | None:
-    """The pattern under which every robot has a pose topic (the shortest, if several)."""
-    robots = list(robots)
+    """The pattern under which every robot has a pose topic (the shortest, if several).
+
+    Each candidate pattern is checked once, against a set: linear in the robots for each
+    pattern, so a log naming thousands of robots is read in a moment."""
+    names = list(robots)
+    wanted = set(names)
+    pose_set = set(poses)
+    tried: set[str] = set()
     found: set[str] = set()
     for topic in poses:
         parts = _split(topic)
         for i, part in enumerate(parts):
-            if part in robots:
-                pattern = _pattern(parts, i)
-                if all(topic_for(pattern, r) in poses for r in robots):
-                    found.add(pattern)
+            if part not in wanted:
+                continue
+            pattern = _pattern(parts, i)
+            if pattern in tried:
+                continue
+            tried.add(pattern)
+            if all(topic_for(pattern, r) in pose_set for r in names):
+                found.add(pattern)
     return min(found, key=lambda p: (len(p), p)) if found else None

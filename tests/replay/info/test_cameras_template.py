@@ -47,6 +47,24 @@ def test_patterns_are_found_from_the_topics() -> None:
     assert infer_patterns({"/tf": "tf2_msgs/msg/TFMessage"}) is None
 
 
+def test_the_pose_pattern_of_a_log_with_thousands_of_robots() -> None:
+    """Every robot has /{robot}/pose and /{robot}/nav/pose but one lacks /{robot}/p: the
+    shortest complete pattern wins (the search checks each pattern once, against a set)."""
+    n = 3000
+    types = {f"/r{i}/omni/image": "sensor_msgs/msg/Image" for i in range(n)}
+    for i in range(n):
+        types[f"/r{i}/nav/pose"] = "geometry_msgs/msg/PoseStamped"
+        types[f"/r{i}/pose"] = "geometry_msgs/msg/PoseStamped"
+        if i != 1234:
+            types[f"/r{i}/p"] = "geometry_msgs/msg/PoseStamped"
+    found = infer_patterns(types)
+    assert found is not None and len(found.robots) == n and found.robots[10] == "r10"
+    assert found.pose_topic == "/{robot}/pose"
+    del types["/r7/pose"]
+    found = infer_patterns(types)
+    assert found is not None and found.pose_topic == "/{robot}/nav/pose"
+
+
 def test_a_foreign_logs_robots_and_the_flags_that_replay_it(
         team_log: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main([str(team_log)]) == 0

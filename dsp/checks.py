@@ -27,6 +27,7 @@ __all__ = [
     "MIN_RATE_HZ",
     "check_int",
     "check_number",
+    "check_rrd",
     "check_suffix",
     "check_topic_pattern",
 ]
@@ -115,3 +116,18 @@ def check_suffix(flag: str, path: Path | None, suffixes: Sequence[str]) -> Path 
     wanted = " or ".join(suffixes)
     raise UsageError(f"{flag} {path}: the file name must end in {wanted} "
                      f"(e.g. {path.with_suffix(suffixes[0])})")
+
+
+def check_rrd(flag: str, path: Path | None) -> Path | None:
+    """:func:`check_suffix` for a Rerun .rrd, whose writer takes only a name in UTF-8: a
+    file or folder name of other bytes is refused here, before any work, instead of failing
+    the save at its start. Returns ``path`` (None passes)."""
+    check_suffix(flag, path, (".rrd",))
+    if path is not None:
+        try:
+            str(path).encode("utf-8")
+        except UnicodeEncodeError:
+            raise UsageError(f"{flag} {path}: Rerun writes only to a path in UTF-8; choose "
+                             "another name") from None
+    return path
+

@@ -168,10 +168,21 @@ def _terminate_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+def _escape_unencodable() -> None:
+    """Print what the terminal's encoding cannot hold as escapes: a file name that is not
+    UTF-8 (a lone surrogate in Python) would otherwise end a ``print`` in a traceback under
+    a strict UTF-8 locale (``en_US.UTF-8``)."""
+    for stream in (sys.stdout, sys.stderr):
+        if getattr(stream, "errors", None) == "strict":
+            with contextlib.suppress(AttributeError, ValueError, OSError):
+                stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]
+
+
 def run_main(prog: str, fn: Callable[[Sequence[str] | None], int | None],
              argv: Sequence[str] | None = None) -> int:
     """Run a command's ``fn(argv)`` and turn how it ended into an exit code (see the module
     docstring); never lets a known error or Ctrl-C end in a traceback."""
+    _escape_unencodable()
     try:
         with _terminate_as_interrupt():
             code = fn(argv)

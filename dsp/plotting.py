@@ -11,6 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
+from dsp.text import printable
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -30,10 +32,16 @@ def figure(width_in: float, height_in: float, **subplots: Any) -> tuple[Figure, 
 
 def save(fig: Figure, path: Path | str | IO[bytes], *, fmt: str = "png", dpi: int = 100) -> None:
     """Write ``fig`` to ``path`` (a file name or a binary file) as ``fmt`` (png or svg),
-    with no varying metadata."""
+    with no varying metadata. Every text on it is made printable first (a title naming a
+    file whose name is not UTF-8 holds a lone surrogate, which the font engine refuses)."""
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
 
+    for text in fig.findobj(Text):
+        shown = text.get_text()
+        if not shown.isprintable():
+            text.set_text(printable(shown, lines=True))
     FigureCanvasAgg(fig)
     if fmt == "png":
         fig.savefig(path, format="png", dpi=dpi, metadata={"Software": None})

@@ -18,7 +18,12 @@ from pathlib import Path
 
 from dsp.errors import InputError
 
-__all__ = ["read_bytes_file", "read_text_file"]
+__all__ = ["TEXT_ERRORS", "read_bytes_file", "read_text_file"]
+
+TEXT_ERRORS = "backslashreplace"
+"""How every text file a command writes encodes what UTF-8 cannot hold: a file name that is
+not UTF-8 (``bad\\xff.mcap`` reaches Python as a lone surrogate) is written as its escape,
+``bad\\udcff.mcap``, as the terminal shows it, instead of failing the write."""
 
 _OPEN = (os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
          | getattr(os, "O_CLOEXEC", 0))

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from dsp import contract
 from dsp.atomic import declare_files
-from dsp.checks import check_suffix
+from dsp.checks import check_rrd, check_suffix
 from dsp.cli import Parser, add_common_arguments, echo, progress_enabled, run_main
 from dsp.errors import EXIT_INTERRUPTED, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
@@ -266,7 +266,7 @@ def _add_input_arguments(p: argparse._ActionsContainer) -> None:
 
 def options_from_args(args: argparse.Namespace, serve_url: str | None = None) -> ReplayOptions:
     """The replay's options; ``serve_url`` is the gRPC URL of the server ``--serve`` runs."""
-    check_suffix("--save", args.save, (".rrd",))
+    check_rrd("--save", args.save)
     check_suffix("--out", args.out, (".json",))
     check_suffix("--out-mcap", args.out_mcap, (".mcap",))
     check_suffix("--out-csv", args.out_csv, (".csv",))

@@ -40,6 +40,7 @@ from dsp.atomic import atomic_output, check_distinct
 from dsp.errors import DspError, InputError, OutputError, OutputExistsError, UsageError
 from dsp.progress import progress_bar
 from dsp.text import printable
+from dsp.textfile import TEXT_ERRORS
 from replay.batch.summary import BatchSummary, ErrorSums, LogRow
 from replay.errors import InputNotFoundError
 from replay.memory import keep_image_buffers
@@ -233,4 +234,4 @@ def _write_summary(summary: BatchSummary, out_dir: Path) -> None:
     for path, text in ((js, summary.to_json()), (csv_, summary.to_csv()),
                        (md, summary.to_markdown())):
         with atomic_output(path, force=True) as tmp:  # refused earlier when not --force
-            tmp.write_text(text, encoding="utf-8")
+            tmp.write_text(text, encoding="utf-8", errors=TEXT_ERRORS)

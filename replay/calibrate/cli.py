@@ -29,6 +29,7 @@ from dsp.checks import check_number, check_suffix, check_topic_pattern
 from dsp.cli import echo, run_main
 from dsp.errors import UsageError
 from dsp.plotting import FIGURE_SUFFIXES, save
+from dsp.textfile import TEXT_ERRORS
 from recorder import calibrate_cli as simulated
 from replay.calibrate.ball import fit_ball, format_fit
 from replay.calibrate.figure import measured_figure
@@ -121,7 +122,7 @@ def _run_ball(args: argparse.Namespace) -> int:
         model = shipped_generic() if args.ball_generic else fit_ball(
             args.ball_from, ball_class=args.ball_class, train_count=args.train_count,
             head=not args.no_head)
-        tmp.write_text(ball_file_text(model), encoding="utf-8")
+        tmp.write_text(ball_file_text(model), encoding="utf-8", errors=TEXT_ERRORS)
     echo(args, format_fit(model))
     echo(args, f"wrote {out}")
     return 0
@@ -178,7 +179,8 @@ def _run_measured(args: argparse.Namespace) -> int:
         tmp = [stack.enter_context(atomic_output(p, force=args.force, label=f))
                for f, p in outputs]
         run = _measure(args)
-        tmp[0].write_text(camera_file(run, out.suffix.lower()), encoding="utf-8")
+        tmp[0].write_text(camera_file(run, out.suffix.lower()), encoding="utf-8",
+                          errors=TEXT_ERRORS)
         if plot is not None:
             save(measured_figure(run.cameras, Path(run.source).name), tmp[1],
                  fmt=plot.suffix.lower().lstrip("."))

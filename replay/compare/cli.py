@@ -15,10 +15,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from dsp.atomic import atomic_output, check_distinct, check_output_path, declare_files
-from dsp.checks import check_int, check_suffix
+from dsp.checks import check_int, check_rrd, check_suffix
 from dsp.cli import Parser, add_common_arguments, echo, run_main
 from dsp.errors import InputError, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
+from dsp.textfile import TEXT_ERRORS
 from replay.compare import Report, compare
 
 __all__ = ["build_parser", "main"]
@@ -66,7 +67,7 @@ def _outputs(args: argparse.Namespace) -> list[tuple[str, Path | None]]:
     check_suffix("--out-csv", args.out_csv, (".csv",))
     check_suffix("--out-md", args.out_md, (".md",))
     check_suffix("--plot", args.plot, FIGURE_SUFFIXES)
-    check_suffix("--save", args.save, (".rrd",))
+    check_rrd("--save", args.save)
     if (args.save is not None or args.rerun) and args.log is None:
         raise UsageError("--rerun and --save show a log's two replays: give --log LOG")
     if args.log is not None and args.save is None and not args.rerun:
@@ -101,7 +102,7 @@ def _main(argv: Sequence[str] | None) -> int:
         path = outs[flag]
         if path is not None:
             with atomic_output(path, force=args.force, label=flag) as tmp:
-                tmp.write_text(text, encoding="utf-8")
+                tmp.write_text(text, encoding="utf-8", errors=TEXT_ERRORS)
     if args.plot is not None:
         from replay.compare.figure import draw
 

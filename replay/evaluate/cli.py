@@ -43,6 +43,7 @@ from dsp.jsonio import Json
 from dsp.jsonio import dumps as strict_json
 from dsp.progress import Progress, progress_bar
 from dsp.realism import REALISM, realism_preset
+from dsp.textfile import TEXT_ERRORS
 from replay.cameras import read_calibration
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
 from replay.evaluate.lobs import CAMERA_PHASES, LobsOptions, lobs_markdown, run_lobs_suite
@@ -384,7 +385,7 @@ def _run_images(args: argparse.Namespace) -> int:
     for name, content in zip(IMAGES_OUTPUTS, (strict_json(doc, sort_keys=True, indent=2)
                                               + "\n", text, images_csv(rows)), strict=True):
         with atomic_output(out_dir / name, force=True) as tmp:
-            tmp.write_text(content, encoding="utf-8")
+            tmp.write_text(content, encoding="utf-8", errors=TEXT_ERRORS)
     echo(args, text)
     echo(args, f"wrote {out_dir / 'images-summary.json'}, .md and images.csv in "
          f"{time.perf_counter() - t0:.0f} s")
@@ -408,9 +409,10 @@ def _main(argv: Sequence[str] | None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     _, text, doc = _run_suite(args, workers)
     with atomic_output(md, force=True) as tmp:  # tables are rewritten on every run
-        tmp.write_text(text, encoding="utf-8")
+        tmp.write_text(text, encoding="utf-8", errors=TEXT_ERRORS)
     with atomic_output(js, force=True) as tmp:
-        tmp.write_text(strict_json(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8")
+        tmp.write_text(strict_json(doc, sort_keys=True, indent=2) + "\n", encoding="utf-8",
+                       errors=TEXT_ERRORS)
     echo(args, text)
     echo(args, f"wrote {md} and .json in {time.perf_counter() - t0:.0f} s")
     return 0

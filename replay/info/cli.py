@@ -19,6 +19,7 @@ from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_suffix, check_topic_pattern
 from dsp.cli import Parser, add_common_arguments, run_main
 from dsp.errors import EXIT_INPUT, UsageError
+from dsp.textfile import TEXT_ERRORS
 from replay.errors import CorruptLogError, ReplayError, TruncatedLogError
 from replay.info.summary import format_info, log_info
 from replay.info.template import camera_template
@@ -69,7 +70,8 @@ def _template(args: argparse.Namespace) -> int:
         with atomic_output(out, force=args.force, label="-o/--out") as tmp:
             tmp.write_text(camera_template(args.log, out.suffix.lower(),
                                            image_topic=args.image_topic,
-                                           pose_topic=args.pose_topic), encoding="utf-8")
+                                           pose_topic=args.pose_topic),
+                           encoding="utf-8", errors=TEXT_ERRORS)
         print(f"wrote {out}")
         return 0
     print(camera_template(args.log, image_topic=args.image_topic, pose_topic=args.pose_topic),

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from dsp.atomic import AtomicFile
+from dsp.textfile import TEXT_ERRORS
 from estimator.constants import NS_PER_S
 from replay.records import FrameResult, Localisation, StepResult
 from replay.sink import SinkBase
@@ -149,7 +150,8 @@ class CsvSink(SinkBase):
     def __init__(self, path: Path, *, force: bool = False, localised: bool = False) -> None:
         self.columns = CSV_COLUMNS + (LOCALISATION_COLUMNS if localised else ())
         self._out = AtomicFile(path, force=force)
-        self._file = io.TextIOWrapper(self._out.stream(), encoding="utf-8", newline="")
+        self._file = io.TextIOWrapper(self._out.stream(), encoding="utf-8", errors=TEXT_ERRORS,
+                                      newline="")
         self._csv = csv.writer(self._file, lineterminator="\n")
         self._row(self.columns)
 

@@ -155,6 +155,14 @@ INNER_SHARE = 0.1
 negative (a fit's offset below zero)."""
 
 
+NEAR_MAX_M = 100.0
+"""The farthest range [m] a calibration may give within the inner half of the radius: an
+MSL field's diagonal is under 30 m, and every camera sees its far field near the rim."""
+MIN_SPAN_M = 0.5
+"""The least growth [m] of the ranges from the image centre to the rim: an omni camera
+sees from under half a metre to metres away."""
+
+
 def _radius_px(spec: CameraSpec) -> float:
     """The radius over which a robot's ranges are read: its usable radius, else the image's
     inscribed circle's."""
@@ -165,10 +173,12 @@ def _radius_px(spec: CameraSpec) -> float:
 
 def check_ranges(model: Calibration, radius_px: float, source: str) -> None:
     """Refuse a calibration whose ranges over the image (0 to ``radius_px``, up to where it
-    gives none: a mirror's horizon) are not finite, fall as the radius grows, or are
-    negative beyond the inner :data:`INNER_SHARE` of the radius: such a model places every
-    ball wrongly (a linear one with a negative slope put balls at -15.7 m), in one line
-    naming ``source``."""
+    gives none: a mirror's horizon) are not finite, fall as the radius grows, are negative
+    beyond the inner :data:`INNER_SHARE` of the radius, exceed :data:`NEAR_MAX_M` within the
+    inner half, or grow by less than :data:`MIN_SPAN_M` over the whole: such a model places
+    every ball wrongly (a linear one with a negative slope put balls at -15.7 m, one with
+    slope 0 every ball on the robot), in one line naming ``source``."""
+    first: tuple[float, float] | None = None
     last: tuple[float, float] | None = None
     for i in range(RANGE_SAMPLES + 1):
         r_px = radius_px * i / RANGE_SAMPLES
@@ -184,11 +194,20 @@ def check_ranges(model: Calibration, radius_px: float, source: str) -> None:
         if value < 0 and r_px > INNER_SHARE * radius_px:
             raise CalibrationError(source, f"its range at {r_px:.0f} px is {value:.3g} m, "
                                    "negative; a range grows from the image centre outwards")
+        if value > NEAR_MAX_M and r_px <= 0.5 * radius_px:
+            raise CalibrationError(source, f"its range at {r_px:.0f} px, within the inner "
+                                   f"half of the image, is {value:.3g} m; no camera sees that "
+                                   "far so near its centre")
         if last is not None and value < last[1] - 1e-9 * max(1.0, abs(last[1])):
             raise CalibrationError(source, f"its range falls from {last[1]:.3g} m at "
                                    f"{last[0]:.0f} px to {value:.3g} m at {r_px:.0f} px; a "
                                    "range grows from the image centre outwards")
+        first = first or (r_px, value)
         last = (r_px, value)
+    if first is not None and last is not None and last[1] - first[1] < MIN_SPAN_M:
+        raise CalibrationError(source, f"its range only grows from {first[1]:.3g} m at "
+                               f"{first[0]:.0f} px to {last[1]:.3g} m at {last[0]:.0f} px; "
+                               "a ball further out in the image is further away")
 
 
 def read_calibration(path: Path) -> tuple[Calibration, float]:

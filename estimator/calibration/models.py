@@ -27,6 +27,8 @@ from estimator.errors import CalibrationError, OutOfRangeError
 
 __all__ = [
     "CALIBRATION_MODELS",
+    "MAX_RADIUS_PX",
+    "MAX_RANGE_M",
     "PAPER_CALIBRATION",
     "Calibration",
     "CameraCalibration",
@@ -36,6 +38,12 @@ __all__ = [
     "MirrorCalibration",
     "ranges_m",
 ]
+
+MAX_RANGE_M = 1e4
+"""The largest number of metres a calibration's parameter or table entry may hold: ten
+kilometres is beyond any camera's view of a ball (and keeps every product in range)."""
+MAX_RADIUS_PX = 1e5
+"""The largest pixel radius a lookup table may list: beyond any camera's image."""
 
 CALIBRATION_MODELS = ("linear", "lookup", "mirror", "camera")
 """The models' names: the ``"model"`` key of their dict form."""
@@ -66,6 +74,14 @@ def _check_finite(name: str, value: float) -> float:
     return value
 
 
+def _check_within(name: str, value: float, low: float, high: float) -> float:
+    value = _check_finite(name, value)
+    if not low <= value <= high:
+        raise CalibrationError(f"{name} = {value:g} is outside [{low:g}, {high:g}]; no camera's "
+                               "calibration holds such a number")
+    return value
+
+
 @dataclass(frozen=True)
 class LinearCalibration:
     """``d = a r + b``, the paper's eq. 4 (its own fit is :data:`PAPER_CALIBRATION`)."""
@@ -74,8 +90,8 @@ class LinearCalibration:
     b_m: float
 
     def __post_init__(self) -> None:
-        _check_finite("a_m_per_px", self.a_m_per_px)
-        _check_finite("b_m", self.b_m)
+        _check_within("a_m_per_px", self.a_m_per_px, -MAX_RANGE_M, MAX_RANGE_M)
+        _check_within("b_m", self.b_m, -MAX_RANGE_M, MAX_RANGE_M)
 
     @property
     def name(self) -> str:
@@ -106,8 +122,8 @@ class LookupCalibration:
     d_m: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        r = tuple(_check_finite("r_px", v) for v in self.r_px)
-        d = tuple(_check_finite("d_m", v) for v in self.d_m)
+        r = tuple(_check_within("r_px", v, 0.0, MAX_RADIUS_PX) for v in self.r_px)
+        d = tuple(_check_within("d_m", v, -MAX_RANGE_M, MAX_RANGE_M) for v in self.d_m)
         if len(r) != len(d) or len(r) < 2:
             raise CalibrationError(
                 f"lookup table has {len(r)} radii and {len(d)} ranges; "
@@ -156,8 +172,8 @@ class MirrorCalibration:
     b_rad_per_px: float
 
     def __post_init__(self) -> None:
-        _check_finite("a_m", self.a_m)
-        if _check_finite("b_rad_per_px", self.b_rad_per_px) <= 0.0:
+        _check_within("a_m", self.a_m, -MAX_RANGE_M, MAX_RANGE_M)
+        if _check_within("b_rad_per_px", self.b_rad_per_px, -math.pi, math.pi) <= 0.0:
             raise CalibrationError(
                 f"b_rad_per_px = {self.b_rad_per_px} must be > 0 (d = a tan(b r))"
             )

@@ -11,6 +11,7 @@ from dsp.errors import CalibrationError
 from estimator.calibration import (
     PAPER_CALIBRATION,
     LinearCalibration,
+    LookupCalibration,
     MirrorCalibration,
     calibration_to_json,
 )
@@ -24,6 +25,10 @@ LOG = ROOT / "logs" / "golden" / "scenario1.mcap"
 @pytest.mark.parametrize(("model", "message"), [
     (LinearCalibration(-0.02, -5.0), "its range falls from -5 m at 0 px to "),
     (LinearCalibration(0.02, -5.0), " m, negative; a range grows from the image centre"),
+    (LinearCalibration(0.0, 0.0), "its range only grows from 0 m at 0 px to 0 m at 540 px"),
+    (LinearCalibration(1e-308, 1.0), "its range only grows from 1 m at 0 px to 1 m at 540 px"),
+    (LookupCalibration((1.0, 2.0, 3.0), (-5.0, -3.0, -1.0)),
+     "its range at 59 px, within the inner half of the image, is 111 m;"),
 ])
 def test_a_calibration_whose_ranges_fall_or_are_negative_is_refused(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], model: LinearCalibration,
@@ -37,6 +42,23 @@ def test_a_calibration_whose_ranges_fall_or_are_negative_is_refused(
                           "calibration: its ") and err.count("\n") == 1, err
     assert message in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('{"model": "lookup", "r_px": [-100, 300], "d_m": [0, 3]}', "r_px = -100 is outside"),
+    ('{"model": "lookup", "r_px": [0, 1e308], "d_m": [0, 3]}', "r_px = 1e+308 is outside"),
+    ('{"model": "lookup", "r_px": [0, 300], "d_m": [0, 1e308]}', "d_m = 1e+308 is outside"),
+    ('{"model": "mirror", "a_m": 1e308, "b_rad_per_px": 0.001}', "a_m = 1e+308 is outside"),
+    ('{"model": "linear", "a_m_per_px": 1e300, "b_m": 0}', "a_m_per_px = 1e+300 is outside"),
+])
+def test_a_calibration_with_numbers_no_camera_has_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, message: str) -> None:
+    cal = tmp_path / "cal.json"
+    cal.write_text(text)
+    assert replay_main([str(LOG), "--calibration", str(cal), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"dsp-replay: error: {cal}: unusable calibration: {message} [")
+    assert err.count("\n") == 1 and "Traceback" not in err
 
 
 def test_the_calibrations_in_use_pass() -> None:

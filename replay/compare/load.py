@@ -81,6 +81,14 @@ def _number(path: Path, where: str, value: object, *, optional: bool = True) -> 
     return float(value)
 
 
+def _distance(path: Path, where: str, value: object) -> float | None:
+    """An error (a distance, so never negative) or None."""
+    got = _number(path, where, value)
+    if got is not None and got < 0.0:
+        raise _fail(path, f"{where} is {got!r}; an error is a distance, never negative")
+    return got
+
+
 def _stamp(path: Path, where: str, value: object) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise _fail(path, f"{where}.stamp_ns is {value!r}, not an integer")
@@ -144,8 +152,9 @@ class _Steps(_Table):
             return
         if s.get("truth") is None:
             return
-        error = _number(path, f"fused[{i}].error_m", s.get("error_m"))
-        velocity = _number(path, f"fused[{i}].velocity_error_m_s", s.get("velocity_error_m_s"))
+        error = _distance(path, f"fused[{i}].error_m", s.get("error_m"))
+        velocity = _distance(path, f"fused[{i}].velocity_error_m_s",
+                             s.get("velocity_error_m_s"))
         self.rows[key] = StepScore(error, velocity if error is not None else None)
 
 

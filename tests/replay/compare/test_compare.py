@@ -171,6 +171,8 @@ def test_bad_input_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     broken = results_doc([0.1])
     broken["fused"][0]["error_m"] = "far"
     broken_path = write(tmp_path / "broken.json", broken)
+    negative = write(tmp_path / "negative.json", results_doc([0.1, -0.2]))
+    backwards = write(tmp_path / "backwards.json", results_doc([0.1, 0.2], velocity=[0.1, -1]))
     empty = tmp_path / "empty"
     empty.mkdir()
     cases = [
@@ -178,6 +180,9 @@ def test_bad_input_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
         ([str(good), str(bad_json)], "bad.json", "not JSON"),
         ([str(good), str(not_results)], "summary.json", "not a dsp-replay results file"),
         ([str(good), str(broken_path)], "broken.json", "fused[0].error_m"),
+        ([str(good), str(negative)], "negative.json",
+         "fused[1].error_m is -0.2; an error is a distance, never negative"),
+        ([str(backwards), str(good)], "backwards.json", "fused[1].velocity_error_m_s is -1.0"),
         ([str(good), str(tmp_path / "missing.json")], "missing.json", "no such"),
         ([str(good), str(empty)], "empty", "no dsp-replay results"),
     ]

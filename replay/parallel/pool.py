@@ -21,19 +21,23 @@ count or the order tasks finish in (DESIGN.md, convention 14).
 
 Ctrl-C cancels the batch: pool workers ignore SIGINT and are terminated, Ray tasks are
 cancelled (``ray.cancel(force=True)``); :class:`KeyboardInterrupt` is re-raised for
-:func:`dsp.cli.run_main` to turn into exit code 130.
+:func:`dsp.cli.run_main` to turn into exit code 130. A pool worker whose command was killed
+outright (nothing could terminate it) ends by itself within :data:`PARENT_POLL_S`.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import os
 import signal
+import threading
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
-from dsp.errors import InputError
+from dsp.errors import EXIT_INTERRUPTED, InputError
 from replay.parallel.ray_tasks import map_ray
 from replay.parallel.tasks import Done, Outcome, Workers, run_task
 
@@ -70,9 +74,41 @@ def _map_serial(fn: Callable[[T], R], args: Sequence[T],
     return out
 
 
-def _ignore_sigint() -> None:
-    """Pool workers leave Ctrl-C to the parent, which terminates them."""
+PARENT_POLL_S = 0.2
+"""How often a pool worker checks that the command that started it is still there."""
+
+
+def _start_worker(command: int) -> None:
+    """Pool workers leave Ctrl-C to the parent, which terminates them, and end on their own
+    when the command (process ``command``) is gone: killed outright (SIGKILL, the OOM
+    killer), it cannot terminate them, and they would replay on and write for nobody."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_end_with_command, args=(command,), daemon=True,
+                     name="dsp-command-watch").start()
+
+
+def _end_with_command(command: int) -> None:
+    """Exit at once when process ``command`` has ended. (The fork server, this worker's
+    parent, outlives the command while a worker runs, so the parent is no sign.)"""
+    while _running(command):
+        time.sleep(PARENT_POLL_S)
+    os._exit(EXIT_INTERRUPTED)
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` runs: not gone, and not a zombie waiting to be reaped."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            state = f.read().rsplit(b")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return True  # no /proc here: alive as far as the signal tells
+    return state not in (b"Z", b"X")
 
 
 PRELOAD = ["__main__", "replay.runner"]
@@ -92,7 +128,8 @@ def _map_pool(fn: Callable[[T], R], args: Sequence[T], processes: int, on_done: 
               fail_fast: bool) -> list[Outcome[R]]:
     results: list[Outcome[R] | None] = [None] * len(args)
     pool = ProcessPoolExecutor(max_workers=processes, mp_context=_context(),
-                               initializer=_ignore_sigint)
+                               initializer=_start_worker,
+                               initargs=(os.getpid(),))
     try:
         pending: set[Future[tuple[int, Outcome[R]]]] = {
             pool.submit(run_task, fn, i, arg) for i, arg in enumerate(args)}

@@ -179,10 +179,10 @@ def _main(argv: Sequence[str] | None) -> int:
         light_pools=args.light_pools,
         lob_fraction=args.lob_fraction,
     ).with_realism(effects(args))
-    for partial in partial_logs(args.output):
-        print(printable(f"{PROG}: note: {partial} is left from an earlier recording to "
-                        f"{args.output.name} that was interrupted or killed (kept; "
-                        f"'dsp-replay --recover {partial}' replays it)"), file=sys.stderr)
+    partials = partial_logs(args.output)
+    if partials:
+        print(printable(f"{PROG}: note: {_partials_note(partials, args.output)}"),
+              file=sys.stderr)
     s = record(args.output, options)
     echo(args,
          f"{s.path}: {s.scenario} seed {s.seed}, {s.frames} frames x {s.robots} robots "
@@ -191,6 +191,23 @@ def _main(argv: Sequence[str] | None) -> int:
          f"{s.messages} messages, {format_bytes(s.file_size_bytes)}, renderer {s.renderer}, "
          f"wall {s.wall_time_s:.1f} s")
     return 0
+
+
+NAMED_PARTIALS = 3
+"""The partial logs a note names; more are counted."""
+
+
+def _partials_note(partials: list[Path], output: Path) -> str:
+    """One line for the partial logs of earlier recordings to ``output`` (however many)."""
+    if len(partials) == 1:
+        return (f"{partials[0]} is left from an earlier recording to {output.name} that was "
+                f"interrupted or killed (kept; 'dsp-replay --recover {partials[0]}' replays it)")
+    names = ", ".join(p.name for p in partials[:NAMED_PARTIALS])
+    more = len(partials) - NAMED_PARTIALS
+    listed = f"{names} and {more} more" if more > 0 else names
+    return (f"{len(partials)} logs are left in {partials[0].parent} from earlier recordings to "
+            f"{output.name} that were interrupted or killed: {listed} (kept; 'dsp-replay "
+            "--recover FILE' replays one)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -103,12 +103,20 @@ def test_the_next_recording_names_earlier_partial_logs(tmp_path: Path,
     assert record_main([str(out), "--frames", "1", "--face-px", "256", "--no-progress",
                         "-q"]) == 0
     err = capsys.readouterr().err.splitlines()
-    assert err == [f"dsp-record: note: {tmp_path / name} is left from an earlier recording to "
-                   f"scenario1.mcap that was interrupted or killed (kept; 'dsp-replay "
-                   f"--recover {tmp_path / name}' replays it)"
-                   for name in ("scenario1.partial.mcap", "scenario1.partial-2.mcap")]
+    assert err == [f"dsp-record: note: 2 logs are left in {tmp_path} from earlier recordings "
+                   "to scenario1.mcap that were interrupted or killed: scenario1.partial.mcap, "
+                   "scenario1.partial-2.mcap (kept; 'dsp-replay --recover FILE' replays one)"]
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "scenario1.mcap", "scenario1.partial-2.mcap", "scenario1.partial.mcap"]
+    for k in range(3, 40):  # however many, one line
+        (tmp_path / f"scenario1.partial-{k}.mcap").write_bytes(b"\x89MCAP0\r\n")
+    assert record_main([str(out), "--frames", "1", "--face-px", "256", "--no-progress", "-q",
+                        "--force"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err == [f"dsp-record: note: 39 logs are left in {tmp_path} from earlier recordings "
+                   "to scenario1.mcap that were interrupted or killed: scenario1.partial.mcap, "
+                   "scenario1.partial-2.mcap, scenario1.partial-3.mcap and 36 more (kept; "
+                   "'dsp-replay --recover FILE' replays one)"]
 
 
 def test_ctrl_c_never_replaces_an_earlier_partial_or_follows_a_planted_link(

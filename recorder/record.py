@@ -71,9 +71,12 @@ __all__ = [
 
 IMAGE_FORMATS = ("png", "jpeg")
 MAX_SEED = 2**63 - 1
-MAX_DURATION_S = 86_400.0
-"""The longest recording [sim s] (a day); with --rate at most MAX_FRAMES frames."""
-MAX_FRAMES = 10_000_000
+MAX_DURATION_S = 3600.0
+"""The longest recording [sim s]: an hour, a whole match with its breaks; a longer run is
+several logs (a day of images would fill a disk before it ended)."""
+MAX_FRAMES = 72_000
+"""The most camera frames a recording takes: an hour at a match's 20 Hz (each frame is an
+image per robot, rendered, encoded and written)."""
 MAX_POSE_NOISE_M = 100.0
 
 
@@ -272,6 +275,9 @@ def _plan(path: Path, options: RecordOptions) -> Plan:
     if frames / rate > MAX_DURATION_S:
         raise UsageError(f"--frames {frames} at {rate:g} Hz is {frames / rate:g} s of simulated "
                          f"time; record at most {MAX_DURATION_S:g} s")
+    if frames > MAX_FRAMES:
+        raise UsageError(f"{frames / rate:g} s at {rate:g} Hz is {frames} frames; record at "
+                         f"most {MAX_FRAMES} (a longer run is several logs)")
     pose_rate = options.pose_rate_hz or sc.default_pose_rate_hz
     if pose_rate is None:  # twice the camera rate, as the logs before match play
         tick_ns, per_frame = max(1, round(NS_PER_S / rate / 2)), 2

@@ -33,7 +33,7 @@ def test_options_are_frozen() -> None:
     ({"renderer": "vulkan"}, "unknown renderer"),
     ({"frames": 2, "duration_s": 1.0}, "not both"),
     ({"frames": 0}, r"--frames 0: give a whole number in \[1, "),
-    ({"duration_s": 0.0}, r"--duration 0.0: give a finite number in \(0, 86400\] s"),
+    ({"duration_s": 0.0}, r"--duration 0.0: give a finite number in \(0, 3600\] s"),
     ({"duration_s": math.inf}, "--duration inf"),
     ({"duration_s": math.nan}, "--duration nan"),
     ({"rate_hz": 2000.0}, r"\[0.1, 1000\]"),

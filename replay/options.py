@@ -235,10 +235,9 @@ class ReplayOptions:
         for flag, value in (("--start", self.start_s), ("--end", self.end_s)):
             check_number(flag, value, low=-MAX_TIME_S, high=MAX_TIME_S, unit="s")
         check_number("--clock", self.clock_hz, low=MIN_RATE_HZ, high=MAX_CLOCK_HZ, unit="Hz")
-        check_number("--max-chunk-mib", self.max_chunk_mib, low=0, high=1 << 20, low_open=True,
-                     unit="MiB")
-        check_number("--max-image-mpx", self.max_image_mpx, low=0, high=1 << 20, low_open=True,
-                     unit="Mpx")
+        # under 1 MiB a log's own records (not its chunks) hit the limit: "corrupt" would mislead
+        check_number("--max-chunk-mib", self.max_chunk_mib, low=1, high=1 << 20, unit="MiB")
+        check_number("--max-image-mpx", self.max_image_mpx, low=0.01, high=1 << 20, unit="Mpx")
         if (self.start_s is not None and self.end_s is not None
                 and self.start_absolute == self.end_absolute and self.end_s < self.start_s):
             raise UsageError(f"--end {self.end_s} is before --start {self.start_s}")

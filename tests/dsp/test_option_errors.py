@@ -42,22 +42,27 @@ REPLAY: list[tuple[list[str], str]] = [
     (["--save", "r.json"], "--save r.json: the file name must end in .rrd (e.g. r.rrd)"),
     (["--out-dir", "d", "--workers", "99999"], "--workers 99999: give at most 1024"),
     (["--threads", "1000000000"], "--threads 1000000000: give a whole number in [1, 1024]"),
+    (["--max-chunk-mib", "1e-300"], "--max-chunk-mib 1e-300: give a finite number in [1, "
+     "1048576] MiB"),
 ]
 
 RECORD: list[tuple[list[str], str]] = [
-    (["--duration", "inf"], "--duration inf: give a finite number in (0, 86400] s"),
+    (["--duration", "inf"], "--duration inf: give a finite number in (0, 3600] s"),
     (["--duration", "nan"], "--duration nan"),
     (["--duration", "0"], "--duration 0.0"),
     (["--duration", "1e300"], "--duration 1e+300"),
-    (["--frames", "0"], "--frames 0: give a whole number in [1, 10000000]"),
+    (["--frames", "0"], "--frames 0: give a whole number in [1, 72000]"),
     (["--frames", "100000000000"], "--frames 100000000000"),
     (["--rate", "nan"], "--rate nan: give a finite number in [0.1, 1000] Hz"),
     (["--rate", "inf"], "--rate inf"),
     (["--rate", "0"], "--rate 0.0"),
     (["--rate", "1e-9"], "--rate 1e-09: give a finite number in [0.1, 1000] Hz"),
     (["--rate", "1e-300"], "--rate 1e-300"),
-    (["--frames", "10000000", "--rate", "0.5"],
-     "--frames 10000000 at 0.5 Hz is 2e+07 s of simulated time; record at most 86400 s"),
+    (["--frames", "70000", "--rate", "0.5"],
+     "--frames 70000 at 0.5 Hz is 140000 s of simulated time; record at most 3600 s"),
+    (["--duration", "3600", "--rate", "1000"],
+     "3600 s at 1000 Hz is 3600000 frames; record at most 72000 (a longer run is several logs)"),
+    (["--duration", "86400"], "--duration 86400.0: give a finite number in (0, 3600] s"),
     (["--scenario", "match", "--pose-rate", "1e-300"], "--pose-rate 1e-300: give a finite "
      "number in [0.1, 240] Hz"),
     (["--scenario", "match", "--image-noise", "1e9"], "--image-noise 1000000000.0: give a "

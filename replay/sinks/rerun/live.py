@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import contextlib
+import ipaddress
 import os
 import signal
 import socket
@@ -109,6 +110,21 @@ def rerun_executable() -> Path:
     return Path(rerun_cli.__file__).parent / name
 
 
+def _check_bind(bind: str) -> None:
+    """Refuse a ``--bind`` that is not an IP address, or not one of this machine's."""
+    try:
+        ipaddress.ip_address(bind)
+    except ValueError:
+        raise UsageError(f"--bind {bind}: not an IP address (e.g. 127.0.0.1, or 0.0.0.0 for "
+                         "every interface)") from None
+    with socket.socket(socket.AF_INET6 if ":" in bind else socket.AF_INET) as s:
+        try:
+            s.bind((bind, 0))
+        except OSError as err:
+            raise UsageError(f"--bind {bind}: cannot listen on this address here "
+                             f"({err.strerror or err}); give one of this machine's") from None
+
+
 def _port_free(bind: str, port: int) -> bool:
     with socket.socket(socket.AF_INET6 if ":" in bind else socket.AF_INET) as s:
         try:
@@ -171,6 +187,7 @@ class ViewerServer:
                  grpc_port: int = DEFAULT_GRPC_PORT, start_s: float = 15.0) -> None:
         check_int("--port", web_port, low=0, high=MAX_PORT)
         check_int("--grpc-port", grpc_port, low=0, high=MAX_PORT)
+        _check_bind(bind)
         self.bind = bind
         self.web_port = web_port or _free_port(bind)
         self.grpc_port = grpc_port or _free_port(bind)

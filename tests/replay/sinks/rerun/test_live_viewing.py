@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dsp.errors import UsageError
 from replay.options import ReplayOptions, RerunTarget
 from replay.records import FrameResult
 from replay.runner import replay
@@ -69,6 +70,17 @@ def test_rerun_without_a_display_suggests_serve_or_save() -> None:
 def test_bind_and_port_go_with_serve_only() -> None:
     proc, _ = _run("--port", "9000")
     assert proc.returncode == 2 and "--port only go with --serve" in proc.stderr
+
+
+@pytest.mark.parametrize(("bind", "says"), [
+    ("999.1.1.1", "--bind 999.1.1.1: not an IP address (e.g. 127.0.0.1, or 0.0.0.0 for every "
+     "interface)"),
+    ("192.0.2.1", "--bind 192.0.2.1: cannot listen on this address here ("),  # TEST-NET-1
+])
+def test_a_bind_address_that_cannot_be_listened_on_is_one_line(bind: str, says: str) -> None:
+    with pytest.raises(UsageError) as err:
+        ViewerServer(bind=bind, web_port=0, grpc_port=0)
+    assert str(err.value).startswith(says)  # was: "--port 9090: already in use"
 
 
 def _listening_address(port: int) -> str | None:

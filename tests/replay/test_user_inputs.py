@@ -70,7 +70,7 @@ def test_the_calibrations_in_use_pass() -> None:
         check_ranges(LinearCalibration(0.0, -1.0), 540.0, "x")
 
 
-def _ball_model(size_line: list[float]) -> str:
+def _ball_model(size_line: list[float], diameter_px: tuple[float, float] = (4.0, 160.0)) -> str:
     import json
 
     import numpy as np
@@ -84,7 +84,8 @@ def _ball_model(size_line: list[float]) -> str:
 
     model = BallModel(colour_lut=np.zeros(COLOUR_BINS, np.uint8),
                       field_mask=np.zeros(FIELD_BINS, np.uint8), levels=(150,))
-    return json.dumps({**model_to_dict(model), "size_line": size_line})
+    return json.dumps({**model_to_dict(model), "size_line": size_line,
+                       "diameter_px": list(diameter_px)})
 
 
 @pytest.mark.parametrize("size_line", [[float("nan"), 3.0], [1e308, 0.0], [0.2, -1e308],
@@ -101,6 +102,20 @@ def test_a_ball_model_with_a_size_line_out_of_range_is_one_line(
     assert str(info.value).startswith(f"{path}: size_line (") and "\n" not in str(info.value)
     path.write_text(_ball_model([0.2, 3.0]))
     assert read_ball_file(path).size_line == (0.2, 3.0)
+
+
+@pytest.mark.parametrize("diameter_px", [(4.0, 1e308), (0.0, 10.0), (20.0, 10.0)])
+def test_a_ball_model_with_a_diameter_range_no_ball_has_is_one_line(
+        tmp_path: Path, diameter_px: tuple[float, float]) -> None:
+    from dsp.ball_file import read_ball_file
+    from dsp.errors import InputError
+
+    path = tmp_path / "ball.json"
+    path.write_text(_ball_model([0.2, 3.0], diameter_px))
+    with pytest.raises(InputError) as info:
+        read_ball_file(path)
+    assert str(info.value).startswith(f"{path}: diameter range [") and "\n" not in str(info.value)
+    assert str(info.value).endswith("px is not 0 < min <= max <= 10000")
 
 
 @pytest.mark.parametrize(("key", "value"), [("height_m", "1e308"), ("cu_px", "-1e300"),

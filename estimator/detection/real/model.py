@@ -64,6 +64,8 @@ a fitted model has 3)."""
 MAX_SIZE_SLOPE = 100.0
 """The steepest size line [px of diameter per px of row] a ball model may hold (a fitted
 one is under 1)."""
+MAX_DIAMETER_PX = 1e4
+"""The widest ball a model may allow [px]: wider than any camera's image."""
 MAX_SIZE_OFFSET_PX = 1e5
 """The largest size line offset [px] a ball model may hold."""
 
@@ -104,10 +106,10 @@ class BallModel:
                 0 < t <= 255 for t in self.levels) or len(self.levels) > MAX_LEVELS:
             raise BallModelError(f"levels {self.levels} must be at most {MAX_LEVELS} distinct "
                                  "bytes 1-255, ascending")
-        if not (0 < self.min_diameter_px <= self.max_diameter_px
-                and math.isfinite(self.max_diameter_px)):
+        if not 0 < self.min_diameter_px <= self.max_diameter_px <= MAX_DIAMETER_PX:
             raise BallModelError(f"diameter range [{self.min_diameter_px}, "
-                                 f"{self.max_diameter_px}] px is not 0 < min <= max")
+                                 f"{self.max_diameter_px}] px is not 0 < min <= max <= "
+                                 f"{MAX_DIAMETER_PX:g}")
         if not 0.0 <= self.threshold <= 1.0:
             raise BallModelError(f"threshold {self.threshold} is not a probability 0-1")
         if not 0.0 <= self.centre_blend <= 1.0:

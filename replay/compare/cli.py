@@ -41,7 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", type=Path, metavar="FILE.png",
                    help="the paired per-log differences with their intervals (.png or .svg)")
     p.add_argument("--replicates", type=int, default=1000, metavar="N",
-                   help="bootstrap replicates (default %(default)s)")
+                   help="bootstrap replicates (default %(default)s; more are allowed while the "
+                   "work stays within minutes)")
     p.add_argument("--bootstrap-seed", type=int, default=0, metavar="N",
                    help="the bootstrap's random seed (default 0)")
     p.add_argument("--allow-different-logs", action="store_true",

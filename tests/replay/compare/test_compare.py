@@ -227,3 +227,22 @@ def test_an_output_never_overwrites_a_results_file_inside_a_run_folder(
         assert code == 2 and f"a results file of run {run}" in err, err
         assert err.count("\n") <= 2
     assert target.read_bytes() == before
+
+
+def test_replicates_are_bounded_by_the_work_they_make(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # 40 steps and 120 frames: 160 units per replicate
+    a = write(tmp_path / "a.json", results_doc(noisy_errors(1, 40)))
+    b = write(tmp_path / "b.json", results_doc(noisy_errors(2, 40)))
+    monkeypatch.setattr("replay.compare.MAX_RESAMPLED", 160 * 5000)
+    assert main([str(a), str(b), "-q", "--replicates", "5000"]) == 0
+    code, err = _error(capsys, [str(a), str(b), "--replicates", "5001"])
+    assert code == 2 and "Traceback" not in err
+    assert err.endswith("--replicates 5001 over 160 paired steps and frames is 8e+05 draws; "
+                        "give at most 5000 here\n"), err
+    # the default is never refused: its work grows with the (capped) input alone
+    monkeypatch.setattr("replay.compare.MAX_RESAMPLED", 10)
+    assert main([str(a), str(b), "-q"]) == 0
+    code, err = _error(capsys, [str(a), str(b), "--replicates", "1001"])
+    assert code == 2 and "give at most 1000 here" in err

@@ -72,11 +72,9 @@ __all__ = [
 IMAGE_FORMATS = ("png", "jpeg")
 MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 3600.0
-"""The longest recording [sim s]: an hour, a whole match with its breaks; a longer run is
-several logs (a day of images would fill a disk before it ended)."""
+"""The longest recording [sim s], a match with its breaks; a longer run is several logs."""
 MAX_FRAMES = 72_000
-"""The most camera frames a recording takes: an hour at a match's 20 Hz (each frame is an
-image per robot, rendered, encoded and written)."""
+"""The most camera frames a recording takes: an hour at a match's 20 Hz."""
 MAX_POSE_NOISE_M = 100.0
 
 
@@ -267,11 +265,8 @@ def _plan(path: Path, options: RecordOptions) -> Plan:
                        people=options.people, covers=options.covers,
                        light_pools=options.light_pools)
     rate = sc.default_rate_hz if options.rate_hz is None else options.rate_hz
-    if options.frames is not None:
-        frames = options.frames
-    else:
-        duration = sc.default_duration_s if options.duration_s is None else options.duration_s
-        frames = max(1, round(duration * rate))
+    duration = sc.default_duration_s if options.duration_s is None else options.duration_s
+    frames = options.frames if options.frames is not None else max(1, round(duration * rate))
     if frames / rate > MAX_DURATION_S:
         raise UsageError(f"--frames {frames} at {rate:g} Hz is {frames / rate:g} s of simulated "
                          f"time; record at most {MAX_DURATION_S:g} s")

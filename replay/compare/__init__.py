@@ -22,8 +22,8 @@ from replay.compare.load import ResultsRun, read_run
 from replay.compare.pairing import PairedLog, pair_runs
 from replay.compare.report import Report
 
-__all__ = ["MAX_RESAMPLED", "METRICS", "MetricResult", "PairedLog", "Report", "ResultsRun",
-           "compare", "compare_logs", "pair_runs", "read_run"]
+__all__ = ["DEFAULT_REPLICATES", "MAX_RESAMPLED", "METRICS", "MetricResult", "PairedLog",
+           "Report", "ResultsRun", "compare", "compare_logs", "pair_runs", "read_run"]
 
 DEFAULT_REPLICATES = 1000
 MAX_RESAMPLED = 10_000_000_000

@@ -20,7 +20,7 @@ from dsp.cli import Parser, add_common_arguments, echo, run_main
 from dsp.errors import InputError, UsageError
 from dsp.plotting import FIGURE_SUFFIXES
 from dsp.textfile import TEXT_ERRORS
-from replay.compare import Report, compare
+from replay.compare import DEFAULT_REPLICATES, Report, compare
 
 __all__ = ["build_parser", "main"]
 
@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out-md", type=Path, metavar="FILE.md", help="the report as Markdown")
     p.add_argument("--plot", type=Path, metavar="FILE.png",
                    help="the paired per-log differences with their intervals (.png or .svg)")
-    p.add_argument("--replicates", type=int, default=1000, metavar="N",
+    p.add_argument("--replicates", type=int, default=DEFAULT_REPLICATES, metavar="N",
                    help="bootstrap replicates (default %(default)s; more are allowed while the "
                    "work stays within minutes)")
     p.add_argument("--bootstrap-seed", type=int, default=0, metavar="N",

@@ -6,7 +6,7 @@ trained without it and, with no labelled frame, with the generic model fitted wi
 
 For each event E of the grouping (``train/train.py --groups ... --held-out DIR`` makes
 DIR/lovo-E.onnx and DIR/generic-E.json): ``dsp-eval --suite images ROOTS --group-by GROUPS
---only E --check DIR/lovo-E.onnx`` (fitted on E's first 10 labelled frames, scored on the
+--only E --check-model DIR/lovo-E.onnx`` (fitted on E's first 10 labelled frames, scored on the
 rest) and the same with ``--train-count 0 --ball DIR/generic-E.json`` (no frame fitted,
 every image scored; and, to compare the two on the same images, on the images after the
 first 10 alone). Prints one Markdown table, a row per event and the totals, with the

@@ -1,13 +1,15 @@
 """Train the real-ball detector's learned check (seeded, CPU, deterministic), export to ONNX.
 
     pip install -e '.[train]'
-    python train/train.py ../shared/real/msl-images -o estimator/detection/real/ball_check.onnx
+    python train/train.py ../shared/real/msl-images ../shared/real/msl-more \
+        --groups train/msl-events.txt --epochs 8 --held-out train/checks \
+        -o estimator/detection/real/ball_check.onnx     # the shipped check: all eight events
     python train/train.py ../shared/real/msl-images --split lovo:20220715 -o lovo-20220715.onnx
 
 ROOT holds labelled folders (images with YOLO label files, class 0 the ball), each one
 venue-day; a folder's venue is its first path part under ROOT. Splits (which samples of
 ``dataset.py`` a model may learn from):
-  all             every image of every folder (the shipped model)
+  all             every image of every folder (with --groups: the shipped model)
   lovo:VENUE      every image of the other venues' folders (leave one venue out)
   infolder:F      every image except folder F's test images (those after its first 10)
   invenue:VENUE   every image except the test images of VENUE's folders (the other venues

@@ -44,6 +44,26 @@ def _cells(s: dict[str, Any], with_px: bool) -> list[str]:
     return [*out, str(s["centroid_median_px"])] if with_px else out
 
 
+def _misses(rows: Sequence[ImageRow]) -> tuple[int, int, int, int]:
+    """(images without a ball, false hits in them, look-alikes reported over a ball, balls
+    with nothing reported)."""
+    return (sum(r.balls == 0 for r in rows),
+            sum(r.balls == 0 and r.outcome == "fp" for r in rows),
+            sum(r.balls > 0 and r.outcome == "fp" for r in rows),
+            sum(r.balls > 0 and r.report is None for r in rows))
+
+
+def _misses_table(per_event: dict[str, tuple[list[ImageRow], list[ImageRow]]]) -> str:
+    """What each event's detector gets wrong, with ten frames (with none in brackets)."""
+    lines = ["| event | empty images | false hits there | over a ball | unreported balls |",
+             "|---" * 5 + "|"]
+    for name, (rows10, rows0) in per_event.items():
+        ten, none = _misses(rows10), _misses(rows0)
+        cells = [f"{a}" if a == b else f"{a} ({b})" for a, b in zip(ten, none, strict=True)]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _main(argv: Sequence[str] | None) -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("roots", type=Path, nargs="+")
@@ -61,6 +81,7 @@ def _main(argv: Sequence[str] | None) -> int:
     all10: list[ImageRow] = []
     all0: list[ImageRow] = []
     same0: list[ImageRow] = []
+    per_event: dict[str, tuple[list[ImageRow], list[ImageRow]]] = {}
     lines = ["| event | test images | 10 frames: tp / fp / fn | precision | recall | "
              "centroid median px | no frame (every image): tp / fp / fn | precision | recall | "
              "no frame, the same test images: precision | recall |",
@@ -75,6 +96,7 @@ def _main(argv: Sequence[str] | None) -> int:
         rows_same = [r for r in rows0 if (r.folder, r.image) in tested]
         s10, s0, ss = d10["total"], d0["total"], summarise(rows_same)
         all10 += rows10
+        per_event[name] = (rows10, rows0)
         all0 += rows0
         same0 += rows_same
         doc[name] = {"fitted_10": s10, "no_frame": s0, "no_frame_same_images": ss}
@@ -93,6 +115,7 @@ def _main(argv: Sequence[str] | None) -> int:
         _cells(t10, True) + _cells(t0, False) + [str(ts["precision"]), str(ts["recall"])])
         + " |")
     print("\n".join(lines))
+    print("\n" + _misses_table(per_event))
     if args.out is not None:
         for part in doc.values():
             for s in part.values():

@@ -78,8 +78,6 @@ def _main(argv: Sequence[str] | None) -> int:
         raise UsageError(f"--groups {args.groups}: give a grouping file (one event a line)")
     names = [name for name, _ in grouping.lines]
     doc: dict[str, Any] = {}
-    all10: list[ImageRow] = []
-    all0: list[ImageRow] = []
     same0: list[ImageRow] = []
     per_event: dict[str, tuple[list[ImageRow], list[ImageRow]]] = {}
     lines = ["| event | test images | 10 frames: tp / fp / fn | precision | recall | "
@@ -95,9 +93,7 @@ def _main(argv: Sequence[str] | None) -> int:
         tested = {(r.folder, r.image) for r in rows10}
         rows_same = [r for r in rows0 if (r.folder, r.image) in tested]
         s10, s0, ss = d10["total"], d0["total"], summarise(rows_same)
-        all10 += rows10
         per_event[name] = (rows10, rows0)
-        all0 += rows0
         same0 += rows_same
         doc[name] = {"fitted_10": s10, "no_frame": s0, "no_frame_same_images": ss}
         big = s10["test_images"] >= MIN_TEST
@@ -109,6 +105,8 @@ def _main(argv: Sequence[str] | None) -> int:
                      + " | ".join(_cells(s10, True) + _cells(s0, False)
                                   + [str(ss["precision"]), str(ss["recall"])]) + " |")
         print(f"{name} done", file=sys.stderr, flush=True)
+    all10 = [r for rows10, _ in per_event.values() for r in rows10]
+    all0 = [r for _, rows0 in per_event.values() for r in rows0]
     t10, t0, ts = summarise(all10), summarise(all0), summarise(same0)
     doc["total"] = {"fitted_10": t10, "no_frame": t0, "no_frame_same_images": ts}
     lines.append(f"| total | {t10['test_images']} | " + " | ".join(

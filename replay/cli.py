@@ -31,7 +31,6 @@ from replay.batch.cli import add_batch_arguments, check_single, is_batch, run_ba
 from replay.log.catalogue import check_mcap_file
 from replay.memory import keep_image_buffers
 from replay.options import (
-    DEFAULT_POSE_SIGMA,
     LOCALISE_MODES,
     METHODS,
     NOISE_MODELS,
@@ -198,13 +197,14 @@ def _add_localise_arguments(p: argparse._ActionsContainer) -> None:
                    "(the profile's, but none for fast and paper); ball: correct each "
                    "robot's pose by its drifting bias, estimated from how its ball disagrees "
                    "with the tracked one (--fusion track); none: the believed poses")
-    p.add_argument("--pose-sigma", metavar="M,DEG", type=_pose_sigma,
-                   default=DEFAULT_POSE_SIGMA,
+    p.add_argument("--pose-sigma", metavar="M,DEG", type=_pose_sigma, default=None,
                    help="the believed pose's standard deviation, position in metres and yaw "
-                   "in degrees (default 0.05,1): a line fit that moves the pose further than "
-                   "this allows is refused; with --localise ball, the spread of each robot's "
-                   "bias; with --pose-uncertainty, the pose's covariance when neither the "
-                   "lines nor the log give one")
+                   "in degrees: a line fit that moves the pose further than this allows is "
+                   "refused (default 0.05,1); with --localise ball, the spread of each "
+                   "robot's bias (the same default); with --pose-uncertainty, the pose's "
+                   "covariance when neither the lines nor the log give one (default: "
+                   "learnt from the log as it replays, from how each robot's ball disagrees "
+                   "with the others')")
     p.add_argument("--pose-uncertainty", action=argparse.BooleanOptionalAction, default=None,
                    help="weigh each robot's estimate by its own pose's uncertainty too: the "
                    "line fit's covariance, else the log pose's (PoseWithCovarianceStamped), "
@@ -294,7 +294,8 @@ def options_from_args(args: argparse.Namespace, serve_url: str | None = None) ->
         calibration_model=args.calibration_model,
         cameras=_input(args.cameras), smooth=args.smooth, hops=args.hops, noise=args.noise,
         width_range=args.width_range, clock_hz=args.clock_hz, localise=args.localise,
-        pose_sigma_m=args.pose_sigma[0], pose_sigma_deg=args.pose_sigma[1],
+        pose_sigma_m=None if args.pose_sigma is None else args.pose_sigma[0],
+        pose_sigma_deg=None if args.pose_sigma is None else args.pose_sigma[1],
         pose_uncertainty=args.pose_uncertainty,
         image_topic=args.image_topic, pose_topic=args.pose_topic,
         truth_topic=args.truth_topic, robots=robots, start_s=start, end_s=end,

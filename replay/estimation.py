@@ -59,6 +59,7 @@ from estimator.hops import HopFollower
 from estimator.noise import CalibratedNoise, Noise, localisation_covariance
 from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
+from estimator.tracking.pose_noise import PoseNoiseEstimator
 from estimator.width import combine_ranges, width_range
 from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
@@ -189,13 +190,21 @@ class FrameEstimator:
                  finder: BallFinder | None = None,
                  detector: Detector | None = None,
                  pose_covariance: np.ndarray | None = None, hops: bool = False,
-                 bias: BiasEstimator | None = None, width_range: bool = False) -> None:
+                 bias: BiasEstimator | None = None, width_range: bool = False,
+                 pose_noise: PoseNoiseEstimator | None = None) -> None:
         self.cameras = cameras
         self.bias = bias
+        self.pose_noise = pose_noise
+        """Each robot's pose covariance learnt from the track's residuals
+        (:mod:`estimator.tracking.pose_noise`), which an estimate carries when neither its
+        line fit nor its log pose gives one (``pose_covariance`` None)."""
         """``--localise ball``: each robot's pose bias, estimated from the tracker's residuals
         (:mod:`estimator.tracking.bias`); every estimate is located from the believed pose
         plus its robot's bias."""
         self._accepted_ns: dict[str, int] = {}
+        self._learning: set[str] = set()
+        """The robots whose estimates carry the learnt pose covariance (their log poses
+        state none)."""
         """Each robot's last estimate the tracker accepted (its stamp)."""
         self.pose_covariance = (None if pose_covariance is None
                                 else covariance3_rows(np.asarray(pose_covariance, np.float64)))
@@ -276,8 +285,8 @@ class FrameEstimator:
             estimate = self.locator.locate(robot, det, pose.pose if loc is None else loc.pose)
         except EstimatorError:
             return FrameOutcome(FrameStatus.OUT_OF_RANGE, det, r_px, pose, localisation=loc)
-        if self.pose_covariance is not None:
-            estimate = replace(estimate, pose_covariance=self._pose_covariance(pose, loc))
+        if self.pose_covariance is not None or self.pose_noise is not None:
+            estimate = replace(estimate, pose_covariance=self._pose_covariance(robot, pose, loc))
         elif loc is not None and loc.source == "ball":  # the bias's uncertainty, always
             estimate = replace(estimate, pose_covariance=covariance3_rows(
                 np.asarray(loc.covariance, np.float64)))
@@ -290,13 +299,18 @@ class FrameEstimator:
         return Localisation(RobotPose(x, y, yaw), cov, status="ok", source="ball", points=0,
                             inliers=0)
 
-    def _pose_covariance(self, pose: PoseMatch, loc: Localisation | None) -> Covariance3 | None:
+    def _pose_covariance(self, robot: str, pose: PoseMatch,
+                         loc: Localisation | None) -> Covariance3 | None:
         """The covariance of the pose an estimate is located from: the line fit's (or its
-        held or prior one), else the log pose's, else the default."""
+        held or prior one), else the log pose's, else the one learnt from the residuals,
+        else the one given."""
         if loc is not None:
             return covariance3_rows(np.asarray(loc.covariance, np.float64))
         if pose.covariance is not None:
             return covariance3_rows(np.asarray(pose.covariance, np.float64).reshape(3, 3))
+        if self.pose_noise is not None:
+            self._learning.add(robot)
+            return self.pose_noise.covariance(robot)
         return self.pose_covariance
 
     def field_pose(self, robot: str, pose: PoseMatch) -> PoseMatch:
@@ -375,6 +389,8 @@ class FrameEstimator:
             if f.estimate is None:
                 continue
             prior = self._bias_prior(tracker, f)
+            if self.pose_noise is not None:
+                self._learn_pose_noise(tracker, f)
             ball_estimate = _ball(f.estimate, f.r_px)
             sigma = self.noise.covariance(ball_estimate)
             shared = (None if f.estimate.pose_covariance is None
@@ -410,11 +426,36 @@ class FrameEstimator:
         goes in, the reference its robot's bias is measured against (None: none)."""
         if self.bias is None or f.localisation is None or f.localisation.source != "ball":
             return None
-        others = [t for r, t in self._accepted_ns.items() if r != f.robot]
-        if not others or f.stamp_ns - max(others) > BIAS_SUPPORT_NS:
+        if not self._supporters(f):
             return None  # a track of this robot's own estimates tells nothing of its bias
         state = tracker.state_at(f.stamp_ns)
         return state if state is not None and state.confirmed else None
+
+    def _supporters(self, f: FrameResult) -> list[str]:
+        """The other robots whose estimates went into the track within
+        :data:`BIAS_SUPPORT_NS` before the frame."""
+        return [r for r, t in self._accepted_ns.items()
+                if r != f.robot and f.stamp_ns - t <= BIAS_SUPPORT_NS]
+
+    def _learn_pose_noise(self, tracker: BallTracker, f: FrameResult) -> None:
+        """The frame's residual against the track the other robots support, before its
+        estimate goes in, into its robot's pose covariance (only where the covariance it
+        carried was the learnt one)."""
+        assert self.pose_noise is not None and f.estimate is not None
+        if f.localisation is not None or f.robot not in self._learning:
+            return  # its covariance came from the line fit or the log: nothing to learn
+        others = self._supporters(f)
+        if not others:
+            return
+        state = tracker.state_at(f.stamp_ns)
+        if state is None or not state.confirmed:
+            return
+        est = f.estimate
+        own = self.noise.covariance(_ball(replace(est, pose_covariance=None), f.r_px))
+        expected = own + np.asarray(state.position_covariance, np.float64)
+        self.pose_noise.observe(f.robot, f.stamp_ns, (est.x_m - state.x_m, est.y_m - state.y_m),
+                                (est.x_m - est.robot_x_m, est.y_m - est.robot_y_m), expected,
+                                len(others) + 1)
 
     def _learn_bias(self, f: FrameResult, prior: TrackState) -> None:
         """The frame's residual against the track into its robot's bias filter."""
@@ -429,7 +470,8 @@ class FrameEstimator:
         own = self.noise.covariance(_ball(replace(est, pose_covariance=None), f.r_px))
         cov = own + np.asarray(prior.position_covariance, np.float64)
         self.bias.update(f.robot, f.stamp_ns, (prior.x_m - est.x_m, prior.y_m - est.y_m),
-                         (est.x_m - corr.x_m, est.y_m - corr.y_m), covariance_rows(cov), used)
+                         (est.x_m - corr.x_m, est.y_m - corr.y_m), covariance_rows(cov), used,
+                         supporters=1 + len(self._supporters(f)))
 
 
 def _ball(e: RobotEstimate, r_px: float | None = None,

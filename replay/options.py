@@ -55,7 +55,10 @@ lines (:mod:`replay.localise`), or each corrected by its robot's bias as the tra
 residuals give it (:mod:`estimator.tracking.bias`); "auto": the field lines where the log
 names its field and a camera, else none (:func:`replay.profiles.decide`)."""
 DEFAULT_POSE_SIGMA = (0.05, 1.0)
-"""The believed pose's standard deviation the line fit weighs it with, (m, deg)."""
+"""Where ``--pose-sigma`` is not given: the believed pose's standard deviation (m, deg) the
+line fit weighs it with and ``--localise ball``'s bias starts from (both learn the pose
+from there). The pose uncertainty the fusion weighs estimates with is not taken from it: it
+is learnt from the log (:mod:`estimator.tracking.pose_noise`)."""
 FIT_LEAD_S = 0.1
 """With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose is
 known, while its fit runs in the pool; the outputs do not depend on it."""
@@ -195,11 +198,14 @@ class ReplayOptions:
     ball is located (:mod:`replay.localise`); "ball": corrected by its robot's bias, which
     the tracker's residuals estimate (:mod:`estimator.tracking.bias`; ``--fusion track``
     only); "none": the believed poses."""
-    pose_sigma_m: float = DEFAULT_POSE_SIGMA[0]
-    pose_sigma_deg: float = DEFAULT_POSE_SIGMA[1]
-    """The believed pose's standard deviation (position [m], yaw [deg]) the line fit weighs
-    it with (``--pose-sigma``): a fit further from it than this allows is refused. With
-    ``pose_uncertainty``, also the pose's covariance when nothing better is known."""
+    pose_sigma_m: float | None = None
+    pose_sigma_deg: float | None = None
+    """The believed pose's standard deviation (position [m], yaw [deg]), ``--pose-sigma``:
+    the line fit weighs the pose with it (a fit further from it than this allows is
+    refused); with ``pose_uncertainty``, the pose's covariance when neither the line fit
+    nor the log gives one. None (both): the line fit's and the bias's from
+    :data:`DEFAULT_POSE_SIGMA`, and the pose's covariance learnt from the log as it replays
+    (:mod:`estimator.tracking.pose_noise`)."""
     pose_uncertainty: bool = False
     """Each robot's estimate carries the covariance of the pose it was located from, and
     the fusion adds the ball's share of it (:func:`estimator.noise.localisation_covariance`:
@@ -262,6 +268,9 @@ class ReplayOptions:
         if self.localise == "ball" and self.fusion_method != "track":
             raise UsageError(f"--localise ball learns the biases from the tracker's residuals; "
                              f"it needs --fusion track, not {self.fusion_method!r}")
+        if (self.pose_sigma_m is None) != (self.pose_sigma_deg is None):
+            raise UsageError("--pose-sigma gives both the position's and the yaw's standard "
+                             "deviation, M,DEG")
         check_number("--pose-sigma", self.pose_sigma_m, low=0, high=10, low_open=True,
                      unit="m")
         check_number("--pose-sigma", self.pose_sigma_deg, low=0, high=90, low_open=True,
@@ -309,6 +318,19 @@ class ReplayOptions:
             clock_ns=None if self.clock_hz is None else max(1, round(NS_PER_S / self.clock_hz)),
             lead_ns=round(FIT_LEAD_S * NS_PER_S) if self.localise == "lines" else 0,
         )
+
+    @property
+    def pose_sigma_given(self) -> bool:
+        """Whether ``--pose-sigma`` was given (else the pose's covariance is learnt)."""
+        return self.pose_sigma_m is not None
+
+    @property
+    def pose_sigma(self) -> tuple[float, float]:
+        """(m, deg): ``--pose-sigma``'s, else :data:`DEFAULT_POSE_SIGMA` (the line fit's
+        and the bias's start)."""
+        if self.pose_sigma_m is None or self.pose_sigma_deg is None:
+            return DEFAULT_POSE_SIGMA
+        return self.pose_sigma_m, self.pose_sigma_deg
 
     @property
     def localising(self) -> bool:
@@ -379,7 +401,8 @@ class ReplayOptions:
             **({"localise": self.localise} if self.localising else {}),
             **({"pose_uncertainty": True} if self.pose_uncertainty else {}),
             **({"pose_sigma_m": self.pose_sigma_m, "pose_sigma_deg": self.pose_sigma_deg}
-               if self.localising or self.pose_uncertainty else {}),
+               if self.pose_sigma_given and (self.localising or self.pose_uncertainty)
+               else {}),
         }
 
     @property
@@ -426,7 +449,7 @@ class ReplayOptions:
             d.pop("hops")
         if not self.width_range:
             d.pop("width_range")
-        if not (self.localising or self.pose_uncertainty):
+        if not (self.pose_sigma_given and (self.localising or self.pose_uncertainty)):
             d.pop("pose_sigma_m")
             d.pop("pose_sigma_deg")
         if self.calibration_model is None:

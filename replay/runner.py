@@ -43,6 +43,7 @@ from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from estimator.localisation import PoseCorrection
 from estimator.tracking.bias import BiasEstimator, BiasParams
+from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
 from replay.diagnosis import Diagnosis
@@ -117,11 +118,11 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             smooth=options.smooth, hops=options.hops, noise=options.noise, finder=finder,
             width_range=options.width_range,
             detector=options.detector_part(),
-            pose_covariance=prior_covariance(options.pose_sigma_m, options.pose_sigma_deg)
-            if options.pose_uncertainty else None,
-            bias=BiasEstimator(BiasParams(options.pose_sigma_m,
-                                          math.radians(options.pose_sigma_deg)))
-            if options.localise == "ball" else None)
+            pose_covariance=prior_covariance(*options.pose_sigma)
+            if options.pose_uncertainty and options.pose_sigma_given else None,
+            pose_noise=PoseNoiseEstimator()
+            if options.pose_uncertainty and not options.pose_sigma_given else None,
+            bias=_bias(options) if options.localise == "ball" else None)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
         diagnosis = Diagnosis(path, info.robots, cameras)
@@ -153,6 +154,15 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                                pipeline=pipeline.describe() if options.profile else None)
 
 
+def _bias(options: ReplayOptions) -> BiasEstimator:
+    """``--localise ball``'s filters: each robot's spread learnt from the log, or
+    ``--pose-sigma``'s for every robot."""
+    if not options.pose_sigma_given:
+        return BiasEstimator(BiasParams(), learnt=PoseNoiseEstimator())
+    sigma_m, sigma_deg = options.pose_sigma
+    return BiasEstimator(BiasParams(sigma_m, math.radians(sigma_deg)))
+
+
 def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
                path: Path) -> Localiser | None:
     """The field-line correction the options ask for, on the field the log names."""
@@ -160,8 +170,8 @@ def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
         return None
     field = check_field(None if info.scenario is None else info.scenario.field, str(path))
     cams = estimator.cameras
-    return Localiser(field, cams.models, sigma_m=options.pose_sigma_m,
-                     sigma_deg=options.pose_sigma_deg,
+    sigma_m, sigma_deg = options.pose_sigma
+    return Localiser(field, cams.models, sigma_m=sigma_m, sigma_deg=sigma_deg,
                      mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models})
 
 

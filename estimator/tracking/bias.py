@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimator.estimates import Covariance, Covariance3, Matrix, covariance3_rows
+from estimator.tracking.pose_noise import PoseNoiseEstimator
 
 __all__ = ["BiasEstimator", "BiasParams", "bias_jacobian"]
 
@@ -83,13 +84,31 @@ class _Robot:
 
 
 class BiasEstimator:
-    """Per-robot Kalman filters over the robots' pose biases (module docstring)."""
+    """Per-robot Kalman filters over the robots' pose biases (module docstring).
 
-    def __init__(self, params: BiasParams | None = None) -> None:
+    With ``learnt`` (:class:`~estimator.tracking.pose_noise.PoseNoiseEstimator`), each
+    robot's stationary spread is not ``params``' but the one learnt from its uncorrected
+    residuals (:meth:`update` feeds it), and the yaw's own noise is at most that spread: a
+    robot whose poses are exact gets no correction and no uncertainty it does not show."""
+
+    def __init__(self, params: BiasParams | None = None,
+                 learnt: PoseNoiseEstimator | None = None) -> None:
         self.params = params or BiasParams()
+        self.learnt = learnt
         self._robots: dict[str, _Robot] = {}
         self.updates = 0
         """Residuals taken in."""
+
+    def stationary(self, robot: str) -> Matrix:
+        """The prior covariance of the robot's b: learnt, else the params'."""
+        if self.learnt is None:
+            return self.params.stationary()
+        s_m2, s_t2 = self.learnt.variances(robot)
+        return np.diag([s_m2, s_m2, s_t2])
+
+    def _yaw_noise2(self, robot: str) -> float:
+        own = self.params.yaw_noise_rad**2
+        return own if self.learnt is None else min(own, self.learnt.variances(robot)[1])
 
     def bias(self, robot: str) -> tuple[Matrix, Matrix]:
         """The robot's b (x, y, yaw) as last updated, less the robots' mean shift (which the
@@ -97,7 +116,7 @@ class BiasEstimator:
         any residual)."""
         r = self._robots.get(robot)
         if r is None:
-            return np.zeros(3), self.params.stationary()
+            return np.zeros(3), self.stationary(robot)
         return r.b - self._common(), r.p.copy()
 
     def _common(self) -> Matrix:
@@ -115,12 +134,12 @@ class BiasEstimator:
         plus the yaw's own frame-to-frame noise (:attr:`BiasParams.yaw_noise_rad`)."""
         b, p = self.bias(robot)
         yaw = math.remainder(yaw_rad + float(b[2]), math.tau)
-        own = np.diag([0.0, 0.0, self.params.yaw_noise_rad**2])
+        own = np.diag([0.0, 0.0, self._yaw_noise2(robot)])
         return (x_m + float(b[0]), y_m + float(b[1]), yaw), covariance3_rows(p + own)
 
     def _predicted(self, robot: str, stamp_ns: int) -> _Robot:
         """The robot's filter carried to ``stamp_ns`` (a stamp before its last: as it is)."""
-        prior = self.params.stationary()
+        prior = self.stationary(robot)
         r = self._robots.get(robot)
         if r is None:
             return _Robot(stamp_ns, np.zeros(3), prior)
@@ -132,13 +151,18 @@ class BiasEstimator:
 
     def update(self, robot: str, stamp_ns: int, residual_m: tuple[float, float],
                offset_m: tuple[float, float], covariance: Covariance,
-               used: tuple[float, float, float]) -> None:
+               used: tuple[float, float, float], supporters: int = 2) -> None:
         """Take in one residual: the track's position minus the robot's estimate at
         ``stamp_ns``, the estimate located with the bias ``used`` (x, y, yaw) added to the
         believed pose; ``offset_m`` from the corrected robot position to its estimate;
-        ``covariance`` the residual's own (the estimate's plus the track's)."""
-        r = self._predicted(robot, stamp_ns)
+        ``covariance`` the residual's own (the estimate's plus the track's); ``supporters``
+        the robots the track stood on (this one included), for the learnt spread."""
         h = bias_jacobian(*offset_m)
+        if self.learnt is not None:  # the uncorrected estimate's residual, estimate - track
+            raw = -(np.asarray(residual_m) + h @ np.asarray(used))
+            self.learnt.observe(robot, stamp_ns, (float(raw[0]), float(raw[1])), offset_m,
+                                np.asarray(covariance, np.float64), supporters)
+        r = self._predicted(robot, stamp_ns)
         # the estimate without any correction is z - H used: the residual against it is
         # residual + H used, and its innovation that minus H b (b as corrections see it)
         seen = r.b - self._common()

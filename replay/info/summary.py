@@ -198,8 +198,10 @@ def format_info(s: LogSummary) -> str:
              f"{secs(s.end_s)})",
              f"messages:    {'-' if s.messages is None else s.messages}"]
     comp = ", ".join(f"{k} {v}" for k, v in sorted(s.compression.items())) or "-"
-    lines.append(f"chunks:      {s.chunks} ({comp}; {format_bytes(s.chunk_bytes)} -> "
-                 f"{format_bytes(s.uncompressed_bytes)}), summary: {s.summary}")
+    sizes = f"{format_bytes(s.uncompressed_bytes)} uncompressed"
+    if set(s.compression) - {"none"}:
+        sizes = f"{format_bytes(s.chunk_bytes)} compressed, {sizes}"
+    lines.append(f"chunks:      {s.chunks} ({comp}; {sizes}), summary: {s.summary}")
     lines.append(f"robots:      {', '.join(s.robots) or '-'}")
     if s.robots and s.image_topic is not None and s.image_topic != contract.IMAGE_TOPIC:
         pose = s.pose_topic or "(none found: give --pose-topic)"

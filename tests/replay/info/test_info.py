@@ -12,6 +12,7 @@ import pytest
 from fuzzing import GOLDEN, m_summary, records, seed_log
 from mcap.writer import CompressionType
 
+from dsp.text import format_bytes
 from replay.info.cli import main
 
 
@@ -24,6 +25,25 @@ def test_golden_log_at_a_glance(capsys: pytest.CaptureFixture[str]) -> None:
                    "sensor_msgs/msg/CompressedImage", "messages:    76"):
         assert needle in out, needle
     assert re.search(r"chunks: +\d+ \(zstd \d+;", out)
+
+
+
+@pytest.mark.parametrize("compression", [CompressionType.ZSTD, CompressionType.NONE])
+def test_chunk_sizes_say_which_is_which(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                        compression: CompressionType) -> None:
+    log = tmp_path / "log.mcap"
+    log.write_bytes(seed_log("scenario2", compression=compression, chunk_size=32 * 1024))
+    assert main([str(log), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert main([str(log)]) == 0
+    out = capsys.readouterr().out
+    uncompressed = f"{format_bytes(doc['uncompressed_bytes'])} uncompressed), summary:"
+    if compression == CompressionType.ZSTD:
+        assert doc["chunk_bytes"] < doc["uncompressed_bytes"]
+        assert f"; {format_bytes(doc['chunk_bytes'])} compressed, {uncompressed}" in out
+    else:
+        assert f" (none {doc['chunks']}; {uncompressed}" in out
+    assert "->" not in out
 
 
 def test_json_and_check(capsys: pytest.CaptureFixture[str]) -> None:

@@ -193,7 +193,8 @@ def format_info(s: LogSummary) -> str:
     def secs(v: float | None) -> str:
         return "-" if v is None else f"{v:.3f} s"
 
-    lines = [f"file:        {s.path} ({format_bytes(s.bytes)}, profile {s.profile or '-'})",
+    lines = [f"file:        {printable(s.path)} ({format_bytes(s.bytes)}, profile "
+             f"{s.profile or '-'})",
              f"duration:    {secs(s.duration_s)}  (start {secs(s.start_s)}, end "
              f"{secs(s.end_s)})",
              f"messages:    {'-' if s.messages is None else s.messages}"]

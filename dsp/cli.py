@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import os
 import signal
 import sys
@@ -60,15 +61,32 @@ class Parser(argparse.ArgumentParser):
     argparse's own :meth:`~argparse.ArgumentParser.error` prints the whole usage block
     (18-21 lines for the larger commands) before the message; the message is what a user
     needs, and ``--help`` is one command away. Abbreviations are refused (``allow_abbrev``
-    False), so an option added later cannot change what an old command line means."""
+    False), so an option added later cannot change what an old command line means; a
+    misspelt option gets the closest of the parser's own (``did you mean --pose-sigma?``),
+    as Python 3.14's ``suggest_on_error`` does."""
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
 
     def error(self, message: str) -> NoReturn:  # argparse's hook for every parse error
-        self.exit(2, printable(f"{self.prog}: error: {message}") +
+        self.exit(2, printable(f"{self.prog}: error: {message}{self._suggestion(message)}") +
                   f"\nTry '{self.prog} --help' for the options.\n")
+
+    def _suggestion(self, message: str) -> str:
+        """`` (did you mean --pose-sigma?)`` for an unrecognised option close to one of the
+        parser's long options (difflib's ratio, its default cutoff 0.6), else ``""``."""
+        head = "unrecognized arguments: "
+        if not message.startswith(head):
+            return ""
+        known = sorted(s for s in self._option_string_actions if s.startswith("--"))
+        guesses: list[str] = []
+        for token in message[len(head):].split():
+            name = token.split("=", 1)[0]
+            if name.startswith("-") and name not in known:
+                close = difflib.get_close_matches(name, known, n=1)
+                guesses += [g for g in close if g not in guesses]
+        return f" (did you mean {' or '.join(guesses)}?)" if guesses else ""
 
 
 def version() -> str:

@@ -42,10 +42,15 @@ class _Counts:
 class Diagnosis(SinkBase):
     """Counts per robot for :meth:`warnings` (constant memory)."""
 
-    def __init__(self, path: Path, robots: tuple[str, ...], cameras: Cameras) -> None:
+    def __init__(self, path: Path, robots: tuple[str, ...], cameras: Cameras, *,
+                 detector: str = "paper", ball: Path | None = None) -> None:
         self.path = path
         self.robots = robots
         self.cameras = cameras
+        self.detector = detector
+        """The detector in use (``paper``, ``real`` or one from outside)."""
+        self.ball = ball
+        """The real detector's ball model file, which the warnings name."""
         self.counts = {r: _Counts() for r in robots}
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
@@ -100,8 +105,7 @@ class Diagnosis(SinkBase):
         blind = [r for r, c in self.counts.items() if c.images and not c.detections]
         if not blind:
             return []
-        cause = ("is the ball another colour than the detector's orange, or the image topic "
-                 "not the ball camera's?")
+        cause = f"{self._unlike()}, or the image topic not the ball camera's?"
         if len(blind) == len([c for c in self.counts.values() if c.images]):
             total = sum(self.counts[r].images for r in blind)
             return [f"{log}: no robot saw the ball in any of its images ({total} images: "
@@ -110,6 +114,15 @@ class Diagnosis(SinkBase):
         return [f"{log}: {r} saw the ball in none of its {self.counts[r].images} images, "
                 "while other robots did: was it hidden from or too far from it all along, or "
                 "is its camera covered?" for r in blind]
+
+    def _unlike(self) -> str:
+        """Why a detector may see no ball at all, in the words of the detector in use."""
+        if self.ball is not None:
+            return (f"is the ball unlike the one the ball model {printable(self.ball.name)} "
+                    "was fitted to (dsp-calibrate --ball-from fits one to this ball)")
+        if self.detector == "paper":
+            return "is the ball another colour than the detector's orange"
+        return f"does the detector {printable(self.detector, limit=100)} not see this ball"
 
     def _out_of_range(self, log: str) -> list[str]:
         out = []

@@ -9,13 +9,16 @@ offending file (or value) and, where there is one, the fix.
 from __future__ import annotations
 
 import os
+import shlex
 import stat
+from collections.abc import Iterable
 from pathlib import Path
 
 from dsp.errors import InputError
 from dsp.text import printable
 
 __all__ = [
+    "MAX_LISTED_TOPICS",
     "CorruptLogError",
     "ImageDecodeError",
     "InputNotFoundError",
@@ -23,12 +26,17 @@ __all__ = [
     "NoCameraError",
     "NoFramesError",
     "NoImageTopicsError",
+    "NoPoseTopicError",
     "NotMcapError",
     "ReplayError",
     "SchemaError",
     "StrictError",
     "TruncatedLogError",
 ]
+
+
+MAX_LISTED_TOPICS = 10
+"""A topic error lists this many of the log's topics, then says how many more there are."""
 
 
 class ReplayError(InputError):
@@ -84,20 +92,51 @@ class CorruptLogError(ReplayError):
 
 
 class NoImageTopicsError(ReplayError):
-    """No channel of the log matches the image topic pattern."""
+    """No channel of the log matches the image topic pattern; the message lists the log's
+    topics (the first :data:`MAX_LISTED_TOPICS`) and points to ``dsp-info``."""
 
-    def __init__(self, path: Path | str, pattern: str, robots: list[str] | None = None) -> None:
+    def __init__(self, path: Path | str, pattern: str, robots: list[str] | None = None, *,
+                 topics: Iterable[str] = (), given: bool = False,
+                 matched: Iterable[str] = ()) -> None:
+        """``robots``: the robots asked for (``--robots``); ``given``: ``pattern`` is the
+        user's ``--image-topic``; ``matched``: the robots ``pattern`` names in the log."""
         which = f" for robots {', '.join(robots)}" if robots else ""
-        super().__init__(
-            f"{path}: no image topics match {pattern!r}{which} (set --image-topic)"
-        )
+        found = ", ".join(printable(r, limit=60) for r in matched)
+        hint = (f"its robots are {found}: check --robots" if robots and found
+                else "the --image-topic given" if given else "set --image-topic")
+        super().__init__(f"{path}: no image topics match {pattern!r}{which} ({hint}); "
+                         + _topics_hint(path, topics))
 
 
 class MissingPosesError(ReplayError):
     """A robot with images has no pose topic, or no image could be paired with a pose."""
 
     def __init__(self, path: Path | str, detail: str) -> None:
-        super().__init__(f"{path}: missing poses: {detail} (set --pose-topic or --pose-tolerance)")
+        super().__init__(f"{path}: missing poses: {detail} (set --pose-topic or "
+                         "--pose-tolerance)")
+
+
+class NoPoseTopicError(MissingPosesError):
+    """A robot with images has no pose topic (``--pose-tolerance`` cannot help: the message
+    lists the log's topics and points to ``dsp-info``)."""
+
+    def __init__(self, path: Path | str, pattern: str, robots: Iterable[str], *,
+                 topics: Iterable[str] = (), given: bool = False) -> None:
+        names = ", ".join(printable(r, limit=60) for r in robots)
+        hint = "the --pose-topic given" if given else "set --pose-topic"
+        ReplayError.__init__(self, f"{path}: missing poses: no pose topic {pattern!r} for "
+                             f"{names} ({hint}); {_topics_hint(path, topics)}")
+
+
+def _topics_hint(path: Path | str, topics: Iterable[str]) -> str:
+    """The log's topics (at most :data:`MAX_LISTED_TOPICS`, terminal-safe) and the command
+    that lists them with their types and the patterns that replay them."""
+    names = sorted(set(topics))
+    shown = ", ".join(printable(t, limit=120) for t in names[:MAX_LISTED_TOPICS])
+    more = (f" and {len(names) - MAX_LISTED_TOPICS} more" if len(names) > MAX_LISTED_TOPICS
+            else "")
+    listed = f"the log's topics: {shown}{more}" if names else "the log has no topics"
+    return f"{listed} (dsp-info {shlex.quote(str(path))} lists them with their types)"
 
 
 class NoCameraError(ReplayError):

@@ -125,7 +125,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             bias=_bias(options) if options.localise == "ball" else None)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
-        diagnosis = Diagnosis(path, info.robots, cameras)
+        diagnosis = Diagnosis(path, info.robots, cameras, detector=options.detector_name,
+                              ball=options.ball)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats,
                                     pipeline if options.profile is not None else None)

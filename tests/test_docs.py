@@ -147,6 +147,28 @@ def test_the_cli_reference_escapes_help_but_keeps_it() -> None:
     assert len(helps) > 30
 
 
+
+def test_the_cli_reference_shows_defaults_as_a_user_types_them() -> None:
+    """``Default: 0.05,1.0``, not a Python tuple; no ``Default: True`` under a flag."""
+    import sys
+
+    sys.path.insert(0, str(DOCS))
+    import cli_parsers
+    from sphinxarg.parser import parse_parser
+
+    shown = {name: option["default"]
+             for group in parse_parser(cli_parsers.replay())["action_groups"]
+             for option in group["options"] for name in option["name"]}
+    assert str(shown["--pose-sigma"]) == "0.05,1.0"
+    assert str(shown["--image-topic"]) == "/{robot}/omni/image/compressed"
+    for flag in ("--no-progress", "--progress", "--quiet", "--force", "--strict"):
+        assert shown[flag] is None or str(shown[flag]).strip("'") == "==SUPPRESS==", flag
+    assert str(shown["--pose-tolerance"]) == "0.1"
+    help_all = parse_parser(cli_parsers.evaluate())["action_groups"]
+    only = next(o for g in help_all for o in g["options"] if "--only" in o["name"])
+    assert str(only["default"]).strip("'") == "==SUPPRESS=="  # an empty list: nothing to show
+
+
 def test_a_changelog_in_keep_a_changelog_form() -> None:
     text = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
     assert text.startswith("# Changelog")

@@ -14,6 +14,7 @@ Fitting them to samples is :mod:`estimator.calibration.fit`, their JSON form
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -148,13 +149,19 @@ class LookupCalibration:
     def name(self) -> str:
         return "lookup"
 
+    @functools.cached_property
+    def _arrays(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """The table as arrays, made once: np.interp converting the tuples on every call
+        made a fit's n calls on its n-point table O(n^2)."""
+        return np.asarray(self.r_px, dtype=np.float64), np.asarray(self.d_m, dtype=np.float64)
+
     def range_m(self, r_px: float) -> float:
         r, d = self.r_px, self.d_m
         if r_px <= r[0]:  # linear extrapolation along the first segment
             return d[0] + (r_px - r[0]) * (d[1] - d[0]) / (r[1] - r[0])
         if r_px >= r[-1]:  # linear extrapolation along the last segment
             return d[-1] + (r_px - r[-1]) * (d[-1] - d[-2]) / (r[-1] - r[-2])
-        return float(np.interp(r_px, r, d))
+        return float(np.interp(r_px, *self._arrays))
 
     def to_dict(self) -> dict[str, Any]:
         return {"model": self.name, "r_px": list(self.r_px), "d_m": list(self.d_m)}

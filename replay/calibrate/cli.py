@@ -112,6 +112,10 @@ def build_parser() -> argparse.ArgumentParser:
 def _run_ball(args: argparse.Namespace) -> int:
     out: Path = args.out
     check_suffix("-o/--out", out, (".json",))
+    if args.plot is not None:
+        which = "--ball-generic" if args.ball_generic else "--ball-from"
+        raise UsageError(f"--plot draws a camera calibration; {which} writes a ball model, "
+                         "which has no figure (leave --plot out)")
     if args.ball_generic:
         if args.ball_from is not None or args.train_count is not None or args.no_head:
             raise UsageError("--ball-generic fits nothing: --ball-from, --train-count and "

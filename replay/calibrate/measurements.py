@@ -22,9 +22,12 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 from dsp.cameras import DEFAULT_ENTRY
 from dsp.errors import InputError
@@ -35,6 +38,8 @@ __all__ = ["MAX_MEASUREMENT_BYTES", "MAX_ROWS", "Measurements", "Sample", "read_
 MAX_MEASUREMENT_BYTES = 16 << 20
 MAX_ROWS = 100_000
 MAX_RANGE_M = 100.0
+
+T = TypeVar("T")
 
 _CENTROID = ("u_px", "v_px")
 _RADIUS = ("r_px", "bearing_deg")
@@ -94,6 +99,16 @@ def _row(where: str, row: dict[str, str], centroids: bool) -> Sample:
         _number(where, "bearing_deg", row["bearing_deg"])))
 
 
+def _csv_step(path: Path, where: str, step: Callable[[], T]) -> T:
+    """``step()``, a read of the CSV reader, with its error (a cell over the csv module's
+    field limit, 128 KiB; a NUL byte) as one line naming the file and the row."""
+    try:
+        return step()
+    except csv.Error as err:
+        raise MeasurementError(f"{path}: {where}: not CSV measurements ({err}; a cell holds "
+                               "one number)") from None
+
+
 def read_measurements(path: Path | str) -> Measurements:
     """The samples of a measurements file (see the module docstring)."""
     path = Path(path)
@@ -102,7 +117,7 @@ def read_measurements(path: Path | str) -> Measurements:
     lines = [line for line in text.splitlines()
              if line.strip() and not line.lstrip().startswith("#")]
     reader = csv.DictReader(io.StringIO("\n".join(lines)), skipinitialspace=True)
-    columns = [c.strip() for c in reader.fieldnames or []]
+    columns = [c.strip() for c in _csv_step(path, "the header", lambda: reader.fieldnames) or []]
     reader.fieldnames = columns
     centroids = all(c in columns for c in _CENTROID)
     needed = (*(_CENTROID if centroids else _RADIUS), *_TRUTH)
@@ -113,10 +128,14 @@ def read_measurements(path: Path | str) -> Measurements:
             f"{', '.join(missing) or 'nothing but repeats a column'}; give robot (optional), "
             "u_px, v_px (or r_px, bearing_deg), range_m, angle_deg")
     samples: dict[str, list[Sample]] = {}
-    for i, row in enumerate(reader, start=2):
-        if i - 1 > MAX_ROWS:
+    rows = iter(reader)
+    for i in itertools.count(1):
+        where = f"{path}: row {i}"
+        row = _csv_step(path, f"row {i}", lambda: next(rows, None))
+        if row is None:
+            break
+        if i > MAX_ROWS:
             raise MeasurementError(f"{path}: more than {MAX_ROWS} rows")
-        where = f"{path}: row {i - 1}"
         if None in row or any(row.get(c) is None for c in needed):
             raise MeasurementError(f"{where}: {len([v for v in row.values() if v])} cells, "
                                    f"the header has {len(columns)}")

@@ -17,9 +17,11 @@ the estimator's parts) and two tables keyed for pairing:
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
+import shlex
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +31,7 @@ from dsp import jsonio
 from dsp.errors import InputError
 from dsp.jsonio import Json
 from dsp.textfile import read_text_file
+from replay.log.mcap_records import MAGIC
 
 __all__ = ["MAX_RESULTS_BYTES", "RESULTS_FORMAT", "ResultsRun", "StepScore", "read_results",
            "read_run"]
@@ -266,7 +269,22 @@ def parse_results(path: Path, text: str) -> ResultsRun | None:
 
 def read_results(path: Path) -> ResultsRun | None:
     """One results file, bounded and checked (None: JSON of another format)."""
+    _refuse_log(path)
     return parse_results(path, read_text_file(path, MAX_RESULTS_BYTES, what="a results file"))
+
+
+def _refuse_log(path: Path) -> None:
+    """A log given for a results file is named as one, with the command that makes results
+    from it, before any of it is read as text."""
+    head = b""
+    if path.is_file():  # a regular file: reading it cannot block
+        with contextlib.suppress(OSError), path.open("rb") as f:
+            head = f.read(len(MAGIC))
+    if head == MAGIC:
+        raise InputError(f"{path}: an MCAP log, not a results file: dsp-compare compares the "
+                         f"results of replays (dsp-replay {shlex.quote(str(path))} --out "
+                         "r.json writes them); --log LOG --rerun shows a log's two replays "
+                         "side by side")
 
 
 def read_run(path: Path) -> list[ResultsRun]:

@@ -19,6 +19,7 @@ from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_suffix, check_topic_pattern
 from dsp.cli import Parser, add_common_arguments, run_main
 from dsp.errors import EXIT_INPUT, UsageError
+from dsp.text import printable
 from dsp.textfile import TEXT_ERRORS
 from replay.errors import CorruptLogError, ReplayError, TruncatedLogError
 from replay.info.summary import format_info, log_info
@@ -72,7 +73,7 @@ def _template(args: argparse.Namespace) -> int:
                                            image_topic=args.image_topic,
                                            pose_topic=args.pose_topic),
                            encoding="utf-8", errors=TEXT_ERRORS)
-        print(f"wrote {out}")
+        print(f"wrote {printable(out)}")
         return 0
     print(camera_template(args.log, image_topic=args.image_topic, pose_topic=args.pose_topic),
           end="")
@@ -92,10 +93,13 @@ def _main(argv: Sequence[str] | None) -> int:
     except (CorruptLogError, TruncatedLogError) as err:
         text = str(err).split("; use --recover")[0]
         raise ReplayError(f"{text}; dsp-info --check lists every problem") from err
-    print(summary.to_json() if args.json else format_info(summary), end="\n" if not args.json
-          else "")
+    # every name in the text is escaped already; this keeps what the log's header and chunk
+    # records name (profile, compression) off the terminal too
+    print(summary.to_json() if args.json else printable(format_info(summary), lines=True),
+          end="\n" if not args.json else "")
     if summary.problems:
-        print(f"{PROG}: error: {args.log}: {len(summary.problems)} integrity problem(s), "
+        print(f"{PROG}: error: {printable(args.log)}: {len(summary.problems)} integrity "
+              "problem(s), "
               f"first: {summary.problems[0]}"
               + (f"; {summary.recoverable}" if (summary.recoverable or "").startswith(
                   "nothing") else ""), file=sys.stderr)

@@ -193,13 +193,16 @@ def format_info(s: LogSummary) -> str:
     def secs(v: float | None) -> str:
         return "-" if v is None else f"{v:.3f} s"
 
-    lines = [f"file:        {s.path} ({format_bytes(s.bytes)}, profile {s.profile or '-'})",
+    lines = [f"file:        {printable(s.path)} ({format_bytes(s.bytes)}, profile "
+             f"{s.profile or '-'})",
              f"duration:    {secs(s.duration_s)}  (start {secs(s.start_s)}, end "
              f"{secs(s.end_s)})",
              f"messages:    {'-' if s.messages is None else s.messages}"]
     comp = ", ".join(f"{k} {v}" for k, v in sorted(s.compression.items())) or "-"
-    lines.append(f"chunks:      {s.chunks} ({comp}; {format_bytes(s.chunk_bytes)} -> "
-                 f"{format_bytes(s.uncompressed_bytes)}), summary: {s.summary}")
+    sizes = f"{format_bytes(s.uncompressed_bytes)} uncompressed"
+    if set(s.compression) - {"none"}:
+        sizes = f"{format_bytes(s.chunk_bytes)} compressed, {sizes}"
+    lines.append(f"chunks:      {s.chunks} ({comp}; {sizes}), summary: {s.summary}")
     lines.append(f"robots:      {', '.join(s.robots) or '-'}")
     if s.robots and s.image_topic is not None and s.image_topic != contract.IMAGE_TOPIC:
         pose = s.pose_topic or "(none found: give --pose-topic)"

@@ -18,6 +18,7 @@ from dsp import metadata as meta
 from dsp.camera_file import camera_file_text
 from dsp.cameras import DEFAULT_ENTRY
 from dsp.errors import InputError
+from dsp.text import printable
 from dsp.topics import infer_patterns
 from replay.log import (
     ImageMessage,
@@ -96,7 +97,7 @@ def _entry(width: int, height: int) -> dict[str, Any]:
 def camera_template(path: Path, suffix: str = ".yaml", *, image_topic: str | None = None,
                     pose_topic: str | None = None) -> str:
     """The text of a starting camera file for the log at ``path`` (YAML or JSON)."""
-    name = path.name
+    name = printable(path.name)  # a name is a line of the file's header, and terminal-safe
     entries = _from_metadata(path)
     if entries is not None:
         header = (f"The cameras of {name}, from its dsp.cameras metadata (dsp-info "
@@ -114,6 +115,6 @@ def camera_template(path: Path, suffix: str = ".yaml", *, image_topic: str | Non
     header = (f"A starting camera description for {name} ({seen}; it has no camera "
               "metadata),\nwritten by dsp-info --cameras-template. Fill in the calibration "
               "(and what differs), then:\n  dsp-replay "
-              f"{name} --cameras THIS_FILE --image-topic '{image_topic}' --pose-topic "
-              f"'{pose_topic}'\nThe keys: docs/cameras.md.")
+              f"{name} --cameras THIS_FILE --image-topic '{printable(image_topic)}' "
+              f"--pose-topic '{printable(pose_topic)}'\nThe keys: docs/cameras.md.")
     return camera_file_text(entries, suffix, comments=TEMPLATE_COMMENTS, header=header)

@@ -42,6 +42,7 @@ from replay.errors import (
     MissingPosesError,
     NoFramesError,
     NoImageTopicsError,
+    NoPoseTopicError,
     SchemaError,
 )
 from replay.log.catalogue import (
@@ -177,13 +178,14 @@ class LogReader:
     def _make_info(self) -> LogInfo:
         cat = self.catalogue
         topics = {ch.topic for ch in cat.channels.values()}
-        image_robots = contract.robot_names_in(topics, self._image_pattern)
+        matched = contract.robot_names_in(topics, self._image_pattern)
+        image_robots = matched
         if self._robots_wanted is not None:
             image_robots = [r for r in image_robots if r in self._robots_wanted]
         if not image_robots:
             raise NoImageTopicsError(
-                self.path, self._image_pattern, list(self._robots_wanted or [])
-            )
+                self.path, self._image_pattern, list(self._robots_wanted or []), topics=topics,
+                given=self._image_pattern != contract.IMAGE_TOPIC, matched=matched)
         pose_robots = set(contract.robot_names_in(topics, self._pose_pattern))
         missing = [r for r in image_robots if r not in pose_robots]
         if missing and self.recover and cat.damage and len(missing) < len(image_robots):
@@ -194,10 +196,8 @@ class LogReader:
                 f"part for {', '.join(printable(r, limit=60) for r in missing)}: their "
                 "images are left out")
         elif missing:
-            raise MissingPosesError(
-                self.path,
-                f"no pose topic {self._pose_pattern!r} for {', '.join(missing)}",
-            )
+            raise NoPoseTopicError(self.path, self._pose_pattern, missing, topics=topics,
+                                   given=self._pose_pattern != contract.POSE_TOPIC)
         image_topics = {r: contract.topic_for(self._image_pattern, r) for r in image_robots}
         pose_topics = {r: contract.topic_for(self._pose_pattern, r) for r in image_robots}
         kinds: dict[str, tuple[str, str]] = {t: ("image", r) for r, t in image_topics.items()}

@@ -80,6 +80,31 @@ def test_a_parser_error_is_one_line_and_a_hint(prog: str,
     assert err[1] == f"Try '{prog} --help' for the options."
 
 
+
+@pytest.mark.parametrize("prog", COMMANDS)
+def test_a_misspelt_option_gets_the_closest_one(prog: str,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        _parser(prog).error("unrecognized arguments: --versoin")
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.splitlines()[0] == (
+        f"{prog}: error: unrecognized arguments: --versoin (did you mean --version?)")
+
+
+def test_a_misspelt_option_on_a_command_line(capsys: pytest.CaptureFixture[str]) -> None:
+    from replay.cli import main
+
+    assert main(["in.mcap", "--pose-sigmaa", "0.1"]) == 2
+    assert capsys.readouterr().err.splitlines()[0] == (
+        "dsp-replay: error: unrecognized arguments: --pose-sigmaa 0.1 (did you mean "
+        "--pose-sigma?)")
+    assert main(["in.mcap", "--pose-sigmaa=0.1", "--outt", "r.json", "--zzzz"]) == 2
+    assert capsys.readouterr().err.splitlines()[0].endswith(
+        "--zzzz (did you mean --pose-sigma or --out?)")
+    assert main(["in.mcap", "--zzzz"]) == 2  # nothing close: no guess
+    assert capsys.readouterr().err.splitlines()[0].endswith("arguments: --zzzz")
+
+
 def test_replay_help_shows_the_essentials_in_40_lines(
         capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
     from replay.cli import main

@@ -180,6 +180,22 @@ def test_a_ball_no_robot_sees_is_warned_of_and_strict_fails_writing_nothing(
     assert GREEN_BGR != (0, 220, 230)
 
 
+def test_a_ball_no_robot_sees_with_a_ball_model_is_warned_of_in_the_model_s_words(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """With --ball the detector looks for the model's ball, not for orange: the warning names
+    the model file."""
+    from dsp.ball_file import ball_file_text, shipped_generic
+
+    log = tmp_path / "yellow.mcap"
+    write_log(log, duration_s=0.2, ball_colour=(0, 220, 230))
+    ball = tmp_path / "yellow-ball.json"
+    ball.write_text(ball_file_text(shipped_generic()), encoding="utf-8")
+    code, _, err = _run([log, "--ball", ball, "-q"], capsys)
+    assert code == 0 and "no robot saw the ball in any of its images" in err
+    assert "orange" not in err
+    assert "is the ball unlike the one the ball model yellow-ball.json was fitted to" in err
+
+
 def test_an_unsupported_encoding_is_named(tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     log = tmp_path / "nv12.mcap"

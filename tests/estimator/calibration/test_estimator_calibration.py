@@ -70,6 +70,26 @@ def test_lookup_interpolates_and_extrapolates_linearly() -> None:
     assert table.range_m(50.0) == pytest.approx(8.0)  # last segment's slope 0.2
 
 
+
+def test_lookup_makes_its_arrays_once_not_on_every_call(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fit evaluates its table at every sample: converting the n-point table on each of the
+    n calls made reading 25,000 measurements take minutes (O(n^2))."""
+    table = LookupCalibration(tuple(float(r) for r in range(1, 1001)),
+                              tuple(0.01 * r for r in range(1, 1001)))
+    tables: list[object] = []
+    interp = np.interp
+
+    def spy(x: float, xp: object, fp: object) -> object:
+        tables.extend((xp, fp))
+        return interp(x, xp, fp)
+
+    monkeypatch.setattr(np, "interp", spy)
+    assert [table.range_m(r) for r in (1.5, 500.25, 999.5)] == pytest.approx(
+        [0.015, 5.0025, 9.995])
+    assert all(isinstance(t, np.ndarray) for t in tables)
+    assert len({id(t) for t in tables}) == 2  # the same two arrays every call
+
+
 @pytest.mark.parametrize(
     ("r", "d", "match"),
     [

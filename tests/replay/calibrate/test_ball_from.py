@@ -166,3 +166,14 @@ def test_ball_generic_writes_the_shipped_generic_model(
     code, _, err = _run(["--ball-generic", "--ball-from", SUBSET, "-o", out, "--force"],
                         capsys)
     assert code == 2 and "--ball-generic fits nothing" in err
+
+
+@pytest.mark.parametrize("mode", [["--ball-generic"], ["--ball-from", SUBSET]])
+def test_a_ball_model_has_no_figure_so_plot_is_refused(
+        mode: list[object], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out, plot = tmp_path / "ball.json", tmp_path / "b.png"
+    code, _, err = _run([*mode, "-o", out, "--plot", plot], capsys)
+    assert code == 2 and len(err.splitlines()) == 1
+    assert err.startswith(f"dsp-calibrate: error: --plot draws a camera calibration; {mode[0]} "
+                          "writes a ball model, which has no figure (leave --plot out)")
+    assert list(tmp_path.iterdir()) == []

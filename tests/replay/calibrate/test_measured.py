@@ -142,6 +142,10 @@ def test_from_a_log_with_the_ball_at_a_known_place(tmp_path: Path,
     ("u_px,v_px,range_m,angle_deg\n1,2,3\n", "row 1: 3 cells, the header has 4"),
     ("u_px,v_px,range_m,angle_deg\n", "no measurement rows"),
     ("u_px,v_px,range_m,angle_deg\n1,2,3,nan\n", "angle_deg = 'nan' is not a finite number"),
+    ("u_px,v_px,range_m,angle_deg\n# a comment\n1,2,3,4\n1," + "9" * (129 << 10) + ",3,4\n",
+     "row 2: not CSV measurements (field larger than field limit"),
+    ("u_px,v_px," + "x" * (129 << 10) + "\n1,2,3\n",
+     "the header: not CSV measurements (field larger than field limit"),
 ])
 def test_a_bad_measurements_file_is_one_line_naming_the_row(tmp_path: Path, text: str,
                                                             message: str) -> None:
@@ -150,6 +154,17 @@ def test_a_bad_measurements_file_is_one_line_naming_the_row(tmp_path: Path, text
     with pytest.raises(MeasurementError) as err:
         read_measurements(path)
     assert str(err.value).startswith(str(path)) and message in str(err.value)
+
+
+
+def test_a_cell_over_the_csv_limit_is_one_line_on_the_command_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "m.csv"
+    path.write_text("u_px,v_px,range_m,angle_deg\n1,2,3," + "4" * (200 << 10) + "\n")
+    code, _, err = _run(["--from-measurements", path, "--image-size", "1280x1024", "-o",
+                         tmp_path / "c.yaml"], capsys)
+    assert code == 1 and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert err.startswith(f"dsp-calibrate: error: {path}: row 1: not CSV measurements")
 
 
 def test_options_that_do_not_go_together(tmp_path: Path,

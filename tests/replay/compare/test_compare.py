@@ -197,6 +197,20 @@ def test_bad_input_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert code == 2 and ".json" in err
 
 
+
+def test_a_log_given_for_results_is_named_as_one(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """An MCAP log is not "not UTF-8 text": the error says what it is and what makes results."""
+    good = write(tmp_path / "good.json", results_doc([0.1, 0.2]))
+    log = tmp_path / "match.mcap"
+    shutil.copyfile(GOLDEN / "match.mcap", log)
+    code, err = _error(capsys, [str(good), str(log)])
+    assert code == 1 and err.count("\n") == 1 and "UTF-8" not in err
+    assert err.startswith(f"dsp-compare: error: {log}: an MCAP log, not a results file: "
+                          f"dsp-compare compares the results of replays (dsp-replay {log} --out "
+                          "r.json writes them); --log LOG --rerun shows")
+
+
 def test_a_folder_missing_a_log_is_refused_unless_allowed(tmp_path: Path,
                                                           capsys: pytest.CaptureFixture[str]
                                                           ) -> None:

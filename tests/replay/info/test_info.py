@@ -12,6 +12,7 @@ import pytest
 from fuzzing import GOLDEN, m_summary, records, seed_log
 from mcap.writer import CompressionType
 
+from dsp.text import format_bytes
 from replay.info.cli import main
 
 
@@ -24,6 +25,48 @@ def test_golden_log_at_a_glance(capsys: pytest.CaptureFixture[str]) -> None:
                    "sensor_msgs/msg/CompressedImage", "messages:    76"):
         assert needle in out, needle
     assert re.search(r"chunks: +\d+ \(zstd \d+;", out)
+
+
+
+@pytest.mark.parametrize("compression", [CompressionType.ZSTD, CompressionType.NONE])
+def test_chunk_sizes_say_which_is_which(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                        compression: CompressionType) -> None:
+    log = tmp_path / "log.mcap"
+    log.write_bytes(seed_log("scenario2", compression=compression, chunk_size=32 * 1024))
+    assert main([str(log), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert main([str(log)]) == 0
+    out = capsys.readouterr().out
+    uncompressed = f"{format_bytes(doc['uncompressed_bytes'])} uncompressed), summary:"
+    if compression == CompressionType.ZSTD:
+        assert doc["chunk_bytes"] < doc["uncompressed_bytes"]
+        assert f"; {format_bytes(doc['chunk_bytes'])} compressed, {uncompressed}" in out
+    else:
+        assert f" (none {doc['chunks']}; {uncompressed}" in out
+    assert "->" not in out
+
+
+
+def test_a_file_name_s_escape_sequence_never_reaches_the_terminal(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A name holding ESC ] 0 ; ... BEL would retitle the terminal: every line dsp-info
+    prints a path in (file:, the template's header, wrote ...) shows it escaped."""
+    hostile = "\x1b]0;owned\x07"
+    shown = "\\x1b]0;owned\\x07"
+    log = tmp_path / f"run{hostile}.mcap"
+    log.write_bytes((GOLDEN / "rolling.mcap").read_bytes())
+    assert main([str(log)]) == 0
+    out = capsys.readouterr().out
+    assert f"file:        {tmp_path}/run{shown}.mcap (" in out
+    assert main([str(log), "--cameras-template"]) == 0
+    out = capsys.readouterr().out
+    assert f"# The cameras of run{shown}.mcap, from its dsp.cameras metadata" in out
+    cams = tmp_path / f"cams{hostile}.yaml"
+    assert main([str(log), "--cameras-template", "-o", str(cams)]) == 0
+    assert capsys.readouterr().out == f"wrote {tmp_path}/cams{shown}.yaml\n"
+    assert f"run{shown}.mcap" in cams.read_text() and "\x1b" not in cams.read_text()
+    assert main([str(log), "--check"]) == 0
+    assert "\x1b" not in "".join(capsys.readouterr())
 
 
 def test_json_and_check(capsys: pytest.CaptureFixture[str]) -> None:

@@ -10,7 +10,14 @@ from mcap_ros2.writer import Writer
 from synthetic import write_log
 
 from dsp import contract
-from replay.errors import InputNotFoundError, NoImageTopicsError, NotMcapError, TruncatedLogError
+from replay.errors import (
+    MAX_LISTED_TOPICS,
+    InputNotFoundError,
+    NoImageTopicsError,
+    NoPoseTopicError,
+    NotMcapError,
+    TruncatedLogError,
+)
 from replay.log import ImageMessage, LogReader, PoseMessage, decode_image
 
 
@@ -90,6 +97,44 @@ def test_bad_files(tmp_path: Path) -> None:
     cut.write_bytes(data[: len(data) // 2])
     with pytest.raises(TruncatedLogError, match=r"cut\.mcap: the log is truncated"):
         LogReader(cut).__enter__()
+
+
+
+@pytest.fixture(scope="module")
+def many_topics(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Six robots (13 topics), one named with a terminal escape sequence."""
+    path = tmp_path_factory.mktemp("topics") / "many.mcap"
+    names = ["robot\x1b]0;owned\x07", *(f"robot{i}" for i in range(1, 6))]
+    write_log(path, duration_s=0.1, robots={n: (float(i), 0.0, 0.0) for i, n in enumerate(names)})
+    return path
+
+
+def _listed(message: str, path: Path) -> None:
+    """The log's topics, terminal-safe and bounded, and the command that lists them all."""
+    assert "\x1b" not in message and "\x07" not in message
+    assert "the log's topics: /ground_truth/ball, /robot\\x1b]0;owned\\x07/omni/" in message
+    assert f"and {13 - MAX_LISTED_TOPICS} more (dsp-info {path} lists them" in message
+
+
+def test_a_missing_image_topic_lists_the_log_s_topics(many_topics: Path) -> None:
+    with pytest.raises(NoImageTopicsError, match=r"'/\{robot\}/camera' \(the --image-topic "
+                       r"given\); the log's topics: ") as given:
+        LogReader(many_topics, image_topic="/{robot}/camera").__enter__()
+    _listed(str(given.value), many_topics)
+    assert "set --image-topic" not in str(given.value)
+    with pytest.raises(NoImageTopicsError, match=r"for robots robot9 \(its robots are "
+                       r"robot1, .*, robot\\x1b]0;owned\\x07: check --robots\)"):
+        LogReader(many_topics, robots=["robot9"]).__enter__()
+
+
+def test_a_missing_pose_topic_suggests_the_pose_topic_not_the_tolerance(
+        many_topics: Path) -> None:
+    with pytest.raises(NoPoseTopicError, match=r"missing poses: no pose topic '/\{robot\}/odom' "
+                       r"for robot1, .*, robot\\x1b]0;owned\\x07 \(the --pose-topic given\); "
+                       ) as given:
+        LogReader(many_topics, pose_topic="/{robot}/odom").__enter__()
+    _listed(str(given.value), many_topics)
+    assert "--pose-tolerance" not in str(given.value)
 
 
 def test_recover_reads_complete_chunks(tmp_path: Path) -> None:

@@ -39,6 +39,7 @@ import numpy as np
 from dsp import contract
 from dsp.ball_file import read_ball_file, shipped_check
 from dsp.errors import UsageError
+from dsp.field import FieldSpec
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from estimator.localisation import PoseCorrection
@@ -48,7 +49,7 @@ from replay.cameras import cameras_for
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
-from replay.localise import Localiser, check_field, prior_covariance
+from replay.localise import Localiser, check_field, field_for, prior_covariance
 from replay.log import (
     ImageMessage,
     LogInfo,
@@ -107,9 +108,12 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
             calibration_model=options.calibration_part(),
             metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
+        field, field_note = field_for(None if info.scenario is None else info.scenario.field,
+                                      cameras.field, cameras.field_source)
         options, pipeline = decide(
-            options, has_field=info.scenario is not None and info.scenario.field is not None,
-            robots=info.robots, camera_robots=tuple(cameras.models))
+            options, field=None if field is None else field.name, robots=info.robots,
+            camera_robots=tuple(cameras.models), notes=() if field_note is None else
+            (field_note,))
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
@@ -122,7 +126,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             bias=BiasEstimator(BiasParams(options.pose_sigma_m,
                                           math.radians(options.pose_sigma_deg)))
             if options.localise == "ball" else None)
-        localiser = _localiser(options, info, estimator, path)
+        localiser = _localiser(options, field, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
@@ -153,14 +157,14 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                                pipeline=pipeline.describe() if options.profile else None)
 
 
-def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
+def _localiser(options: ReplayOptions, field: FieldSpec | None, estimator: FrameEstimator,
                path: Path) -> Localiser | None:
-    """The field-line correction the options ask for, on the field the log names."""
+    """The field-line correction the options ask for, on the field the log or the camera
+    file names (:func:`~replay.localise.field_for`)."""
     if options.localise != "lines":
         return None
-    field = check_field(None if info.scenario is None else info.scenario.field, str(path))
     cams = estimator.cameras
-    return Localiser(field, cams.models, sigma_m=options.pose_sigma_m,
+    return Localiser(check_field(field, str(path)), cams.models, sigma_m=options.pose_sigma_m,
                      sigma_deg=options.pose_sigma_deg,
                      mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models})
 

@@ -182,6 +182,17 @@ def _yaml_scalar(value: Any) -> str:
     return strict_json(value, sort_keys=False)
 
 
+def _yaml_name(name: str) -> str:
+    """A name as YAML: bare (``18x12``) where YAML reads it back as that text, else quoted."""
+    try:
+        if re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name) and yaml.load(
+                name, Loader=_Loader) == name:
+            return name
+    except yaml.YAMLError:
+        pass
+    return _yaml_scalar(name)
+
+
 def camera_file_text(entries: Mapping[str, Mapping[str, Any]], suffix: str,
                      comments: Mapping[str, str] | None = None, header: str = "", *,
                      field: str | Mapping[str, float] | None = None,
@@ -197,7 +208,8 @@ def camera_file_text(entries: Mapping[str, Mapping[str, Any]], suffix: str,
         return strict_json(doc, sort_keys=True, indent=2) + "\n"
     lines = [f"# {line}".rstrip() for line in header.splitlines()]
     if field is not None:
-        line = f"{FIELD_KEY}: {_yaml_scalar(field if isinstance(field, str) else dict(field))}"
+        value = _yaml_name(field) if isinstance(field, str) else _yaml_scalar(dict(field))
+        line = f"{FIELD_KEY}: {value}"
         lines.append(f"{line}  # {field_comment}" if field_comment else line)
     elif field_comment:
         lines.append(f"# {field_comment}")

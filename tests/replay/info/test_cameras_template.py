@@ -156,3 +156,24 @@ def test_a_template_names_the_field_or_says_where_to(tmp_path: Path) -> None:
     cams = read_camera_file(out)
     assert cams.field is not None and cams.field.name == "18x12"
     assert cams.default is not None and cams.default.centre_px == (639.5, 511.5)
+
+
+def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = tmp_path / "bag.mcap"  # a team's bag: no dsp metadata, one robot, AMCL poses
+    write_log(bag, robots={"keeper": (-8.0, 0.0, 0.0)}, duration_s=0.2, cameras=None,
+              metadata=False, pose_schema=contract.POSE_WITH_COVARIANCE_STAMPED, **TEAM)
+    assert main([str(bag)]) == 0
+    out = capsys.readouterr().out
+    block = out.split("default pipeline:\n", 1)[1].splitlines()[:3]
+    assert block == [
+        "  line fit: no: the log names no field (dsp.scenario metadata); name it in the "
+        "camera file: field: 18x12 and no robot's camera model is known (a camera file's "
+        "mirror, fisheye or ideal entry: --cameras FILE)",
+        "  3-D track: no: one robot, no rays to cross",
+        "  pose covariance: stated in the log (PoseWithCovarianceStamped; one all zero is "
+        "unknown: --pose-sigma's then)"]
+    assert main([str(bag), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [line.split(":")[0] for line in doc["default_pipeline"]] == [
+        "line fit", "3-D track", "pose covariance"]

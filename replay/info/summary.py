@@ -179,10 +179,10 @@ def _default_pipeline(cat: Catalogue, robots: list[str], camera_robots: list[str
     pose_types = set() if pose_topic is None else {
         types.get(contract.topic_for(pose_topic, r), "") for r in robots}
     if pose_types == {contract.POSE_WITH_COVARIANCE_STAMPED}:
-        lines.append("pose covariance: stated in the log (PoseWithCovarianceStamped; one all "
-                     "zero is unknown: --pose-sigma's then)")
+        lines.append("pose covariance: in the pose messages (PoseWithCovarianceStamped; all "
+                     "zero means unknown: --pose-sigma's then)")
     else:
-        lines.append("pose covariance: not stated (--pose-sigma's, default "
+        lines.append("pose covariance: not in the log (--pose-sigma's, default "
                      f"{DEFAULT_POSE_SIGMA[0]:g} m, {DEFAULT_POSE_SIGMA[1]:g} deg)")
     return lines
 

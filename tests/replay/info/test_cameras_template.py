@@ -171,7 +171,7 @@ def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
         "camera file: field: 18x12 and no robot's camera model is known (a camera file's "
         "mirror, fisheye or ideal entry: --cameras FILE)",
         "  3-D track: no: one robot, no rays to cross",
-        "  pose covariance: stated in the log (PoseWithCovarianceStamped; one all zero is "
+        "  pose covariance: in the pose messages (PoseWithCovarianceStamped; all zero means "
         "unknown: --pose-sigma's then)"]
     assert main([str(bag), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)

@@ -23,7 +23,7 @@ def test_golden_log_at_a_glance(capsys: pytest.CaptureFixture[str]) -> None:
                    "/robot1/omni/image/compressed",
                    "sensor_msgs/msg/CompressedImage", "messages:    76",
                    "default pipeline:\n  line fit: yes (field 18x12, camera models of 3 "
-                   "robots)\n  3-D track: yes (3 robots)\n  pose covariance: not stated"):
+                   "robots)\n  3-D track: yes (3 robots)\n  pose covariance: not in the log"):
         assert needle in out, needle
     assert re.search(r"chunks: +\d+ \(zstd \d+;", out)
 

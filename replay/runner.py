@@ -131,7 +131,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         diagnosis = Diagnosis(path, info.robots, cameras)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats,
-                                    pipeline if options.profile is not None else None)
+                                    pipeline if options.profile is not None else None, field)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels, finder=finder,
                 detector=estimator.detector,
@@ -171,11 +171,12 @@ def _localiser(options: ReplayOptions, field: FieldSpec | None, estimator: Frame
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
                   options: ReplayOptions, estimator: FrameEstimator,
-                  stats: ReplayStats, pipeline: Pipeline | None) -> list[Sink]:
+                  stats: ReplayStats, pipeline: Pipeline | None,
+                  field: FieldSpec | None) -> list[Sink]:
     """The sinks the options ask for, each entered in ``stack``."""
     return open_outputs(stack, options, OutputContext(
         reader.info, reader.path.name, file_digest(reader.path), stats, estimator.centres,
-        None if pipeline is None else pipeline.to_dict()))
+        None if pipeline is None else pipeline.to_dict(), field))
 
 
 def _recovered(reader: LogReader) -> RecoveryLoss | None:

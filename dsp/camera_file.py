@@ -12,6 +12,7 @@ metadata) under robot names, or one ``default`` entry for every robot::
       calibration: {model: mirror, a_m: 1.04, b_rad_per_px: 0.002856}
     robot2:
       mount_yaw_deg: 90.0      # robot2's camera is turned; the rest as the default
+    field: 18x12               # optional: the field played on (its name, or dimensions)
 
 Reading is bounded and safe: the path must be a regular file of at most
 :data:`MAX_CAMERA_FILE_BYTES`, UTF-8. JSON is parsed strictly (no NaN, no repeated key).
@@ -20,6 +21,12 @@ further: no anchors or aliases (no "billion laughs"), no repeated key, string ke
 :data:`MAX_DEPTH` levels, and only JSON's values (a date or a ``!!binary`` is refused).
 So a YAML file and a JSON file with the same content read the same. A ``ball`` given as a
 relative path is resolved against the camera file's folder.
+
+The top-level ``field`` key is not a robot: it names the field the robots play on
+(:func:`dsp.cameras.field_from_json`: a name of :data:`dsp.field.FIELDS`, ``msl`` for the
+current MSL field, or the dimensions), so that a log that names none (a team's own bag) gets
+its poses corrected from the field lines. A file that names the field may describe no camera
+(the log's metadata describes them).
 """
 
 from __future__ import annotations
@@ -33,7 +40,14 @@ from typing import Any
 import yaml
 
 from dsp import jsonio
-from dsp.cameras import DEFAULT_ENTRY, CameraDescriptionError, CameraSet, camera_set_from_json
+from dsp.cameras import (
+    DEFAULT_ENTRY,
+    FIELD_KEY,
+    CameraDescriptionError,
+    CameraSet,
+    camera_set_from_json,
+    field_from_json,
+)
 from dsp.jsonio import dumps as strict_json
 from dsp.textfile import read_text_file
 
@@ -143,9 +157,13 @@ def read_camera_file(path: Path | str) -> CameraSet:
     text = read_text_file(path, MAX_CAMERA_FILE_BYTES, what="a camera file",
                           error=CameraDescriptionError)
     doc = load_camera_document(text, suffix, str(path))
+    field = None
     if isinstance(doc, dict):
-        doc = {name: _resolve_ball(entry, path.parent) for name, entry in doc.items()}
-    return camera_set_from_json(doc, str(path))
+        if FIELD_KEY in doc:
+            field = field_from_json(doc[FIELD_KEY], str(path))
+        doc = {name: _resolve_ball(entry, path.parent) for name, entry in doc.items()
+               if name != FIELD_KEY}
+    return camera_set_from_json(doc, str(path), field=field)
 
 
 def _resolve_ball(entry: Any, folder: Path) -> Any:
@@ -164,13 +182,37 @@ def _yaml_scalar(value: Any) -> str:
     return strict_json(value, sort_keys=False)
 
 
+def _yaml_name(name: str) -> str:
+    """A name as YAML: bare (``18x12``) where YAML reads it back as that text, else quoted."""
+    try:
+        if re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name) and yaml.load(
+                name, Loader=_Loader) == name:
+            return name
+    except yaml.YAMLError:
+        pass
+    return _yaml_scalar(name)
+
+
 def camera_file_text(entries: Mapping[str, Mapping[str, Any]], suffix: str,
-                     comments: Mapping[str, str] | None = None, header: str = "") -> str:
+                     comments: Mapping[str, str] | None = None, header: str = "", *,
+                     field: str | Mapping[str, float] | None = None,
+                     field_comment: str = "") -> str:
     """A camera file of ``entries`` (name -> entry) as YAML (block style, ``comments`` after
-    the keys they name, ``header`` lines first) or JSON (sorted keys, no comments)."""
+    the keys they name, ``header`` lines first) or JSON (sorted keys, no comments). ``field``:
+    the file's ``field`` key (a name or dimensions), first; YAML only: ``field_comment`` after
+    it, or, with no ``field``, as a comment line of its own."""
     if suffix == ".json":
-        return strict_json(dict(entries), sort_keys=True, indent=2) + "\n"
+        doc: dict[str, Any] = dict(entries)
+        if field is not None:
+            doc[FIELD_KEY] = field
+        return strict_json(doc, sort_keys=True, indent=2) + "\n"
     lines = [f"# {line}".rstrip() for line in header.splitlines()]
+    if field is not None:
+        value = _yaml_name(field) if isinstance(field, str) else _yaml_scalar(dict(field))
+        line = f"{FIELD_KEY}: {value}"
+        lines.append(f"{line}  # {field_comment}" if field_comment else line)
+    elif field_comment:
+        lines.append(f"# {field_comment}")
     comments = comments or {}
     order = sorted(entries, key=lambda n: (n != DEFAULT_ENTRY, n))
     for name in order:

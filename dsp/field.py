@@ -12,6 +12,7 @@ from dataclasses import dataclass
 __all__ = [
     "DEFAULT_FIELD",
     "FIELDS",
+    "FIELD_ALIASES",
     "Circle",
     "FieldSpec",
     "Marking",
@@ -65,6 +66,10 @@ FIELDS: dict[str, FieldSpec] = {
 
 DEFAULT_FIELD = "18x12"
 """The paper's field: what a log that names no field is drawn on."""
+
+FIELD_ALIASES: dict[str, str] = {"msl": "22x14"}
+"""Other names a camera file may name a field by (``field: msl``): ``msl`` is the current
+MSL rules' field, 22x14. A log's scenario metadata names a field of :data:`FIELDS` only."""
 
 
 @dataclass(frozen=True)

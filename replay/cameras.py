@@ -12,7 +12,8 @@ A robot described by none of them is an error that says what to give
 (:class:`~replay.errors.NoCameraError`): a replay never guesses a camera. ``--calibration
 FILE`` (or ``paper``), or a model from outside (``--calibration-model``,
 :mod:`replay.plugins`), then replaces every robot's calibration, keeping the rest of its
-description. The files a replay reads besides the log are read here.
+description. The files a replay reads besides the log are read here. A camera file may
+name the field too (its ``field`` key): :attr:`Cameras.field`.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from dsp import jsonio
 from dsp.camera_file import read_camera_file
 from dsp.cameras import PAPER_CAMERA, CameraSet, CameraSpec, FieldTransform
 from dsp.errors import CalibrationError
+from dsp.field import FieldSpec
 from dsp.textfile import read_text_file
 from estimator.calibration import PAPER_CALIBRATION, Calibration, calibration_from_json
 from estimator.camera import CameraModel, ball_image_area_px
@@ -61,6 +63,10 @@ class Cameras:
     calibration_source: str | None = None
     """What replaced every robot's calibration (``--calibration FILE``,
     ``--calibration-model SPEC``); None: each robot's description gives its own."""
+    field: FieldSpec | None = None
+    """The field the camera file names (its ``field`` key); None: it names none."""
+    field_source: str | None = None
+    """The camera file that names :attr:`field`."""
 
     @property
     def centres(self) -> Mapping[str, tuple[float, float]]:
@@ -145,7 +151,9 @@ def cameras_for(robots: Sequence[str], *, log: str, metadata: CameraSet | None,
         where = replaced or (f"{log}: metadata" if sources[robot] == "metadata"
                              else sources[robot])
         check_ranges(model, _radius_px(specs[robot]), f"{where} ({robot})")
-    return Cameras(specs, calibrations, rms, sources, replaced)
+    return Cameras(specs, calibrations, rms, sources, replaced,
+                   field=None if given is None else given.field,
+                   field_source=None if given is None or given.field is None else str(cameras))
 
 
 RANGE_SAMPLES = 64

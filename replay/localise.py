@@ -4,7 +4,8 @@ located (:mod:`estimator.localisation`).
 A robot believes a pose (its ``/robotN/pose``), which a real robot's localisation gets wrong
 by centimetres and a degree or so; the same omni image that sees the ball sees the field's
 white lines. :class:`Localiser` is built once per replay from the field the log's scenario
-metadata names (:mod:`dsp.field`) and each robot's camera model, and splits the work three
+metadata or the camera file names (:func:`field_for`, :mod:`dsp.field`) and each robot's
+camera model, and splits the work three
 ways, so that the costly parts run in the look-ahead's threads (:mod:`replay.ahead`) and the
 results are the same bytes whatever the thread count:
 
@@ -21,6 +22,7 @@ A robot whose log names no camera model is not corrected (status ``no_camera``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Mapping
@@ -29,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dsp.errors import UsageError
-from dsp.field import Circle, FieldSpec, Rect, Segment, markings
+from dsp.field import DEFAULT_FIELD, Circle, FieldSpec, Rect, Segment, markings
 from estimator.camera import CameraModel
 from estimator.errors import LocalisationError
 from estimator.geometry import RobotPose
@@ -50,6 +52,7 @@ __all__ = [
     "LocalisedPoints",
     "Localiser",
     "check_field",
+    "field_for",
     "field_lines_for",
     "prior_covariance",
 ]
@@ -163,9 +166,27 @@ def _rows3(m: np.ndarray) -> tuple[tuple[float, float, float], ...]:
     return tuple((float(r[0]), float(r[1]), float(r[2])) for r in a)
 
 
-def check_field(scenario_field: FieldSpec | None, log: str) -> FieldSpec:
-    """The field to localise on: the one the log's scenario metadata names."""
-    if scenario_field is None:
+def field_for(scenario_field: FieldSpec | None, file_field: FieldSpec | None,
+              file: str | None) -> tuple[FieldSpec | None, str | None]:
+    """The field the replay localises on, and a note when the camera file overrides the
+    log: the log's scenario metadata names it, else the camera file (``file``) does. Where
+    both name one and they differ, the camera file wins: it is the user's own statement
+    about this replay (a log recorded on one field and replayed as played on another, or
+    metadata that is wrong), and the note says so."""
+    if file_field is None:
+        return scenario_field, None
+    if scenario_field is None or dataclasses.replace(file_field, name="") == \
+            dataclasses.replace(scenario_field, name=""):
+        return (scenario_field or file_field), None
+    return file_field, (f"field {file_field.name} from {file} (the log's dsp.scenario names "
+                        f"{scenario_field.name})")
+
+
+def check_field(field: FieldSpec | None, log: str) -> FieldSpec:
+    """The field to localise on (:func:`field_for`), or the error that says how to name it."""
+    if field is None:
         raise UsageError(f"--localise lines: {log} has no dsp.scenario metadata naming the "
-                         "field; the lines' geometry is unknown (use --localise none)")
-    return scenario_field
+                         f"field and the camera file names none; the lines' geometry is "
+                         f"unknown: name it in the camera file (field: {DEFAULT_FIELD}), or "
+                         "use --localise none")
+    return field

@@ -16,10 +16,12 @@ name.
 - ``paper``: the paper exactly: eq. 3-14, the paper's colour chain, the mean fusion
   (eq. 20-21); no pose correction, no uncertainty, no tracker.
 
-What the log decides (:func:`decide`): the line fit needs the field's geometry (the log's
-``dsp.scenario`` metadata) and a camera model of at least one robot; the 3-D track needs two
-or more robots. Where a part cannot apply the :class:`Pipeline` says why, once, and the
-results header records the pipeline that ran (:meth:`Pipeline.to_dict`).
+What the log decides (:func:`decide`, by the rules of :func:`allowances`, which ``dsp-info``
+reports too): the line fit needs the field's geometry (the log's ``dsp.scenario`` metadata,
+else the camera file's ``field``) and a camera model of at least one robot; the 3-D track
+needs two or more robots. Where a part cannot apply the :class:`Pipeline` says why and how
+to give what it needs, once, and the results header records the pipeline that ran
+(:meth:`Pipeline.to_dict`).
 """
 
 from __future__ import annotations
@@ -30,13 +32,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from dsp.errors import UsageError
+from dsp.field import DEFAULT_FIELD
 from dsp.jsonio import Json
 
 if TYPE_CHECKING:
     from replay.options import ReplayOptions
 
-__all__ = ["DEFAULT_PROFILE", "PROFILES", "PROFILE_CHOICES", "Pipeline", "Profile", "decide",
-           "options_for"]
+__all__ = ["DEFAULT_PROFILE", "PROFILES", "PROFILE_CHOICES", "Allowance", "Pipeline", "Profile",
+           "allowances", "decide", "options_for"]
 
 
 @dataclass(frozen=True)
@@ -139,29 +142,65 @@ class Pipeline:
         return f"{head}: " + ", ".join(parts) + "".join(f"; {n}" for n in self.notes)
 
 
-def decide(options: ReplayOptions, *, has_field: bool, robots: Sequence[str],
-           camera_robots: Sequence[str]) -> tuple[ReplayOptions, Pipeline]:
-    """The options with every ``auto`` choice settled from what the log holds, and the
-    pipeline they run. ``has_field``: the log names its field; ``camera_robots``: the robots
-    with a camera model (the line fit projects the image with it)."""
-    notes: list[str] = []
+@dataclass(frozen=True)
+class Allowance:
+    """Whether what a log holds (and the camera file adds) allows one part of the default
+    pipeline: the one rule both :func:`decide` and ``dsp-info`` go by."""
+
+    part: str
+    """"line fit" or "3-D track"."""
+    allowed: bool
+    detail: str
+    """Allowed: what the part rests on; else what is missing, and how to give it."""
+
+    def describe(self) -> str:
+        return f"{self.part}: " + (f"yes ({self.detail})" if self.allowed
+                                   else f"no: {self.detail}")
+
+
+def allowances(*, field: str | None, robots: Sequence[str], camera_robots: Sequence[str]
+               ) -> tuple[Allowance, Allowance]:
+    """The line fit and the 3-D track: which a log allows. ``field``: the field's name (the
+    log's scenario metadata or the camera file's ``field``), None when neither names one;
+    ``camera_robots``: the robots with a camera model (the line fit projects the image with
+    it); ``robots``: every robot replayed."""
+    missing = []
+    if field is None:
+        missing.append("the log names no field (dsp.scenario metadata); name it in the "
+                       f"camera file: field: {DEFAULT_FIELD}")
+    if not camera_robots:
+        missing.append("no robot's camera model is known (a camera file's mirror, fisheye "
+                       "or ideal entry: --cameras FILE)")
+    n = len(camera_robots)
+    line_fit = Allowance("line fit", not missing, " and ".join(missing) if missing else
+                         f"field {field}, camera models of {n} robot{'s' * (n != 1)}")
+    track = Allowance("3-D track", len(robots) >= 2,
+                      f"{len(robots)} robots" if len(robots) >= 2
+                      else "one robot, no rays to cross")
+    return line_fit, track
+
+
+def decide(options: ReplayOptions, *, field: str | None, robots: Sequence[str],
+           camera_robots: Sequence[str], notes: Sequence[str] = ()
+           ) -> tuple[ReplayOptions, Pipeline]:
+    """The options with every ``auto`` choice settled from what the log holds
+    (:func:`allowances`), and the pipeline they run. ``field``: the field's name, None when
+    neither the log nor the camera file names one; ``camera_robots``: the robots with a
+    camera model; ``notes``: the caller's, first (where the field came from)."""
+    line_fit, track = allowances(field=field, robots=robots, camera_robots=camera_robots)
+    said = list(notes)
     localise = options.localise
     if localise == "auto":
-        if not has_field:
-            localise = "none"
-            notes.append("no line fit: the log names no field (dsp.scenario metadata)")
-        elif not camera_robots:
-            localise = "none"
-            notes.append("no line fit: no robot's camera model is known")
-        else:
-            localise = "lines"
+        localise = "lines" if line_fit.allowed else "none"
+        if not line_fit.allowed:
+            said.append(f"no {line_fit.part}: {line_fit.detail}")
     hops = options.hops
-    if hops and len(robots) < 2 and options.profile is not None:
+    if hops and not track.allowed and options.profile is not None:
         hops = False
-        notes.append("no 3-D track: one robot, no rays to cross")
+        said.append(f"no {track.part}: {track.detail}")
     settled = dataclasses.replace(options, localise=localise, hops=hops)
     poses = {"lines": "lines", "ball": "ball"}.get(localise, "believed")
     return settled, Pipeline(
         profile=options.profile, detector=options.detector_name, method=options.method,
         poses=poses, pose_uncertainty=options.pose_uncertainty,
-        fusion=options.fusion_method, hops=hops, notes=tuple(notes))
+        fusion=options.fusion_method, hops=hops, notes=tuple(said))

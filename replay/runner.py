@@ -39,6 +39,7 @@ import numpy as np
 from dsp import contract
 from dsp.ball_file import read_ball_file, shipped_check
 from dsp.errors import UsageError
+from dsp.field import FieldSpec
 from dsp.progress import Progress, progress_bar
 from estimator.errors import EstimatorError
 from estimator.localisation import PoseCorrection
@@ -49,7 +50,7 @@ from replay.cameras import cameras_for
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
-from replay.localise import Localiser, check_field, prior_covariance
+from replay.localise import Localiser, check_field, field_for, prior_covariance
 from replay.log import (
     ImageMessage,
     LogInfo,
@@ -108,9 +109,12 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             info.robots, log=str(path), cameras=options.cameras, calibration=options.calibration,
             calibration_model=options.calibration_part(),
             metadata=info.cameras.camera_set(f"{path}: metadata {contract.CAMERAS_METADATA}"))
+        field, field_note = field_for(None if info.scenario is None else info.scenario.field,
+                                      cameras.field, cameras.field_source)
         options, pipeline = decide(
-            options, has_field=info.scenario is not None and info.scenario.field is not None,
-            robots=info.robots, camera_robots=tuple(cameras.models))
+            options, field=None if field is None else field.name, robots=info.robots,
+            camera_robots=tuple(cameras.models), notes=() if field_note is None else
+            (field_note,))
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
@@ -123,13 +127,13 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             pose_noise=PoseNoiseEstimator()
             if options.pose_uncertainty and not options.pose_sigma_given else None,
             bias=_bias(options) if options.localise == "ball" else None)
-        localiser = _localiser(options, info, estimator, path)
+        localiser = _localiser(options, field, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
         diagnosis = Diagnosis(path, info.robots, cameras, detector=options.detector_name,
                               ball=options.ball)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats,
-                                    pipeline if options.profile is not None else None)
+                                    pipeline if options.profile is not None else None, field)
             ahead = stack.enter_context(Ahead(options.thread_count, work=functools.partial(
                 decode_and_detect, max_pixels=options.max_image_pixels, finder=finder,
                 detector=estimator.detector,
@@ -164,25 +168,27 @@ def _bias(options: ReplayOptions) -> BiasEstimator:
     return BiasEstimator(BiasParams(sigma_m, math.radians(sigma_deg)))
 
 
-def _localiser(options: ReplayOptions, info: LogInfo, estimator: FrameEstimator,
+def _localiser(options: ReplayOptions, field: FieldSpec | None, estimator: FrameEstimator,
                path: Path) -> Localiser | None:
-    """The field-line correction the options ask for, on the field the log names."""
+    """The field-line correction the options ask for, on the field the log or the camera
+    file names (:func:`~replay.localise.field_for`)."""
     if options.localise != "lines":
         return None
-    field = check_field(None if info.scenario is None else info.scenario.field, str(path))
     cams = estimator.cameras
     sigma_m, sigma_deg = options.pose_sigma
-    return Localiser(field, cams.models, sigma_m=sigma_m, sigma_deg=sigma_deg,
+    return Localiser(check_field(field, str(path)), cams.models, sigma_m=sigma_m,
+                     sigma_deg=sigma_deg,
                      mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models})
 
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
                   options: ReplayOptions, estimator: FrameEstimator,
-                  stats: ReplayStats, pipeline: Pipeline | None) -> list[Sink]:
+                  stats: ReplayStats, pipeline: Pipeline | None,
+                  field: FieldSpec | None) -> list[Sink]:
     """The sinks the options ask for, each entered in ``stack``."""
     return open_outputs(stack, options, OutputContext(
         reader.info, reader.path.name, file_digest(reader.path), stats, estimator.centres,
-        None if pipeline is None else pipeline.to_dict()))
+        None if pipeline is None else pipeline.to_dict(), field))
 
 
 def _recovered(reader: LogReader) -> RecoveryLoss | None:

@@ -20,7 +20,9 @@ mounted ``--mount-deg`` from the robot's forward would see it (image up shows th
 robot-frame direction; 90: the robot's left), in one affine warp: an exact pixel copy when
 the angle is a multiple of 90 deg and the centres are whole pixels. ``--exact-cameras``
 writes the camera file that describes the converted camera exactly (the recorded model,
-moved and turned).
+moved and turned) and names the field the source was recorded on (``field:``, which the
+converted log no longer names), so the default replay fits the field lines as it does on
+the source.
 
 ``measure`` plays a team measuring its camera: one robot alone at the field's centre, the
 ball put at ``--points`` seeded places 0.5-8.5 m away in every direction, each image
@@ -87,6 +89,19 @@ def _messages(path: Path) -> Iterator[tuple[str, Any, int]]:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         for _schema, channel, message, msg in reader.iter_decoded_messages():
             yield channel.topic, msg, message.log_time
+
+
+def _field(path: Path) -> str | None:
+    """The name of the field the source log's dsp.scenario names (None: it has none)."""
+    from mcap.reader import make_reader
+
+    from dsp.metadata import ScenarioMetadata
+
+    with path.open("rb") as f:
+        for record in make_reader(f).iter_metadata():
+            if record.name == "dsp.scenario":
+                return ScenarioMetadata.from_metadata(dict(record.metadata)).field.name
+    return None
 
 
 def _camera(path: Path, robot: str = "robot1") -> dict[str, Any]:
@@ -171,7 +186,8 @@ def convert(args: argparse.Namespace) -> None:
         args.exact_cameras.write_text(camera_file_text(
             {"default": layout.exact_entry(origin)}, args.exact_cameras.suffix,
             header=f"The converted camera of {args.output.name}, described exactly "
-            "(scripts/team_example.py convert --exact-cameras)."), encoding="utf-8")
+            "(scripts/team_example.py convert --exact-cameras), and the field it was "
+            "recorded on.", field=_field(args.source)), encoding="utf-8")
     print(f"wrote {args.output}: {len(robots)} robots, images {layout.size[0]} x "
           f"{layout.size[1]} centred at {layout.centre}, mounted at {layout.mount_deg:g} deg")
 

@@ -148,6 +148,7 @@ def write_log(
     robot_velocity: tuple[float, float] = (0.0, 0.0),
     pose_covariance: dict[str, Sequence[float]] | None = None,
     scenario: tuple[str, int] = ("synthetic", 0),
+    metadata: bool = True,
 ) -> SyntheticLog:
     """Write a synthetic log. ``drop_poses={"robot1": (t0, t1)}`` drops that robot's poses
     with t0 <= t < t1 (seconds); ``corrupt_images`` are image indices (in write order) whose
@@ -172,7 +173,8 @@ def write_log(
     believes; ``carpet`` draws the ball on the 18x12 field's carpet seen through the ideal
     camera model from the true pose (:mod:`field_images`; the camera and the field are in
     the metadata), for the field-line localisation; ``scenario`` is the (name, seed) its
-    dsp.scenario metadata records."""
+    dsp.scenario metadata records; ``metadata=False`` writes no dsp metadata at all (a team's
+    own bag: no scenario, no field, no cameras, whatever the images are drawn with)."""
     with_cameras = with_cameras or carpet
     robots = dict(DEFAULT_ROBOTS if robots is None else robots)
     path = Path(path)
@@ -225,12 +227,13 @@ def write_log(
             name: writer.register_msgdef(name, text)
             for name, text in contract.MESSAGE_DEFINITIONS.items()
         }
-        writer.add_metadata(
-            contract.SCENARIO_METADATA,
-            {"name": scenario[0], "seed": str(scenario[1]), "params": json.dumps(
-                {"field_length_m": 18.0, "field_width_m": 12.0,
-                 **({"field": "18x12"} if carpet else {})}, sort_keys=True)},
-        )
+        if metadata:
+            writer.add_metadata(
+                contract.SCENARIO_METADATA,
+                {"name": scenario[0], "seed": str(scenario[1]), "params": json.dumps(
+                    {"field_length_m": 18.0, "field_width_m": 12.0,
+                     **({"field": "18x12"} if carpet else {})}, sort_keys=True)},
+            )
         cam: dict[str, object] | None = None
         if with_cameras:
             from estimator.camera import make_camera
@@ -241,7 +244,7 @@ def write_log(
                    "height_px": image_size_px[1],
                    "cu_px": centre_px[0], "cv_px": centre_px[1],
                    "calibration": {"model": "linear", "a_m_per_px": K_M_PER_PX, "b_m": B_M}}
-        if cam is not None:
+        if cam is not None and metadata:
             writer.add_metadata(
                 contract.CAMERAS_METADATA,
                 {name: json.dumps(cam, sort_keys=True) for name in robots},

@@ -5,6 +5,8 @@ topics, and returns a :class:`LogSummary`: duration, start and end, topics with 
 counts and rates, the robots (named by the topics: a foreign log's too, with the
 ``--image-topic`` / ``--pose-topic`` patterns that replay it, :mod:`dsp.topics`), scenario,
 each camera's description and renderer from the metadata, chunks and compression.
+What the log allows of the default pipeline (the line fit, the 3-D track) and what the rest
+needs is said by the rules the replay decides with (:func:`replay.profiles.allowances`).
 ``check=True`` reads every chunk too: chunk and data CRCs, the summary's CRC and whether it
 agrees with the data; the problems found are listed (none: the log is intact).
 """
@@ -24,6 +26,8 @@ from dsp.topics import infer_patterns
 from estimator.constants import NS_PER_S
 from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
 from replay.log.catalogue import nothing_recovered
+from replay.options import DEFAULT_POSE_SIGMA
+from replay.profiles import allowances
 
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
 
@@ -78,6 +82,10 @@ class LogSummary:
     """The pose topic pattern that names the same robots, when one does."""
     camera_descriptions: dict[str, str] = field(default_factory=dict)
     """robot -> its camera description in one line (:meth:`dsp.cameras.CameraSpec.describe`)"""
+    default_pipeline: list[str] = field(default_factory=list)
+    """What the log allows of the default pipeline, one line per part, by the rules the
+    replay decides with (:func:`replay.profiles.allowances`), and whether it states its
+    poses' covariance; empty when it has no robots."""
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=1, sort_keys=True, allow_nan=False) + "\n"
@@ -127,7 +135,7 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
     patterns = infer_patterns(types)
     robots = [] if patterns is None else [_shown(r) for r in patterns.robots]
     scenario, cameras, renderer = _metadata(cat)
-    descriptions = _descriptions(cat)
+    descriptions, camera_robots = _descriptions(cat)
     chunks = cat.scan.chunks
     summary = "none" if cat.summary is None else (
         "indexed" if cat.summary.chunk_indexes else "summary")
@@ -151,18 +159,48 @@ def _summarise(cat: Catalogue, check: bool) -> LogSummary:
         pose_topic=None if patterns is None or patterns.pose_topic is None
         else _shown(patterns.pose_topic),
         camera_descriptions=descriptions,
+        default_pipeline=[] if patterns is None else _default_pipeline(
+            cat, robots, camera_robots, types, patterns.pose_topic),
     )
 
 
-def _descriptions(cat: Catalogue) -> dict[str, str]:
-    """robot -> its camera in one line (an entry that does not parse: its error)."""
+def _default_pipeline(cat: Catalogue, robots: list[str], camera_robots: list[str],
+                      types: dict[str, str], pose_topic: str | None) -> list[str]:
+    """The parts of the default pipeline the log allows, and what the rest needs."""
+    scenario = cat.metadata.get(contract.SCENARIO_METADATA)
+    field_name = None
+    if scenario is not None:
+        try:
+            field_name = meta.ScenarioMetadata.from_metadata(scenario).field.name
+        except meta.MetadataError:
+            pass  # reported in the scenario line
+    lines = [a.describe() for a in allowances(field=field_name, robots=robots,
+                                              camera_robots=camera_robots)]
+    pose_types = set() if pose_topic is None else {
+        types.get(contract.topic_for(pose_topic, r), "") for r in robots}
+    if pose_types == {contract.POSE_WITH_COVARIANCE_STAMPED}:
+        lines.append("pose covariance: in the pose messages (PoseWithCovarianceStamped; all "
+                     "zero means unknown: --pose-sigma's then)")
+    else:
+        lines.append("pose covariance: not in the log (--pose-sigma's, default "
+                     f"{DEFAULT_POSE_SIGMA[0]:g} m, {DEFAULT_POSE_SIGMA[1]:g} deg)")
+    return lines
+
+
+def _descriptions(cat: Catalogue) -> tuple[dict[str, str], list[str]]:
+    """robot -> its camera in one line (an entry that does not parse: its error), and the
+    robots whose entry is a projection model (what the line fit needs)."""
     out: dict[str, str] = {}
+    models: list[str] = []
     for robot, text in cat.metadata.get(contract.CAMERAS_METADATA, {}).items():
         try:
-            out[_shown(robot)] = meta.CameraMetadata(robot, jsonio.loads(text)).spec.describe()
+            spec = meta.CameraMetadata(robot, jsonio.loads(text)).spec
+            out[_shown(robot)] = spec.describe()
+            if spec.camera is not None:
+                models.append(_shown(robot))
         except (ValueError, TypeError, AttributeError) as err:
             out[_shown(robot)] = _shown(f"unusable: {err}", limit=200)
-    return out
+    return out, models
 
 
 def _metadata(cat: Catalogue) -> tuple[dict[str, Json] | None, dict[str, str], str | None]:
@@ -218,6 +256,9 @@ def format_info(s: LogSummary) -> str:
     elif s.robots:
         lines.append("cameras:     - (no camera description: dsp-replay needs --cameras; "
                      "dsp-info --cameras-template LOG -o cameras.yaml writes one to start from)")
+    if s.default_pipeline:
+        lines.append("default pipeline:")
+        lines.extend(f"  {line}" for line in s.default_pipeline)
     lines.append(f"renderer:    {s.renderer or '-'}")
     lines.append(f"metadata:    {', '.join(s.metadata) or '-'}")
     width = max((len(t.topic) for t in s.topics), default=5)

@@ -5,6 +5,10 @@ schema, :mod:`dsp.cameras`), else from the size of each robot's first image: a `
 camera centred in the image, not turned, with poses in the field frame, and its calibration
 left empty, to fill in (``dsp-calibrate --from-measurements`` or ``--from-log`` writes one):
 a replay refuses an empty calibration rather than guess one.
+
+The field goes at the top (``field:``) when the log's ``dsp.scenario`` names it; for a log
+that names none, a commented ``# field: 18x12`` says where to name it, so that the default
+pipeline corrects the poses from the field lines (:mod:`replay.profiles`).
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from dsp import metadata as meta
 from dsp.camera_file import camera_file_text
 from dsp.cameras import DEFAULT_ENTRY
 from dsp.errors import InputError
+from dsp.field import DEFAULT_FIELD
 from dsp.text import printable
 from dsp.topics import infer_patterns
 from replay.log import (
@@ -29,7 +34,13 @@ from replay.log import (
     image_size,
 )
 
-__all__ = ["TEMPLATE_COMMENTS", "camera_template"]
+__all__ = ["FIELD_HINT", "FIELD_NAMED", "TEMPLATE_COMMENTS", "camera_template"]
+
+FIELD_HINT = (f"field: {DEFAULT_FIELD}   # name your field to let the default correct poses "
+              "from the field lines")
+"""The comment line of a template for a log that names no field."""
+FIELD_NAMED = "the field the log's dsp.scenario names: the default fits its lines"
+"""The comment after the ``field`` key of a template for a log that names its field."""
 
 TEMPLATE_COMMENTS = {
     "model": "lookup: no projection model, the range comes from the calibration",
@@ -43,18 +54,23 @@ TEMPLATE_COMMENTS = {
 }
 
 
-def _from_metadata(path: Path) -> dict[str, Mapping[str, Any]] | None:
+def _from_metadata(path: Path) -> tuple[dict[str, Mapping[str, Any]] | None, str | None]:
+    """The log's camera entries (None: it has no camera metadata) and the name of the field
+    a replay of it localises on (its dsp.scenario's; None: it has no scenario metadata)."""
     size = check_mcap_file(path)
     with path.open("rb") as f:
         cat = build_catalogue(f, path, size, Limits(), recover=False)
     record = cat.metadata.get(contract.CAMERAS_METADATA)
-    if not record:
-        return None
+    scenario = cat.metadata.get(contract.SCENARIO_METADATA)
     try:
+        field = (None if scenario is None
+                 else meta.ScenarioMetadata.from_metadata(scenario).field.name)
+        if not record:
+            return None, field
         cameras = meta.CamerasMetadata.from_metadata(record)
     except meta.MetadataError as err:
         raise meta.MetadataError(f"{path}: metadata {err}") from err
-    return {c.robot: dict(c.model) for c in cameras.cameras}
+    return {c.robot: dict(c.model) for c in cameras.cameras}, field
 
 
 def _image_sizes(path: Path, image_topic: str | None, pose_topic: str | None
@@ -98,12 +114,14 @@ def camera_template(path: Path, suffix: str = ".yaml", *, image_topic: str | Non
                     pose_topic: str | None = None) -> str:
     """The text of a starting camera file for the log at ``path`` (YAML or JSON)."""
     name = printable(path.name)  # a name is a line of the file's header, and terminal-safe
-    entries = _from_metadata(path)
+    entries, field = _from_metadata(path)
+    field_comment = FIELD_HINT if field is None else FIELD_NAMED
     if entries is not None:
         header = (f"The cameras of {name}, from its dsp.cameras metadata (dsp-info "
                   "--cameras-template).\nEdit them and give the file to dsp-replay --cameras; "
                   "the keys: docs/cameras.md.")
-        return camera_file_text(entries, suffix, header=header)
+        return camera_file_text(entries, suffix, header=header, field=field,
+                                field_comment=field_comment)
     sizes, image_topic, pose_topic = _image_sizes(path, image_topic, pose_topic)
     if len(set(sizes.values())) == 1:
         width, height = next(iter(sizes.values()))
@@ -117,4 +135,5 @@ def camera_template(path: Path, suffix: str = ".yaml", *, image_topic: str | Non
               "(and what differs), then:\n  dsp-replay "
               f"{name} --cameras THIS_FILE --image-topic '{printable(image_topic)}' "
               f"--pose-topic '{printable(pose_topic)}'\nThe keys: docs/cameras.md.")
-    return camera_file_text(entries, suffix, comments=TEMPLATE_COMMENTS, header=header)
+    return camera_file_text(entries, suffix, comments=TEMPLATE_COMMENTS, header=header,
+                            field=field, field_comment=field_comment)

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from dsp.field import DEFAULT_FIELD, FIELDS
+from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec
 from dsp.jsonio import Json
 from replay.log import LogInfo
 from replay.options import ReplayOptions
@@ -37,6 +37,14 @@ class OutputContext:
     """Each robot's image centre [px], for the Rerun view."""
     pipeline: dict[str, Json] | None = None
     """What runs, part by part (:class:`replay.profiles.Pipeline`), when made from a profile."""
+    field: FieldSpec | None = None
+    """The field the replay localises on (the log's or the camera file's,
+    :func:`replay.localise.field_for`); None: neither names one (the views draw the paper's)."""
+
+    @property
+    def drawn_field(self) -> FieldSpec:
+        """The field the views draw."""
+        return self.field if self.field is not None else FIELDS[DEFAULT_FIELD]
 
 
 def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOptions,
@@ -62,7 +70,7 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
     if options.plot is not None:
         from replay.sinks.plot import PlotSink
 
-        field = info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD]
+        field = context.drawn_field
         scenario = info.scenario.name if info.scenario is not None else "log"
         title = f"{scenario}: {options.method} estimator, {options.fusion_method} fusion"
         sinks.append(stack.enter_context(PlotSink(
@@ -73,11 +81,12 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
 
         sinks.append(stack.enter_context(RerunSink(
             options.rerun, info=info, digest=context.digest, options=options,
-            centres=context.centres)))
+            centres=context.centres, field=context.drawn_field)))
         if options.rerun_save is not None:  # viewed live and saved: a second stream
             from replay.options import RerunTarget
 
             sinks.append(stack.enter_context(RerunSink(
                 RerunTarget("save", str(options.rerun_save)), info=info,
-                digest=context.digest, options=options, centres=context.centres)))
+                digest=context.digest, options=options, centres=context.centres,
+                field=context.drawn_field)))
     return sinks

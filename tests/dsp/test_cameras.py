@@ -193,3 +193,59 @@ def test_bad_camera_metadata_names_the_record_and_field() -> None:
                        match=r"dsp.cameras: robot1.cu_px = 'middle' is not a number"):
         metadata.CamerasMetadata.from_metadata({"robot1": json.dumps(entry)})
     assert contract.CAMERAS_METADATA == "dsp.cameras"
+
+
+FIELD_18X12 = {"length_m": 18.0, "width_m": 12.0, "goal_area_depth_m": 0.75,
+               "goal_area_half_width_m": 1.75, "penalty_area_depth_m": 2.25,
+               "penalty_area_half_width_m": 3.25, "centre_circle_radius_m": 2.0}
+
+
+@pytest.mark.parametrize("suffix", [".yaml", ".json"])
+def test_a_camera_file_names_its_field_by_name_or_dimensions(tmp_path: Path,
+                                                             suffix: str) -> None:
+    path = tmp_path / f"cams{suffix}"
+    for given, name in (("18x12", "18x12"), ("22x14", "22x14"), ("msl", "22x14"),
+                        (FIELD_18X12, "18x12"),
+                        ({**FIELD_18X12, "length_m": 20.0, "width_m": 13.0},
+                         "20x13 (described)")):
+        path.write_text(camera_file_text({"default": MIRROR}, suffix, field=given))
+        cams = read_camera_file(path)
+        assert cams.field is not None and cams.field.name == name
+        assert "field" not in cams.robots  # a key of the file, not a robot
+        if isinstance(given, dict):
+            assert cams.field.length_m == given["length_m"]
+            assert cams.field.line_width_m == 0.125  # what is not given: FieldSpec's default
+    path.write_text(camera_file_text({"default": MIRROR}, suffix))
+    assert read_camera_file(path).field is None
+    path.write_text(camera_file_text({}, suffix, field="18x12"))  # the log describes cameras
+    only = read_camera_file(path)
+    assert only.field is not None and only.default is None and not only.robots
+
+
+@pytest.mark.parametrize(("field", "message"), [
+    ("19x13", "field = '19x13' is not a field's name (known: 18x12, 22x14, msl (= 22x14))"),
+    (None, "field is empty: name the field"),
+    (18, "field = 18 is neither a field's name"),
+    ({**FIELD_18X12, "length_m": -3}, "field.length_m = -3 must be > 0"),
+    ({**FIELD_18X12, "length_m": "long"}, "field.length_m = 'long' is not a number"),
+    ({**FIELD_18X12, "width_m": True}, "field.width_m = True is not a number"),
+    ({**FIELD_18X12, "length_m": 1e6}, "field.length_m = 1e+06 is out of range: a field's "
+     "sizes are at most 40 m"),
+    ({**FIELD_18X12, "length_m": 10.0}, "field.width_m = 12 must be at most length_m (10)"),
+    ({**FIELD_18X12, "penalty_area_depth_m": 9.5}, "field.penalty_area_depth_m = 9.5 must be "
+     "at most half the length (9)"),
+    ({**FIELD_18X12, "penalty_area_half_width_m": 7.0}, "field.penalty_area_half_width_m = 7 "
+     "must be at most half the width (6)"),
+    ({**FIELD_18X12, "goal_area_depth_m": 3.0}, "field.goal_area_depth_m = 3 must be at most "
+     "penalty_area_depth_m (2.25): the goal area lies in the penalty area"),
+    ({**FIELD_18X12, "colour": "green"}, "field.colour is not a key of a field"),
+    ({"length_m": 18.0, "width_m": 12.0}, "field.goal_area_depth_m is missing"),
+])
+def test_a_bad_field_is_one_line_naming_the_file_and_key(tmp_path: Path, field: Any,
+                                                         message: str) -> None:
+    path = tmp_path / "cams.yaml"
+    path.write_text(camera_file_text({"default": MIRROR}, ".yaml")
+                    + f"field: {json.dumps(field)}\n")
+    with pytest.raises(CameraDescriptionError) as err:
+        read_camera_file(path)
+    assert str(err.value).startswith(f"{path}: {message}") and "\n" not in str(err.value)

@@ -11,7 +11,7 @@ import pytest
 
 from replay.cli import main
 from replay.options import ReplayOptions
-from replay.profiles import PROFILES, decide, options_for
+from replay.profiles import PROFILES, allowances, decide, options_for
 
 GOLDEN = Path(__file__).resolve().parents[2] / "logs" / "golden"
 
@@ -43,19 +43,39 @@ def test_a_switch_overrides_one_choice_and_what_it_rules_out_falls_away() -> Non
 
 def test_what_the_log_lacks_is_said_and_the_part_left_out() -> None:
     best = options_for()
-    settled, pipe = decide(best, has_field=True, robots=("r1", "r2"), camera_robots=("r1",))
+    settled, pipe = decide(best, field="18x12", robots=("r1", "r2"), camera_robots=("r1",))
     assert settled.localise == "lines" and settled.hops and pipe.notes == ()
-    settled, pipe = decide(best, has_field=False, robots=("r1", "r2"), camera_robots=("r1",))
+    settled, pipe = decide(best, field=None, robots=("r1", "r2"), camera_robots=("r1",))
     assert settled.localise == "none" and pipe.poses == "believed"
-    assert pipe.notes == ("no line fit: the log names no field (dsp.scenario metadata)",)
-    settled, pipe = decide(best, has_field=True, robots=("r1",), camera_robots=())
+    assert pipe.notes == ("no line fit: the log names no field (dsp.scenario metadata); name "
+                          "it in the camera file: field: 18x12",)
+    settled, pipe = decide(best, field="18x12", robots=("r1",), camera_robots=())
     assert settled.localise == "none" and not settled.hops
     assert len(pipe.notes) == 2 and "one robot" in pipe.describe()
+    assert "no robot's camera model is known" in pipe.notes[0]
+    # the caller's notes (where the field came from) come first
+    _, pipe = decide(best, field="22x14", robots=("r1", "r2"), camera_robots=("r1",),
+                     notes=("field 22x14 from c.yaml",))
+    assert pipe.notes == ("field 22x14 from c.yaml",)
     # options made one by one are left as they are: no profile, no notes
     plain = ReplayOptions(hops=True)
-    settled, pipe = decide(plain, has_field=False, robots=("r1",), camera_robots=())
+    settled, pipe = decide(plain, field=None, robots=("r1",), camera_robots=())
     assert settled == plain and pipe.profile is None and pipe.notes == ()
     assert set(PROFILES) == {"best", "fast", "paper"}
+
+
+def test_the_rules_decide_goes_by_say_what_each_part_needs() -> None:
+    line_fit, track = allowances(field=None, robots=("r1",), camera_robots=())
+    assert not line_fit.allowed and not track.allowed
+    assert line_fit.describe() == (
+        "line fit: no: the log names no field (dsp.scenario metadata); name it in the camera "
+        "file: field: 18x12 and no robot's camera model is known (a camera file's mirror, "
+        "fisheye or ideal entry: --cameras FILE)")
+    assert track.describe() == "3-D track: no: one robot, no rays to cross"
+    line_fit, track = allowances(field="22x14", robots=("r1", "r2", "r3"),
+                                 camera_robots=("r1", "r2", "r3"))
+    assert line_fit.describe() == "line fit: yes (field 22x14, camera models of 3 robots)"
+    assert track.describe() == "3-D track: yes (3 robots)"
 
 
 def test_a_replay_with_no_switches_records_and_prints_its_pipeline(

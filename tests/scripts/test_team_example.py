@@ -14,9 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dsp.camera_file import read_camera_file
+from dsp.field import FIELDS
 from replay import ReplayOptions, replay
 from replay.calibrate import read_measurements
 from replay.cli import main as replay_main
+from replay.profiles import options_for
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLLING = ROOT / "logs" / "golden" / "rolling.mcap"
@@ -68,6 +71,18 @@ def test_the_off_centre_wide_camera_replays_as_the_recorded_one(
     assert described.fused.rmse_m == pytest.approx(recorded.fused.rmse_m, rel=0.02, abs=1e-4)
     for robot, r in recorded.per_robot.items():
         assert described.per_robot[robot].detections == r.detections
+
+
+def test_the_exact_camera_file_names_the_field_so_the_default_fits_the_lines(
+        converted: tuple[Path, Path], tmp_path: Path) -> None:
+    log, cams = converted
+    assert read_camera_file(cams).field == FIELDS["18x12"]
+    recorded = replay(ROLLING, options_for(progress=False))
+    described = replay(log, options_for(cameras=cams, progress=False, **TOPICS))
+    assert described.pipeline == recorded.pipeline  # the line fit runs on both
+    assert recorded.pipeline is not None and "from the field lines" in recorded.pipeline
+    assert recorded.fused.rmse_m is not None and described.fused.rmse_m is not None
+    assert described.fused.rmse_m == pytest.approx(recorded.fused.rmse_m, rel=0.05, abs=2e-3)
 
 
 def test_measured_points_are_what_dsp_calibrate_reads(tmp_path: Path) -> None:

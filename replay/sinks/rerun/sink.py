@@ -122,7 +122,8 @@ class RerunSink(SinkBase):
     """Logs frames and steps to a Rerun recording stream (see the module docstring)."""
 
     def __init__(self, target: RerunTarget, *, info: LogInfo, digest: str,
-                 options: ReplayOptions, centres: Mapping[str, tuple[float, float]]) -> None:
+                 options: ReplayOptions, centres: Mapping[str, tuple[float, float]],
+                 field: FieldSpec | None = None) -> None:
         self.target = target
         self._save: AtomicFile | None = None
         self._liveness: Liveness | None = None
@@ -132,7 +133,10 @@ class RerunSink(SinkBase):
         """Why the viewer is no longer logged to (it went away), else None."""
         self.info = info
         self.centres = centres
-        self.field = info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD]
+        self.field = field if field is not None else (
+            info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD])
+        """The field drawn: the replay's (``field``: the log's or the camera file's), else
+        the log's scenario's, else the paper's."""
         opts = options.as_dict()
         for key in ("rerun", "out", "out_mcap", "out_csv", "plot", "force", "progress"):
             opts.pop(key, None)

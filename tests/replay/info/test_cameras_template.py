@@ -93,7 +93,11 @@ def test_a_template_from_the_metadata_is_its_entries(tmp_path: Path,
     from replay.log import LogReader
 
     with LogReader(GOLDEN / "rolling.mcap") as r:
+        assert r.info.scenario is not None
+        assert doc.pop("field") == r.info.scenario.field.name  # what the replay fits lines on
         assert doc == {k: dict(v) for k, v in r.info.cameras.by_robot().items()}
+    cams = read_camera_file(out)
+    assert cams.field is not None and cams.field == r.info.scenario.field
     a = replay(GOLDEN / "rolling.mcap", ReplayOptions(progress=False))
     b = replay(GOLDEN / "rolling.mcap", ReplayOptions(cameras=out, progress=False))
     assert a.fused == b.fused
@@ -127,3 +131,49 @@ def test_template_options_are_checked(team_log: Path, tmp_path: Path,
     assert main([str(team_log), "--cameras-template", "-o", str(tmp_path / "c.txt")]) == 2
     assert main([str(team_log), "--cameras-template", "--image-topic", "/x"]) == 2
     assert main([str(team_log), "--cameras-template", "-o", str(team_log)]) == 2
+
+
+def test_a_template_names_the_field_or_says_where_to(tmp_path: Path) -> None:
+    named = tmp_path / "named.yaml"
+    assert main([str(GOLDEN / "rolling.mcap"), "--cameras-template", "-o", str(named)]) == 0
+    assert "\nfield: 18x12  # the field the log's dsp.scenario names" in named.read_text()
+    cams = read_camera_file(named)
+    assert cams.field is not None and cams.field.name == "18x12" and "field" not in cams.robots
+    bag = tmp_path / "bag.mcap"  # a team's bag: no dsp metadata at all
+    write_log(bag, duration_s=0.2, cameras=None, metadata=False, image_size_px=(1280, 1024),
+              centre_px=(640.0, 512.0), **TEAM)
+    out = tmp_path / "cameras.yaml"
+    assert main([str(bag), "--cameras-template", "-o", str(out)]) == 0
+    text = out.read_text()
+    hint = ("# field: 18x12   # name your field to let the default correct poses from the "
+            "field lines\n")
+    assert hint in text
+    line = f"{{model: linear, a_m_per_px: {K_M_PER_PX}, b_m: {B_M}}}"
+    text = text.replace("calibration: null", f"calibration: {line}")
+    out.write_text(text)
+    assert read_camera_file(out).field is None  # a comment
+    out.write_text(text.replace("# field: 18x12", "field: 18x12"))
+    cams = read_camera_file(out)
+    assert cams.field is not None and cams.field.name == "18x12"
+    assert cams.default is not None and cams.default.centre_px == (639.5, 511.5)
+
+
+def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = tmp_path / "bag.mcap"  # a team's bag: no dsp metadata, one robot, AMCL poses
+    write_log(bag, robots={"keeper": (-8.0, 0.0, 0.0)}, duration_s=0.2, cameras=None,
+              metadata=False, pose_schema=contract.POSE_WITH_COVARIANCE_STAMPED, **TEAM)
+    assert main([str(bag)]) == 0
+    out = capsys.readouterr().out
+    block = out.split("default pipeline:\n", 1)[1].splitlines()[:3]
+    assert block == [
+        "  line fit: no: the log names no field (dsp.scenario metadata); name it in the "
+        "camera file: field: 18x12 and no robot's camera model is known (a camera file's "
+        "mirror, fisheye or ideal entry: --cameras FILE)",
+        "  3-D track: no: one robot, no rays to cross",
+        "  pose covariance: in the pose messages (PoseWithCovarianceStamped; all zero means "
+        "unknown: --pose-sigma's then)"]
+    assert main([str(bag), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [line.split(":")[0] for line in doc["default_pipeline"]] == [
+        "line fit", "3-D track", "pose covariance"]

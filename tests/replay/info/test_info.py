@@ -22,7 +22,9 @@ def test_golden_log_at_a_glance(capsys: pytest.CaptureFixture[str]) -> None:
     for needle in ("duration:    1.750 s", "robots:      robot1, robot2, robot3",
                    "scenario:    name rolling, seed 0", "robot2 ideal", "renderer:    egl",
                    "/robot1/omni/image/compressed",
-                   "sensor_msgs/msg/CompressedImage", "messages:    76"):
+                   "sensor_msgs/msg/CompressedImage", "messages:    76",
+                   "default pipeline:\n  line fit: yes (field 18x12, camera models of 3 "
+                   "robots)\n  3-D track: yes (3 robots)\n  pose covariance: not in the log"):
         assert needle in out, needle
     assert re.search(r"chunks: +\d+ \(zstd \d+;", out)
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from dsp import contract
@@ -318,6 +318,20 @@ def _rate(v: float) -> str:
     return f"{v:.1f}" if math.isfinite(v) else "-"
 
 
+def describe_belief(b: Mapping[str, object]) -> str:
+    """One robot's learnt pose, in words (:attr:`ReplaySummary.beliefs`)."""
+    parts = []
+    if "pose_sigma_m" in b:
+        parts.append(f"pose off by {100 * float(str(b['pose_sigma_m'])):.1f} cm and "
+                     f"{float(str(b['pose_sigma_deg'])):.2f} deg (1 sigma, from "
+                     f"{b['residuals']} residuals)")
+    if "bias_x_m" in b:
+        parts.append(f"corrected by ({100 * float(str(b['bias_x_m'])):+.1f}, "
+                     f"{100 * float(str(b['bias_y_m'])):+.1f}) cm, "
+                     f"{float(str(b['bias_yaw_deg'])):+.2f} deg at the end")
+    return "; ".join(parts)
+
+
 def format_summary(s: ReplaySummary) -> str:
     """A plain-text table of the replay."""
     lines = [] if s.pipeline is None else [s.pipeline]
@@ -333,6 +347,8 @@ def format_summary(s: ReplaySummary) -> str:
     if s.pose_sources:
         lines.append("poses from the field lines: " + ", ".join(
             f"{k} {v}" for k, v in s.pose_sources.items()))
+    for robot, b in (s.beliefs or {}).items():
+        lines.append(f"learnt {robot}: " + describe_belief(b))
     if s.lifted is not None:
         lines.append(f"balls in the air by their width (--width-range): {s.lifted} of "
                      f"{sum(r.estimates for r in s.per_robot.values())} estimates")

@@ -36,12 +36,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Protocol
 
 import numpy as np
 
 from dsp.errors import UsageError
-from estimator import corrected, fusion, paper
+from dsp.jsonio import Json
+from estimator import fusion
 from estimator.constants import BALL_RADIUS_M
 from estimator.detection import Detection, detect_ball
 from estimator.detection.real import Candidate
@@ -60,9 +60,9 @@ from estimator.noise import CalibratedNoise, Noise, localisation_covariance
 from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
 from estimator.tracking.pose_noise import PoseNoiseEstimator
-from estimator.width import combine_ranges, width_range
 from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
+from replay.locators import CorrectedLocator, Locator, PaperLocator
 from replay.plugins import Detector
 from replay.real_ball import BallFinder
 from replay.records import FrameResult, FrameStatus, Localisation, RobotEstimate, StepResult
@@ -117,64 +117,6 @@ def detect(image: np.ndarray | None, finder: BallFinder | None = None,
         raise UsageError(f"--detector {detector.name if detector else ''}: detect() returned "
                          f"a {type(found).__name__}, not an estimator.detection.Detection")
     return Detected(None, found)
-
-
-class Locator(Protocol):
-    """Turns a robot's blob and pose into its field estimate (paper or corrected mode)."""
-
-    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate: ...
-
-
-@dataclass(frozen=True)
-class PaperLocator:
-    """Eq. 3-14 exactly, the paper's calibration folded in."""
-
-    cameras: Cameras
-
-    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
-        # a turned camera: the paper's alpha0 = 90 deg - yaw takes the image's own yaw
-        image_yaw = pose.yaw_rad + self.cameras.mount_yaw_rad(robot)
-        x, y = paper.locate_ball(float(det.cx_px), float(det.cy_px), pose.x_m, pose.y_m,
-                                 image_yaw, centre_px=self.cameras.centres[robot])
-        dx, dy = x - pose.x_m, y - pose.y_m
-        bearing = math.atan2(dy, dx) - pose.yaw_rad
-        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-        rng = math.hypot(dx, dy)
-        return RobotEstimate(robot, x, y, rng, bearing, pose.x_m, pose.y_m, pose.yaw_rad,
-                             self.cameras.visibility(robot, det, rng))
-
-
-@dataclass(frozen=True)
-class CorrectedLocator:
-    """The corrected estimator: calibration on the range, yaw from the full quaternion;
-    with ``noise`` (``--width-range``) a blob whose width shows a ball in the air is placed
-    under it, its ray kept (:mod:`estimator.width`)."""
-
-    cameras: Cameras
-    noise: CalibratedNoise | None = None
-
-    def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
-        centre = self.cameras.centres[robot]
-        e = corrected.estimate_ball(float(det.cx_px), float(det.cy_px), pose,
-                                    self.cameras.calibrations[robot],
-                                    centre_px=centre, robot=robot,
-                                    mount_yaw_rad=self.cameras.mount_yaw_rad(robot))
-        estimate = RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m,
-                                 pose.y_m, pose.yaw_rad,
-                                 self.cameras.visibility(robot, det, e.range_m))
-        if self.noise is None or e.r_px is None:
-            return estimate
-        width = width_range(det.outline_px, centre, (float(det.cx_px), float(det.cy_px)))
-        if width is None:
-            return estimate
-        sigma = self.noise.calibrated_range_sigma_m(robot, e.r_px)
-        choice = combine_ranges(e.range_m, sigma, width)
-        if not choice.lifted:  # on the ground: the estimate as without the width
-            return estimate
-        phi = pose.yaw_rad + e.bearing_rad
-        return replace(estimate, x_m=pose.x_m + choice.range_m * math.cos(phi),
-                       y_m=pose.y_m + choice.range_m * math.sin(phi), range_m=choice.range_m,
-                       range_sigma_m=choice.sigma_m, ray_range_m=e.range_m)
 
 
 BIAS_SUPPORT_NS = 500_000_000
@@ -335,6 +277,26 @@ class FrameEstimator:
             return list(sinks)
         self._deferred = SmoothedSteps(self.tracker, list(sinks))
         return [self._deferred]
+
+    def beliefs(self) -> dict[str, dict[str, Json]]:
+        """What the replay came to believe of each robot's pose that the log did not state:
+        the pose spread learnt from the residuals, and (``--localise ball``) the bias it
+        corrects by; empty when nothing was learnt."""
+        learnt = self.pose_noise if self.bias is None else self.bias.learnt
+        out: dict[str, dict[str, Json]] = {}
+        for robot in self.cameras.specs:
+            d: dict[str, Json] = {}
+            if learnt is not None and learnt.count(robot):
+                s_m, s_t = learnt.sigma(robot)
+                d.update(pose_sigma_m=round(s_m, 6), pose_sigma_deg=round(math.degrees(s_t), 6),
+                         residuals=learnt.count(robot))
+            if self.bias is not None and self.bias.updates:
+                b, _ = self.bias.bias(robot)
+                d.update(bias_x_m=round(float(b[0]), 6), bias_y_m=round(float(b[1]), 6),
+                         bias_yaw_deg=round(math.degrees(float(b[2])), 6))
+            if d:
+                out[robot] = d
+        return out
 
     def flush(self) -> None:
         """Once the log is read: the held-back steps, smoothed, to the sinks."""

@@ -39,29 +39,21 @@ __all__ = ["DEFAULT_FUSION", "DEFAULT_POSE_SIGMA", "FIT_LEAD_S", "LOCALISE_MODES
 METHODS = ("paper", "corrected")
 DEFAULT_FUSION = {"paper": "mean", "corrected": "track"}
 """Paper mode fuses as the paper does (eq. 20-21); the corrected estimator tracks the ball
-(:mod:`estimator.tracking.tracker`): a fused position and velocity at every image stamp, robust to
-unsynchronised cameras and a moving ball (window fusions stay available)."""
-NOISE_MODELS = ("cambada", "calibrated")
-"""The window fusions' covariance models (``--noise``); the tracker's is "calibrated"."""
-MAX_WINDOW_S = 60.0
-"""The largest ``--pose-tolerance`` and ``--window`` [s]: images wait that long for their
-poses, so the look-ahead stays bounded."""
-MAX_CLOCK_HZ = 10_000.0
-"""The fastest ``--clock`` [Hz]."""
+(:mod:`estimator.tracking.tracker`): a position and velocity at every image stamp."""
+NOISE_MODELS = ("cambada", "calibrated")  # the window fusions' --noise (the tracker's: calibrated)
+MAX_WINDOW_S = 60.0  # the largest --pose-tolerance and --window [s] (images wait that long)
+MAX_CLOCK_HZ = 10_000.0  # the fastest --clock [Hz]
 RERUN_MODES = ("spawn", "save", "connect", "serve")
 LOCALISE_MODES = ("none", "lines", "ball", "auto")
-"""``--localise``: the believed poses as they are, each corrected from its image's field
-lines (:mod:`replay.localise`), or each corrected by its robot's bias as the tracker's
-residuals give it (:mod:`estimator.tracking.bias`); "auto": the field lines where the log
-names its field and a camera, else none (:func:`replay.profiles.decide`)."""
+"""``--localise``: the believed poses, or corrected from each image's field lines
+(:mod:`replay.localise`) or by each robot's bias the tracker's residuals show
+(:mod:`estimator.tracking.bias`); "auto": :func:`replay.profiles.decide`."""
 DEFAULT_POSE_SIGMA = (0.05, 1.0)
 """Where ``--pose-sigma`` is not given: the believed pose's standard deviation (m, deg) the
-line fit weighs it with and ``--localise ball``'s bias starts from (both learn the pose
-from there). The pose uncertainty the fusion weighs estimates with is not taken from it: it
-is learnt from the log (:mod:`estimator.tracking.pose_noise`)."""
+line fit weighs it with. The fusion's pose uncertainty is learnt from the log instead."""
 FIT_LEAD_S = 0.1
-"""With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose is
-known, while its fit runs in the pool; the outputs do not depend on it."""
+"""With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose,
+while its fit runs in the pool; the outputs do not depend on it."""
 
 
 @dataclass(frozen=True)
@@ -200,12 +192,9 @@ class ReplayOptions:
     only); "none": the believed poses."""
     pose_sigma_m: float | None = None
     pose_sigma_deg: float | None = None
-    """The believed pose's standard deviation (position [m], yaw [deg]), ``--pose-sigma``:
-    the line fit weighs the pose with it (a fit further from it than this allows is
-    refused); with ``pose_uncertainty``, the pose's covariance when neither the line fit
-    nor the log gives one. None (both): the line fit's and the bias's from
-    :data:`DEFAULT_POSE_SIGMA`, and the pose's covariance learnt from the log as it replays
-    (:mod:`estimator.tracking.pose_noise`)."""
+    """``--pose-sigma`` (position [m], yaw [deg]): the line fit's weight of the believed
+    pose; the pose's covariance where neither the line fit nor the log gives one; the bias's
+    spread. None: :data:`DEFAULT_POSE_SIGMA` for the line fit, the rest learnt."""
     pose_uncertainty: bool = False
     """Each robot's estimate carries the covariance of the pose it was located from, and
     the fusion adds the ball's share of it (:func:`estimator.noise.localisation_covariance`:
@@ -269,8 +258,7 @@ class ReplayOptions:
             raise UsageError(f"--localise ball learns the biases from the tracker's residuals; "
                              f"it needs --fusion track, not {self.fusion_method!r}")
         if (self.pose_sigma_m is None) != (self.pose_sigma_deg is None):
-            raise UsageError("--pose-sigma gives both the position's and the yaw's standard "
-                             "deviation, M,DEG")
+            raise UsageError("--pose-sigma needs both standard deviations, M,DEG")
         check_number("--pose-sigma", self.pose_sigma_m, low=0, high=10, low_open=True,
                      unit="m")
         check_number("--pose-sigma", self.pose_sigma_deg, low=0, high=90, low_open=True,
@@ -291,8 +279,7 @@ class ReplayOptions:
         return self.fusion or DEFAULT_FUSION[self.method]
 
     @property
-    def save_path(self) -> Path | None:
-        """The .rrd file that ``--save`` writes, if any."""
+    def save_path(self) -> Path | None:  # the .rrd file --save writes, if any
         if self.rerun is not None and self.rerun.mode == "save" and self.rerun.target:
             return Path(self.rerun.target)
         return self.rerun_save
@@ -320,21 +307,22 @@ class ReplayOptions:
         )
 
     @property
-    def pose_sigma_given(self) -> bool:
-        """Whether ``--pose-sigma`` was given (else the pose's covariance is learnt)."""
+    def pose_sigma_given(self) -> bool:  # else the pose's covariance is learnt
         return self.pose_sigma_m is not None
 
     @property
-    def pose_sigma(self) -> tuple[float, float]:
-        """(m, deg): ``--pose-sigma``'s, else :data:`DEFAULT_POSE_SIGMA` (the line fit's
-        and the bias's start)."""
+    def pose_sigma_used(self) -> bool:  # by the line fit, or given for the rest
+        return self.localise == "lines" or (self.pose_sigma_given and (
+            self.localising or self.pose_uncertainty))
+
+    @property
+    def pose_sigma(self) -> tuple[float, float]:  # (m, deg): given, else the default
         if self.pose_sigma_m is None or self.pose_sigma_deg is None:
             return DEFAULT_POSE_SIGMA
         return self.pose_sigma_m, self.pose_sigma_deg
 
     @property
-    def localising(self) -> bool:
-        """Whether the poses are corrected from the field lines."""
+    def localising(self) -> bool:  # the poses are corrected (lines or ball)
         return self.localise != "none"
 
     def limits(self) -> Limits:
@@ -400,9 +388,8 @@ class ReplayOptions:
                if self.detector_name == "real" and self.ball is not None else {}),
             **({"localise": self.localise} if self.localising else {}),
             **({"pose_uncertainty": True} if self.pose_uncertainty else {}),
-            **({"pose_sigma_m": self.pose_sigma_m, "pose_sigma_deg": self.pose_sigma_deg}
-               if self.pose_sigma_given and (self.localising or self.pose_uncertainty)
-               else {}),
+            **(dict(zip(("pose_sigma_m", "pose_sigma_deg"), self.pose_sigma, strict=True))
+               if self.pose_sigma_used else {}),
         }
 
     @property
@@ -449,7 +436,9 @@ class ReplayOptions:
             d.pop("hops")
         if not self.width_range:
             d.pop("width_range")
-        if not (self.pose_sigma_given and (self.localising or self.pose_uncertainty)):
+        if self.pose_sigma_used:
+            d["pose_sigma_m"], d["pose_sigma_deg"] = self.pose_sigma
+        else:
             d.pop("pose_sigma_m")
             d.pop("pose_sigma_deg")
         if self.calibration_model is None:

@@ -7,10 +7,14 @@ mean`` drops the tracker's hop handling). Code branches on the choices, never on
 name.
 
 - ``best`` (the default): the corrected estimator; each frame's pose corrected from the
-  field lines in its image where the log names its field and describes a camera (the
-  believed pose where a frame's lines are not seen); each estimate weighed by its pose's
-  uncertainty (the line fit's, else the log pose's own covariance, else ``--pose-sigma``'s);
-  the tracker with its 3-D track beside it (hops and balls in the air).
+  field lines in its image where the log (or the camera file) names its field and describes
+  a camera (the believed pose where a frame's lines are not seen), else by each robot's
+  drifting bias, learnt from how its ball disagrees with the others'
+  (:mod:`estimator.tracking.bias`, its spread learnt from the log:
+  :mod:`estimator.tracking.pose_noise`); each estimate weighed by its pose's uncertainty
+  (the line fit's or the bias filter's, else the log pose's own covariance, else the one
+  learnt from the log); the tracker with its 3-D track beside it (hops and balls in the
+  air).
 - ``fast``: the same without the line fit (believed poses): no per-frame fit, for logs
   whose poses are good already or when speed matters more.
 - ``paper``: the paper exactly: eq. 3-14, the paper's colour chain, the mean fusion
@@ -52,7 +56,7 @@ class Profile:
     method: str
     fusion: str
     localise: str
-    """"auto": the field lines where the log allows them (:func:`decide`)."""
+    """"auto": the field lines where the log allows them, else the ball (:func:`decide`)."""
     hops: bool
     pose_uncertainty: bool
 
@@ -191,7 +195,10 @@ def decide(options: ReplayOptions, *, field: str | None, robots: Sequence[str],
     said = list(notes)
     localise = options.localise
     if localise == "auto":
-        localise = "lines" if line_fit.allowed else "none"
+        # where the lines cannot correct the poses, the ball can, relative to each other
+        # (estimator.tracking.bias): with the tracker and a second robot to compare with
+        ball = options.fusion_method == "track" and len(robots) >= 2
+        localise = "lines" if line_fit.allowed else "ball" if ball else "none"
         if not line_fit.allowed:
             said.append(f"no {line_fit.part}: {line_fit.detail}")
     hops = options.hops

@@ -146,7 +146,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             estimator.flush()  # smoothing: the steps, once the whole log is read
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader, stream.bad_images)
-            stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
+            stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader),
+                         beliefs=estimator.beliefs())
             warnings = diagnosis.warnings(bad_images=stream.bad_images,
                                           bad_messages=reader.bad_messages)
             if options.strict and warnings:

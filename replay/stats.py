@@ -99,6 +99,10 @@ class ReplaySummary:
     lifted: int | None = None
     """With ``--width-range``: the estimates whose blob's width placed a ball in the air
     under itself; None without it."""
+    beliefs: dict[str, dict[str, Json]] | None = None
+    """What the replay came to believe of each robot's pose that the log did not state (the
+    learnt pose spread, the bias corrected by): :meth:`replay.estimation.FrameEstimator.beliefs`;
+    None when nothing was learnt."""
     pipeline: str | None = None
     """What ran, in one line (:meth:`replay.profiles.Pipeline.describe`), for a replay made
     from a profile."""
@@ -144,6 +148,8 @@ class ReplayStats(SinkBase):
         self.recovered: RecoveryLoss | None = None
         self.pose_sources: dict[str, int] = {}
         self.fit_statuses: dict[str, int] = {}
+        self.beliefs: dict[str, dict[str, Json]] = {}
+        """Set once the log is read (:meth:`finish`)."""
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         self.frames += 1
@@ -177,10 +183,12 @@ class ReplayStats(SinkBase):
             if velocity_error is not None:
                 self.velocity_errors.add(velocity_error)
 
-    def finish(self, *, undecodable: int, recovered: RecoveryLoss | None) -> None:
-        """What only the reader knows once the log is read."""
+    def finish(self, *, undecodable: int, recovered: RecoveryLoss | None,
+               beliefs: dict[str, dict[str, Json]] | None = None) -> None:
+        """What only the reader (and the estimator) knows once the log is read."""
         self.undecodable = undecodable
         self.recovered = recovered
+        self.beliefs = dict(beliefs or {})
 
     def summary_dict(self) -> dict[str, Json]:
         """The results file's ``summary``."""
@@ -199,6 +207,7 @@ class ReplayStats(SinkBase):
             "undecodable_messages": self.undecodable,
             **self._localisation_dict(),
             **({} if self.lifted is None else {"width": {"lifted": self.lifted}}),
+            **({"learnt": dict(self.beliefs)} if self.beliefs else {}),
         }
 
     def _localisation_dict(self) -> dict[str, Json]:
@@ -241,4 +250,5 @@ class ReplayStats(SinkBase):
             loss=self.recovered,
             pose_sources=dict(sorted(self.pose_sources.items())) if self.pose_sources else None,
             lifted=self.lifted,
+            beliefs=dict(self.beliefs) or None,
         )

@@ -123,7 +123,8 @@ def test_cli_options_and_the_fit_covariance_under_lines(carpet_log: Path,
     log = carpet_log
     outs = {}
     for name, extra in (("plain", ["--no-pose-uncertainty", "--localise", "none"]),
-                        ("prior", ["--pose-uncertainty", "--localise", "none"]),
+                        ("prior", ["--pose-uncertainty", "--localise", "none",
+                                   "--pose-sigma", "0.05,1"]),
                         ("lines", ["--pose-uncertainty", "--localise", "lines"])):
         out = tmp_path / f"{name}.json"
         assert main([str(log), "--fusion", "weighted", "--out", str(out), "--threads", "1",

@@ -46,11 +46,15 @@ def test_what_the_log_lacks_is_said_and_the_part_left_out() -> None:
     settled, pipe = decide(best, field="18x12", robots=("r1", "r2"), camera_robots=("r1",))
     assert settled.localise == "lines" and settled.hops and pipe.notes == ()
     settled, pipe = decide(best, field=None, robots=("r1", "r2"), camera_robots=("r1",))
-    assert settled.localise == "none" and pipe.poses == "believed"
+    # no lines: the poses corrected by the biases the robots' balls show, relative to each other
+    assert settled.localise == "ball" and pipe.poses == "ball"
     assert pipe.notes == ("no line fit: the log names no field (dsp.scenario metadata); name "
                           "it in the camera file: field: 18x12",)
     settled, pipe = decide(best, field="18x12", robots=("r1",), camera_robots=())
-    assert settled.localise == "none" and not settled.hops
+    assert settled.localise == "none" and not settled.hops  # one robot: no one to compare with
+    settled, _ = decide(options_for(fusion="mean"), field=None, robots=("r1", "r2"),
+                        camera_robots=())
+    assert settled.localise == "none"  # the biases are learnt from the tracker's residuals
     assert len(pipe.notes) == 2 and "one robot" in pipe.describe()
     assert "no robot's camera model is known" in pipe.notes[0]
     # the caller's notes (where the field came from) come first

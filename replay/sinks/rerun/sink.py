@@ -127,16 +127,12 @@ class RerunSink(SinkBase):
         self.target = target
         self._save: AtomicFile | None = None
         self._liveness: Liveness | None = None
-        self.lost: str | None = None
-        self.broken = False
-        """True once the .rrd's writer failed (its recording is then left, not closed)."""
-        """Why the viewer is no longer logged to (it went away), else None."""
+        self.lost: str | None = None  # why the viewer is no longer logged to
+        self.broken = False  # the .rrd's writer failed: its recording is left, not closed
         self.info = info
         self.centres = centres
-        self.field = field if field is not None else (
-            info.scenario.field if info.scenario is not None else FIELDS[DEFAULT_FIELD])
-        """The field drawn: the replay's (``field``: the log's or the camera file's), else
-        the log's scenario's, else the paper's."""
+        # the replay's field (the log's or the camera file's), else the log's, else the paper's
+        self.field = field or (info.scenario.field if info.scenario else FIELDS[DEFAULT_FIELD])
         opts = options.as_dict()
         for key in ("rerun", "out", "out_mcap", "out_csv", "plot", "force", "progress"):
             opts.pop(key, None)

@@ -208,7 +208,8 @@ def _add_localise_arguments(p: argparse._ActionsContainer) -> None:
     p.add_argument("--pose-uncertainty", action=argparse.BooleanOptionalAction, default=None,
                    help="weigh each robot's estimate by its own pose's uncertainty too: the "
                    "line fit's covariance, else the log pose's (PoseWithCovarianceStamped), "
-                   "else --pose-sigma's (the profile's: on, off for --profile paper)")
+                   "else --pose-sigma's, else one learnt from the log (the profile's: on, off for "
+                   "--profile paper)")
 
 
 def _pose_sigma(text: str) -> tuple[float, float]:

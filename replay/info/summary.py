@@ -26,7 +26,6 @@ from dsp.topics import infer_patterns
 from estimator.constants import NS_PER_S
 from replay.log import Catalogue, Limits, build_catalogue, check_mcap_file, read_all_blocks
 from replay.log.catalogue import nothing_recovered
-from replay.options import DEFAULT_POSE_SIGMA
 from replay.profiles import allowances
 
 __all__ = ["LogSummary", "TopicInfo", "format_info", "log_info"]
@@ -180,10 +179,10 @@ def _default_pipeline(cat: Catalogue, robots: list[str], camera_robots: list[str
         types.get(contract.topic_for(pose_topic, r), "") for r in robots}
     if pose_types == {contract.POSE_WITH_COVARIANCE_STAMPED}:
         lines.append("pose covariance: in the pose messages (PoseWithCovarianceStamped; all "
-                     "zero means unknown: --pose-sigma's then)")
+                     "zero means unknown: learnt from the log then)")
     else:
-        lines.append("pose covariance: not in the log (--pose-sigma's, default "
-                     f"{DEFAULT_POSE_SIGMA[0]:g} m, {DEFAULT_POSE_SIGMA[1]:g} deg)")
+        lines.append("pose covariance: not in the log (learnt from it as it replays, from how "
+                     "each robot's ball disagrees with the others')")
     return lines
 
 

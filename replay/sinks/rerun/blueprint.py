@@ -91,6 +91,7 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
             heights: bool) -> rrb.Container:
     error = _series("/plots/error", "error vs ground truth [m]")
     small = [_series("/plots/blob_area", "blob area [px]"),
+             _series("/plots/pose_sigma", "the pose's share of each ball [cm]"),
              _series("/plots/estimator_ms", "estimator time [ms]")]
     if kind == "paper":
         # a handful of frames of a still ball: the images and the field say most
@@ -100,13 +101,13 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
                          row_shares=[3.0, 1.2]),
             column_shares=[1.0, 1.45])
     bottom: list[rrb.View] = small
-    shares = [1.0, 1.0]
+    shares = [1.0] * len(small)
     if kind == "moving":
         bottom = [_series("/plots/speed", "ball speed [m/s]"), *small]
-        shares = [2.0, 1.0, 1.0]
+        shares = [2.0, *shares]
     if heights:  # the ball's height beside the truth's: the arc, to read off
-        bottom.insert(len(bottom) - 2, _series("/plots/height", "ball height [m]"))
-        shares.insert(len(shares) - 2, 2.0)
+        bottom.insert(len(bottom) - len(small), _series("/plots/height", "ball height [m]"))
+        shares.insert(len(shares) - len(small), 2.0)
     return rrb.Horizontal(
         rrb.Vertical(cameras_view(robots), error, row_shares=[3.0, 2.0]),
         rrb.Vertical(field_view(field, oblique=heights),

@@ -67,6 +67,19 @@ def landing_mark(result: StepResult) -> tuple[list[np.ndarray], str]:
     return [ring(x, y, r, z=0.01), *cross], f"lands in {ahead_s:.2f} s"
 
 
+def pose_share_cm(result: FrameResult) -> float | None:
+    """The pose's share of the frame's ball [cm], sqrt(s_x s_y + s_t^2 rho^2) of the pose
+    covariance its estimate was weighed with (the line fit's, the bias filter's, the log's
+    or the one learnt from the log): what the replay believed of the pose; None without one."""
+    est = None if result.estimate is None else result.estimate
+    if est is None or est.pose_covariance is None:
+        return None
+    cov = est.pose_covariance
+    rho2 = (est.x_m - est.robot_x_m) ** 2 + (est.y_m - est.robot_y_m) ** 2
+    return 100.0 * math.sqrt(max(0.0, math.sqrt(max(0.0, cov[0][0] * cov[1][1]))
+                                 + cov[2][2] * rho2))
+
+
 def correction_label(result: FrameResult) -> str:
     """" lines 3.1 cm +0.50 deg": the frame's pose correction and where it comes from ("" when
     it has none)."""

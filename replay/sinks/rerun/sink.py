@@ -52,6 +52,7 @@ from replay.sinks.rerun.shapes import (
     ellipse,
     fused_label,
     landing_mark,
+    pose_share_cm,
     truth_mark,
 )
 from replay.sinks.rerun.streams import blueprint_storage, check_room, flush, release, write_failure
@@ -94,16 +95,14 @@ ENTITY_PATHS = (
     "/robots/{robot}/camera/lines",
     "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
     "/plots/height/fused", "/plots/height/truth",
-    "/plots/blob_area/{robot}", "/plots/estimator_ms/{robot}",
+    "/plots/blob_area/{robot}", "/plots/pose_sigma/{robot}", "/plots/estimator_ms/{robot}",
 )
 """Every entity the sink logs (``{robot}`` per robot; the track's only with a tracker, its
 landing only with ``ballistic``, the corrected pose and the line points only with
-``--localise lines``, the heights only with a 3-D fusion)."""
+``--localise``, the heights only with a 3-D fusion, pose_sigma with a pose uncertainty)."""
 LOCALISED_PATHS = ("/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
-                   "/robots/{robot}/camera/lines")
-"""The entities only ``--localise lines`` logs."""
-TRAIL_S = 3.0
-"""How much of the track's past the trail shows [s]."""
+                   "/robots/{robot}/camera/lines")  # only --localise logs them
+TRAIL_S = 3.0  # how much of the track's past the trail shows [s]
 _BALL_Z = BALL_RADIUS_M
 
 
@@ -221,7 +220,7 @@ class RerunSink(SinkBase):
             rec.log(f"/plots/{path}", rr.SeriesLines(colors=[colour],
                                                      names=[path.split("/")[1]]), static=True)
         for robot in self.info.robots:
-            for plot in ("blob_area", "estimator_ms"):
+            for plot in ("blob_area", "pose_sigma", "estimator_ms"):
                 rec.log(f"/plots/{plot}/{robot}",
                         rr.SeriesLines(colors=[self.colours[robot]], names=[robot]), static=True)
 
@@ -315,6 +314,7 @@ class RerunSink(SinkBase):
                     rr.LineStrips3D([[(est.robot_x_m, est.robot_y_m, 0.05),
                                       (est.x_m, est.y_m, 0.05)]], colors=[colour], radii=0.025))
         self._scalar(f"/plots/error/{robot}", result.error_m)
+        self._scalar(f"/plots/pose_sigma/{robot}", pose_share_cm(result))
 
     def _pose(self, path: str, pose: RobotPose, colour: Rgb,
               fill: Literal["solid", "majorwireframe"], label: str,

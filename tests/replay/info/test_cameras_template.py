@@ -172,7 +172,7 @@ def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
         "mirror, fisheye or ideal entry: --cameras FILE)",
         "  3-D track: no: one robot, no rays to cross",
         "  pose covariance: in the pose messages (PoseWithCovarianceStamped; all zero means "
-        "unknown: --pose-sigma's then)"]
+        "unknown: learnt from the log then)"]
     assert main([str(bag), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert [line.split(":")[0] for line in doc["default_pipeline"]] == [

@@ -112,6 +112,11 @@ class HopFollower:
         self._loose = False
         """At the last step with estimates, rolling, it was looser than the ground track."""
 
+    @property
+    def airborne(self) -> bool:
+        """Whether the 3-D track has the ball in the air."""
+        return bool(self._flight.tracker.airborne)
+
     def peek(self, stamp_ns: int, track: TrackState | None) -> FusedEstimate | None:
         """What :meth:`step` would give at ``stamp_ns`` with no estimates, changing
         nothing: a clock's tick (``dsp-replay --clock``) reads the track, as it reads the

@@ -119,6 +119,10 @@ def detect(image: np.ndarray | None, finder: BallFinder | None = None,
     return Detected(None, found)
 
 
+FLIGHT_HOLD_NS = 500_000_000
+"""A robot's residual teaches its pose nothing while the 3-D track has the ball in the air
+and this long [ns] after: a ball in the air is placed on the ground where its ray meets
+it, metres from where the other robots' rays put it, and no pose is that far off."""
 BIAS_SUPPORT_NS = 500_000_000
 """``--localise ball``: a robot's residual teaches its bias only when another robot's
 estimate went into the track this recently [ns] (else the track is its own)."""
@@ -144,6 +148,8 @@ class FrameEstimator:
         (:mod:`estimator.tracking.bias`); every estimate is located from the believed pose
         plus its robot's bias."""
         self._accepted_ns: dict[str, int] = {}
+        self._flying_until_ns: int | None = None
+        """The 3-D track had the ball in the air until this stamp, plus FLIGHT_HOLD_NS."""
         self._learning: set[str] = set()
         """The robots whose estimates carry the learnt pose covariance (their log poses
         state none)."""
@@ -376,6 +382,8 @@ class FrameEstimator:
         if confirmed is None:  # a tentative track may be a false blob
             return None, None, None
         robots = tracker.accepted_at(stamp_ns)
+        if hops is not None and hops.airborne and frames:
+            self._flying_until_ns = stamp_ns + FLIGHT_HOLD_NS
         if flight is not None:  # the 3-D track's position, its height with it
             fused = replace(flight, robots=robots)
         else:  # the ground track's: with --hops a ball on the ground, its centre at R
@@ -395,7 +403,10 @@ class FrameEstimator:
 
     def _supporters(self, f: FrameResult) -> list[str]:
         """The other robots whose estimates went into the track within
-        :data:`BIAS_SUPPORT_NS` before the frame."""
+        :data:`BIAS_SUPPORT_NS` before the frame; none while the ball flies
+        (:data:`FLIGHT_HOLD_NS`), when a residual tells nothing of a pose."""
+        if self._flying_until_ns is not None and f.stamp_ns <= self._flying_until_ns:
+            return []
         return [r for r, t in self._accepted_ns.items()
                 if r != f.robot and f.stamp_ns - t <= BIAS_SUPPORT_NS]
 

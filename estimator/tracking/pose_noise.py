@@ -62,6 +62,11 @@ class PoseNoiseParams:
     """The range [m] the prior's yaw equation is written at."""
     max_residual_m: float = 1.0
     """A residual further than this [m] is not the pose's: left out."""
+    gate: float = 16.0
+    """A residual whose squared Mahalanobis distance under its covariance as learnt so far
+    (R + P + J Sigma J^T) exceeds this is left out: a ball in the air placed on the ground,
+    a false blob the tracker took. Four sigma: a pose that drifts further than learnt
+    still teaches, through the residuals within it."""
 
 
 class _Moments:
@@ -141,6 +146,10 @@ class PoseNoiseEstimator:
             return False
         d = np.array(offset_m) / rho
         u = np.array([-d[1], d[0]])
+        s_m2, s_t2 = self.variances(robot)
+        s = np.asarray(expected, np.float64) + s_m2 * np.eye(2) + s_t2 * rho * rho * np.outer(u, u)
+        if float(r @ np.linalg.solve(s, r)) > self.params.gate:
+            return False
         excess = np.outer(r, r) - np.asarray(expected, np.float64)
         scale = supporters / (supporters - 1.0)  # the robot's own share of the track
         m = self._robots.setdefault(robot, _Moments())

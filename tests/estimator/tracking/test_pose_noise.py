@@ -46,7 +46,7 @@ def test_exact_poses_cost_nothing_and_an_unseen_robot_keeps_the_prior() -> None:
     assert cov[0, 0] < 0.005**2 and cov[2, 2] < math.radians(0.1) ** 2
     p = PoseNoiseParams()
     assert est.sigma("r2") == pytest.approx((p.prior_sigma_m, p.prior_sigma_rad))
-    assert est.count("r2") == 0 and est.count("r1") == 3000
+    assert est.count("r2") == 0 and est.count("r1") >= 2990  # the gate's four sigma: a few
 
 
 def test_a_robot_alone_and_a_far_residual_teach_nothing() -> None:
@@ -55,6 +55,20 @@ def test_a_robot_alone_and_a_far_residual_teach_nothing() -> None:
     assert not est.observe("r1", 0, (2.0, 0.0), (3.0, 0.0), R, supporters=3)  # a false blob
     assert not est.observe("r1", 0, (0.1, 0.0), (0.0, 0.0), R, supporters=3)  # no range
     assert est.residuals == 0
+
+
+def test_residuals_far_beyond_what_is_learnt_are_left_out() -> None:
+    """A ball in the air placed on the ground, a false blob: 30-60 cm off a robot whose
+    poses are exact, one residual in ten, teach nothing."""
+    est, clean = PoseNoiseEstimator(), PoseNoiseEstimator()
+    _feed(clean, 0.0, 0.0, n=600)
+    _feed(est, 0.0, 0.0, n=600)
+    rng = np.random.default_rng(3)
+    for k in range(600, 660):
+        r = rng.uniform(0.3, 0.6) * np.array([math.cos(k), math.sin(k)])
+        assert not est.observe("r1", k * NS // 30, (float(r[0]), float(r[1])), (4.0, 0.0), R,
+                               1000)
+    assert est.sigma("r1") == pytest.approx(clean.sigma("r1"), abs=1e-3)
 
 
 def test_the_robots_own_share_of_the_track_is_scaled_back() -> None:

@@ -78,13 +78,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _number(flag: str, text: str, low: float, high: float, *, whole: bool = False) -> float:
+    kind, span = ("a whole number", f"[{int(low)}, {int(high)}]") if whole else (
+        "a number", f"[{low:g}, {high:g}]")
     try:
         value = int(text) if whole else float(text)
     except ValueError:
-        kind = "a whole number" if whole else "a number"
-        raise UsageError(f"{flag} {text!r}: give {kind} in [{low:g}, {high:g}]") from None
+        raise UsageError(f"{flag} {text!r}: give {kind} in {span}") from None
     if not (math.isfinite(value) and low <= value <= high):
-        raise UsageError(f"{flag} {text}: give a number in [{low:g}, {high:g}]")
+        raise UsageError(f"{flag} {text}: give {kind} in {span}")
     return value
 
 

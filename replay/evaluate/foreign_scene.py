@@ -46,7 +46,7 @@ MAX_HOP_M = 0.5
 """The highest a hop lifts the ball's bottom [m]."""
 MAX_KICK_M_S = 5.0
 ROLL_DECELERATION_M_S2 = 0.6
-HOP_CHANCE = 0.35
+HOP_CHANCE = 0.25
 """The share of kicks that lift the ball."""
 RESTITUTION = 0.5
 WALL_KEEP = 0.8
@@ -168,7 +168,7 @@ def _kick(rng: np.random.Generator, pos: npt.NDArray[np.float64], lim: tuple[flo
     speed = rng.uniform(1.0, MAX_KICK_M_S)
     tx, ty = rng.uniform(-0.6 * lim[0], 0.6 * lim[0]), rng.uniform(-0.6 * lim[1], 0.6 * lim[1])
     heading = math.atan2(ty - pos[1], tx - pos[0]) + rng.normal(0.0, 0.3)
-    hop = rng.uniform(0.08, MAX_HOP_M) if rng.random() < HOP_CHANCE else 0.0
+    hop = rng.uniform(0.05, MAX_HOP_M) if rng.random() < HOP_CHANCE else 0.0
     return (speed * math.cos(heading), speed * math.sin(heading),
             math.sqrt(2.0 * GRAVITY_M_S2 * hop), rng.uniform(1.5, 3.5))
 

@@ -54,7 +54,9 @@ __all__ = [
     "TRUTH_RATE_HZ",
     "TRUTH_TOPIC",
     "ForeignOptions",
+    "PoseStream",
     "camera_entry",
+    "pose_streams",
     "pose_topic",
     "replay_arguments",
     "write_camera_file",
@@ -242,19 +244,54 @@ def _image_message(options: ForeignOptions, robot: str, t_ns: int, img: np.ndarr
         "encoding": "rgb8", "is_bigendian": 0, "step": rgb.shape[1] * 3, "data": rgb.tobytes()}
 
 
-def _messages(options: ForeignOptions) -> Iterator[tuple[str, str, dict[str, Any], int]]:
-    """(topic, schema, message, Unix stamp [ns]) of every message, in writing order."""
-    streams = np.random.SeedSequence(options.seed).spawn(5)
+@dataclass(frozen=True)
+class PoseStream:
+    """One robot's pose messages: stamps from the log's start [ns], the true poses and the
+    published ones, (n, 3) arrays of x [m], y [m], yaw [rad]."""
+
+    robot: str
+    stamps_ns: np.ndarray
+    truth: np.ndarray
+    believed: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Drawn:
+    scene: Scene
+    events: list[_Event]
+    poses: list[PoseStream]
+
+
+def _draw(options: ForeignOptions, *, ball: bool = True
+          ) -> tuple[_Drawn, np.random.Generator, np.random.Generator]:
+    """The scene, the messages' stamps and the poses (each from its own seeded stream, so
+    one part's draws never shift another's); the texture's and the renderer's streams.
+    Without ``ball`` the ball's track is not integrated (the rest is the same)."""
     scene_rng, texture_rng, stamp_rng, error_rng, render_rng = (
-        np.random.default_rng(s) for s in streams)
+        np.random.default_rng(s) for s in np.random.SeedSequence(options.seed).spawn(5))
     duration_ns = round(options.duration_s * 1e9)
-    scene: Scene = make_scene(scene_rng, options.field_spec, options.robots, duration_ns)
-    renderer = Renderer(options.model, options.field_spec, texture_rng)
+    scene = make_scene(scene_rng, options.field_spec, options.robots, duration_ns, ball=ball)
     events, pose_stamps = _events(options, duration_ns, stamp_rng)
-    believed = []
+    poses = []
     for r, stamps in enumerate(pose_stamps):
         truth = np.stack(scene.robot_pose(r, stamps), axis=1)
-        believed.append(truth + pose_errors(error_rng, options.pose_error, stamps))
+        believed = truth + pose_errors(error_rng, options.pose_error, stamps)
+        believed[:, 2] = np.remainder(believed[:, 2] + math.pi, math.tau) - math.pi
+        poses.append(PoseStream(scene.robots[r], stamps, truth, believed))
+    return _Drawn(scene, events, poses), texture_rng, render_rng
+
+
+def pose_streams(options: ForeignOptions) -> list[PoseStream]:
+    """Every robot's poses as the log holds them (no image drawn: cheap for long streams)."""
+    return _draw(options, ball=False)[0].poses
+
+
+def _messages(options: ForeignOptions) -> Iterator[tuple[str, str, dict[str, Any], int]]:
+    """(topic, schema, message, Unix stamp [ns]) of every message, in writing order."""
+    drawn, texture_rng, render_rng = _draw(options)
+    scene, events = drawn.scene, drawn.events
+    believed = [p.believed for p in drawn.poses]
+    renderer = Renderer(options.model, options.field_spec, texture_rng)
     topic, offset = pose_topic(options), options.epoch_s * 1_000_000_000
     for e in events:
         stamp = e.t_ns + offset

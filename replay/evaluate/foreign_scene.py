@@ -147,8 +147,9 @@ class Scene:
 
 
 def make_scene(rng: np.random.Generator, field: FieldSpec, robots: int,
-               duration_ns: int) -> Scene:
-    """``robots`` robots named r1, r2, ... and a ball, for ``duration_ns``."""
+               duration_ns: int, *, ball: bool = True) -> Scene:
+    """``robots`` robots named r1, r2, ... and a ball, for ``duration_ns``; without ``ball``
+    the ball's track is its first step alone (the robots are the same: drawn first)."""
     hl, hw = field.half_length_m - ROBOT_MARGIN_M, field.half_width_m - ROBOT_MARGIN_M
     paths = []
     lanes = np.linspace(-0.6 * hl, 0.6 * hl, robots + 1)
@@ -156,9 +157,9 @@ def make_scene(rng: np.random.Generator, field: FieldSpec, robots: int,
         cx, cy = rng.uniform(lanes[i], lanes[i + 1]), rng.uniform(-0.6 * hw, 0.6 * hw)
         paths.append(_Robot(_path(rng, cx, hl - abs(cx), 0.35), _path(rng, cy, hw - abs(cy), 0.35),
                             _path(rng, rng.uniform(-math.pi, math.pi), 1.2, 0.5)))
-    ball = _ball_track(rng, field, duration_ns // STEP_NS + 1)
+    track = _ball_track(rng, field, duration_ns // STEP_NS + 1 if ball else 1)
     return Scene(field, tuple(f"r{i + 1}" for i in range(robots)), duration_ns, tuple(paths),
-                 ball)
+                 track)
 
 
 def _kick(rng: np.random.Generator, pos: npt.NDArray[np.float64], lim: tuple[float, float]

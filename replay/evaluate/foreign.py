@@ -31,8 +31,7 @@ give a byte-identical log.
 from __future__ import annotations
 
 import math
-import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -325,11 +324,9 @@ def write_foreign_log(path: Path, options: ForeignOptions, *, force: bool = Fals
     return count
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    from replay.evaluate.foreign_cli import main as cli_main
-
-    return cli_main(argv)
-
-
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # ``python -m replay.evaluate.foreign`` runs the command module; the writer itself never
+    # imports a command (tests/test_structure.py)
+    import runpy
+
+    runpy.run_module("replay.evaluate.foreign_cli", run_name="__main__", alter_sys=True)

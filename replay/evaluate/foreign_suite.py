@@ -56,6 +56,8 @@ __all__ = [
 ]
 
 FOREIGN_IMAGE_PX = 640
+GROUND_Z_M = 0.12
+"""A ball whose centre is below this is on the ground (its radius is 0.11 m)."""
 
 
 @dataclass(frozen=True)
@@ -122,6 +124,8 @@ class ForeignLogScore:
     label: str
     seed: int
     scores: Scores
+    ground: Scores
+    """The steps whose ball is on the ground (its centre below :data:`GROUND_Z_M`)."""
     robots: dict[str, list[float]]
     """robot -> errors of its own estimates [m]."""
     pipeline: str
@@ -160,9 +164,10 @@ def run_foreign_task(task: ForeignTask) -> ForeignLogScore:
     for fr in collected.frames:
         if fr.get("error_m") is not None:
             robots.setdefault(fr["robot"], []).append(float(fr["error_m"]))
-    return ForeignLogScore(task.label, task.options.seed,
-                           score_steps([f for f in collected.fused if not f.get("tick")], []),
-                           robots, summary.pipeline or "")
+    steps = [f for f in collected.fused if not f.get("tick")]
+    ground = [f for f in steps if (f.get("truth_z_m") or 0.0) < GROUND_Z_M]
+    return ForeignLogScore(task.label, task.options.seed, score_steps(steps, []),
+                           score_steps(ground, []), robots, summary.pipeline or "")
 
 
 Mapper = Callable[[Callable[[ForeignTask], ForeignLogScore], Sequence[ForeignTask]],
@@ -179,17 +184,18 @@ def run_foreign_suite(tasks: Sequence[ForeignTask], map_logs: Mapper | None = No
 
 def _doc(scores: Sequence[ForeignLogScore], set_name: str, duration_s: float
          ) -> dict[str, Json]:
-    pooled = Scores()
+    pooled, pooled_ground = Scores(), Scores()
     for s in scores:
         pooled.add(s.scores)
+        pooled_ground.add(s.ground)
     return rounded_doc({
         "suite": "foreign", "set": set_name, "duration_s": duration_s,
         "image_px": FOREIGN_IMAGE_PX,
         "logs": [{"label": s.label, "seed": s.seed, "pipeline": s.pipeline,
-                  "fused": s.scores.stats(),
+                  "fused": s.scores.stats(), "ground": s.ground.stats(),
                   "robots": {r: Scores(errors=e, steps=len(e)).stats()
                              for r, e in sorted(s.robots.items())}} for s in scores],
-        "pooled": pooled.stats(),
+        "pooled": pooled.stats(), "pooled_ground": pooled_ground.stats(),
     })
 
 
@@ -203,14 +209,15 @@ def foreign_markdown(doc: dict[str, Any]) -> str:
     lines = [f"Foreign logs, the `{doc['set']}` set: {doc['duration_s']:g} s each, "
              f"{doc['image_px']} px images, replayed with the default pipeline.", "",
              "| log | seed | steps | RMSE [m] | median [m] | p95 [m] | velocity median [m/s] "
-             "| pipeline |", "|---|---|---|---|---|---|---|---|"]
+             "| RMSE, ball on the ground [m] | pipeline |", "|---|---|---|---|---|---|---|---|---|"]
     for log in doc["logs"] + [{"label": "all logs", "seed": "", "fused": doc["pooled"],
-                               "pipeline": None}]:
+                               "ground": doc["pooled_ground"], "pipeline": None}]:
         st = log["fused"]
         which = "" if log["pipeline"] is None else str(pipelines.index(log["pipeline"]) + 1)
         lines.append(f"| {log['label']} | {log['seed']} | {st['estimates']} | "
                      f"{_fmt(st['rmse_m'])} | {_fmt(st['median_m'])} | {_fmt(st['p95_m'])} | "
-                     f"{_fmt(st['velocity_median_m_s'], 3)} | {which} |")
+                     f"{_fmt(st['velocity_median_m_s'], 3)} | {_fmt(log['ground']['rmse_m'])} "
+                     f"| {which} |")
     lines += [""] + [f"{i}. {p}" for i, p in enumerate(pipelines, 1)]
     return "\n".join(lines) + "\n"
 

@@ -172,8 +172,11 @@ def test_an_exact_pose_log_replays_within_centimetres(tmp_path: Path) -> None:
     st = score.scores.stats()
     assert st["estimates"] > 10 and st["median_m"] < 0.05
     assert st["velocity_median_m_s"] is not None
+    ground = score.ground.stats()
+    assert ground["estimates"] <= st["estimates"]
     doc = {"set": "test", "duration_s": 2.0, "image_px": 320, "pooled": st,
-           "logs": [{"label": "exact", "seed": 7, "fused": st, "pipeline": score.pipeline}]}
+           "pooled_ground": ground, "logs": [{"label": "exact", "seed": 7, "fused": st,
+                                              "ground": ground, "pipeline": score.pipeline}]}
     text = foreign_markdown(doc)
     assert "| exact | 7 |" in text and score.pipeline in text
 

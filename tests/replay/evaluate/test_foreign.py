@@ -216,3 +216,13 @@ def test_the_command_writes_the_log_and_says_how_to_replay_it(
     said = capsys.readouterr().out
     assert "dsp-replay" in said and "--truth-topic /mocap/ball" in said
     assert foreign_main([str(out), "--duration", "0.5"]) == 3  # exists: refused
+
+
+def test_the_suite_refuses_switches_it_does_not_replay_with(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from replay.evaluate.cli import main as eval_main
+
+    assert eval_main(["--suite", "foreign", "--realism", "field", "--out-dir",
+                      str(tmp_path), "--no-progress"]) == 2
+    assert "--realism" in capsys.readouterr().err
+    assert not (tmp_path / "foreign").exists()

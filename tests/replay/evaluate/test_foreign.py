@@ -75,9 +75,9 @@ def test_the_log_is_a_teams_with_nothing_of_the_projects(
     assert topics == want
     assert metadata == []
     assert not any(t.startswith(("/tf", "/ground_truth")) for t in topics)
-    stamps = [msg.header.stamp.sec for _, msg in messages]  # type: ignore[attr-defined]
+    stamps = [msg.header.stamp.sec for _, msg in messages]
     assert min(stamps) >= 1_700_000_000  # Unix time
-    frames = {msg.header.frame_id for t, msg in messages  # type: ignore[attr-defined]
+    frames = {msg.header.frame_id for t, msg in messages
               if "pose" in t or t == TRUTH_TOPIC}
     assert frames == {"map"}
 
@@ -130,9 +130,9 @@ def test_the_log_holds_the_poses_the_stream_gives(tmp_path: Path) -> None:
     r1 = [msg for t, msg in messages if t == "/r1/amcl_pose"]
     stream = pose_streams(options)[0]
     assert len(r1) == len(stream.stamps_ns)
-    xs = [m.pose.pose.position.x for m in r1]  # type: ignore[attr-defined]
+    xs = [m.pose.pose.position.x for m in r1]
     assert xs == pytest.approx(stream.believed[:, 0].tolist(), abs=1e-12)
-    cov = r1[0].pose.covariance  # type: ignore[attr-defined]
+    cov = r1[0].pose.covariance
     sigma_m, sigma_rad = options.pose_error.stated_sigma()
     assert (cov[0], cov[7], cov[35]) == pytest.approx((sigma_m**2, sigma_m**2, sigma_rad**2))
 

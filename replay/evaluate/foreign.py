@@ -104,6 +104,17 @@ class ForeignOptions:
     geometry_msgs/PointStamped or PoseStamped (position only)."""
     epoch_s: int = EPOCH_S
 
+    def __post_init__(self) -> None:
+        for name, value, allowed in (("poses", self.poses, POSE_KINDS),
+                                     ("covariance", self.covariance, COVARIANCES),
+                                     ("image", self.image, IMAGE_KINDS),
+                                     ("truth", self.truth, TRUTH_KINDS),
+                                     ("field", self.field, tuple(FIELDS))):
+            if value not in allowed:
+                raise ValueError(f"{name} = {value!r}: give one of {', '.join(allowed)}")
+        if self.robots < 1 or not self.rate_hz > 0 or not self.duration_s > 0:
+            raise ValueError("a foreign log needs a robot, a camera rate and a duration")
+
     @property
     def pose_error(self) -> PoseError:
         return PoseError() if self.poses == "exact" else PoseError.drift(*self.drift,

@@ -226,3 +226,10 @@ def test_the_suite_refuses_switches_it_does_not_replay_with(
                       str(tmp_path), "--no-progress"]) == 2
     assert "--realism" in capsys.readouterr().err
     assert not (tmp_path / "foreign").exists()
+
+
+def test_options_refuse_what_they_cannot_draw() -> None:
+    with pytest.raises(ValueError, match="poses = 'wobbly'"):
+        ForeignOptions(poses="wobbly")
+    with pytest.raises(ValueError, match="a robot"):
+        ForeignOptions(robots=0)

@@ -22,7 +22,8 @@ The log holds what a team's rosbag2 MCAP holds, and nothing of the project's:
   /tf, no /ground_truth topics.
 
 Beside it, :func:`write_camera_file` writes the camera file that describes the cameras
-exactly (a ``lookup`` calibration rendered from the camera itself), so that
+exactly (a ``lookup`` calibration rendered from the camera itself, or with ``camera
+"mirror"`` the project's mirror model with its height), so that
 ``dsp-replay LOG --cameras CAMS.yaml --image-topic ... --pose-topic ... --truth-topic
 /mocap/ball`` replays and scores it (:func:`replay_arguments`). The same options and seed
 give a byte-identical log.
@@ -75,6 +76,7 @@ POSE_KINDS = ("exact", "drift")
 COVARIANCES = ("none", "honest")
 IMAGE_KINDS = ("jpeg", "raw")
 TRUTH_KINDS = ("odometry", "point", "pose")
+CAMERA_KINDS = ("own", "mirror")
 EXACT_STATED_SIGMA = (0.001, math.radians(0.05))
 """The sigma an exact pose's covariance states (m, rad): an all-zero covariance would read
 as "unknown"."""
@@ -96,6 +98,10 @@ class ForeignOptions:
     covariance_scale: float = 1.0
     """The stated sigma over the honest one (1: honest; 0.5: the localiser is overconfident)."""
     image: str = "jpeg"
+    camera: str = "own"
+    """The mirror's profile (:class:`~replay.evaluate.foreign_render.OmniModel`): "own", in
+    the camera file as a lookup table; "mirror", as the project's mirror model with its
+    height (so the replay can cross rays in 3-D)."""
     size_px: int = 640
     centre_offset_px: tuple[float, float] = (2.0, -3.0)
     field: str = "18x12"
@@ -109,6 +115,7 @@ class ForeignOptions:
                                      ("covariance", self.covariance, COVARIANCES),
                                      ("image", self.image, IMAGE_KINDS),
                                      ("truth", self.truth, TRUTH_KINDS),
+                                     ("camera", self.camera, CAMERA_KINDS),
                                      ("field", self.field, tuple(FIELDS))):
             if value not in allowed:
                 raise ValueError(f"{name} = {value!r}: give one of {', '.join(allowed)}")
@@ -122,7 +129,8 @@ class ForeignOptions:
 
     @property
     def model(self) -> OmniModel:
-        return OmniModel.for_size(self.size_px, self.size_px, self.centre_offset_px)
+        return OmniModel.for_size(self.size_px, self.size_px, self.centre_offset_px,
+                                  profile=self.camera)
 
     @property
     def field_spec(self) -> FieldSpec:
@@ -141,13 +149,19 @@ def replay_arguments(log: Path, cameras: Path, options: ForeignOptions) -> list[
 
 
 def camera_entry(options: ForeignOptions) -> dict[str, Any]:
-    """The camera file's ``default`` entry: the image, its centre, the usable radius and the
-    lookup calibration of :func:`~replay.evaluate.foreign_render.lookup_table`."""
+    """The camera file's ``default`` entry: the image, its centre, the usable radius, and the
+    lookup calibration of :func:`~replay.evaluate.foreign_render.lookup_table` (camera
+    "own") or the mirror model's parameters (camera "mirror")."""
     m = options.model
     r_px, d_m = lookup_table(m, BALL_RADIUS_M, step_px=1.0)
-    usable = float(np.interp(USABLE_RANGE_M, d_m, r_px))
-    return {"model": "lookup", "width_px": m.width_px, "height_px": m.height_px,
-            "cu_px": m.cu_px, "cv_px": m.cv_px, "usable_radius_px": round(usable, 2),
+    usable = round(float(np.interp(USABLE_RANGE_M, d_m, r_px)), 2)
+    head = {"width_px": m.width_px, "height_px": m.height_px, "cu_px": m.cu_px,
+            "cv_px": m.cv_px}
+    if m.profile == "mirror":
+        return {"model": "mirror", **head, "max_radius_px": m.radius_px,
+                "height_m": m.height_m, "a_m": m.a_m, "b_rad_per_px": m.b_rad_per_px,
+                "self_radius_px": m.self_radius_px, "usable_radius_px": usable}
+    return {"model": "lookup", **head, "usable_radius_px": usable,
             "calibration": {"model": "lookup", "r_px": r_px, "d_m": d_m}}
 
 

@@ -20,6 +20,7 @@ from dsp.cli import Parser, run_main
 from dsp.errors import UsageError
 from dsp.field import FIELDS
 from replay.evaluate.foreign import (
+    CAMERA_KINDS,
     COVARIANCES,
     EPOCH_S,
     IMAGE_KINDS,
@@ -65,6 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="state K times the honest sigma (default 1)")
     p.add_argument("--image", default="jpeg", metavar="jpeg|raw",
                    help="CompressedImage JPEG (default) or Image rgb8")
+    p.add_argument("--camera", default="own", metavar="own|mirror",
+                   help="the mirror's profile: own (default; a lookup table in the camera "
+                   "file) or mirror (the project's mirror model, with its height)")
     p.add_argument("--size", default="640", metavar="PX", help="image side (default 640)")
     p.add_argument("--field", default="18x12", metavar="|".join(FIELDS),
                    help="the field drawn (default 18x12)")
@@ -115,6 +119,7 @@ def options_from_args(args: argparse.Namespace) -> ForeignOptions:
         covariance=_choice("--covariance", args.covariance, COVARIANCES),
         covariance_scale=_number("--covariance-scale", args.covariance_scale, 0.01, 100.0),
         image=_choice("--image", args.image, IMAGE_KINDS),
+        camera=_choice("--camera", args.camera, CAMERA_KINDS),
         size_px=int(_number("--size", args.size, MIN_SIZE_PX, MAX_SIZE_PX, whole=True)),
         field=_choice("--field", args.field, tuple(FIELDS)),
         truth=_choice("--truth", args.truth, TRUTH_KINDS),

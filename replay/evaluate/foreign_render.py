@@ -9,7 +9,10 @@ hyperbolic mirror's does. The bearing follows the project's convention (image up
 forward, image left = robot left: ``theta = atan2(-du, -dv)``). None of the project's camera
 models is this one, so its camera file describes it by a ``lookup`` calibration:
 :func:`lookup_table` renders the ball at a ladder of ranges and writes down where its
-centroid lands, as a team measuring its camera would, without the measuring errors.
+centroid lands, as a team measuring its camera would, without the measuring errors. A
+lookup camera names no height, so the replay has no rays to cross in 3-D; the ``mirror``
+profile (NuBot's, the project's ``mirror`` model) is the camera a file can describe with its
+height, for logs that test the 3-D track.
 
 An image (:class:`Renderer`) is drawn per pixel ray:
 
@@ -68,29 +71,42 @@ class OmniModel:
     gamma: float = 1.25
     self_radius_px: float = 58.0
     """The robot's own body hides the middle of the image."""
+    profile: str = "own"
+    """"own": ``r = radius_px * (phi / phi_max) ** gamma``; "mirror": NuBot's profile, the
+    ground a_m * tan(b r) away (the project's ``mirror`` camera model, which a camera file
+    can name with its height)."""
+    a_m: float = 1.2
+    b_rad_per_px: float = 0.005
 
     @staticmethod
-    def for_size(width_px: int, height_px: int, offset_px: tuple[float, float] = (0.0, 0.0)
-                 ) -> OmniModel:
+    def for_size(width_px: int, height_px: int, offset_px: tuple[float, float] = (0.0, 0.0),
+                 profile: str = "own") -> OmniModel:
         side = min(width_px, height_px)
+        radius = 0.48 * side
         return OmniModel(width_px, height_px, (width_px - 1) / 2.0 + offset_px[0],
-                         (height_px - 1) / 2.0 + offset_px[1], radius_px=0.48 * side,
-                         self_radius_px=0.09 * side)
+                         (height_px - 1) / 2.0 + offset_px[1], radius_px=radius,
+                         self_radius_px=0.09 * side, profile=profile,
+                         b_rad_per_px=math.pi / (2.0 * 1.03 * radius))  # horizon past the rim
 
     def r_px(self, phi_rad: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        phi_max = math.radians(self.phi_max_deg)
-        return np.asarray(self.radius_px * (np.asarray(phi_rad) / phi_max) ** self.gamma)
+        phi = np.asarray(phi_rad, np.float64)
+        if self.profile == "mirror":
+            ground = self.height_m * np.tan(phi)
+            return np.asarray(np.arctan(ground / self.a_m) / self.b_rad_per_px)
+        return np.asarray(self.radius_px * (phi / math.radians(self.phi_max_deg)) ** self.gamma)
 
     def phi_rad(self, r_px: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        phi_max = math.radians(self.phi_max_deg)
-        return np.asarray(phi_max * (np.asarray(r_px) / self.radius_px) ** (1.0 / self.gamma))
+        r = np.asarray(r_px, np.float64)
+        if self.profile == "mirror":
+            b_r = np.minimum(self.b_rad_per_px * r, 0.5 * math.pi - 1e-6)
+            return np.asarray(np.arctan2(self.a_m * np.tan(b_r), self.height_m))
+        return np.asarray(math.radians(self.phi_max_deg) * (r / self.radius_px) ** (
+            1.0 / self.gamma))
 
     def rad_per_px(self, r_px: float) -> float:
-        """The nadir angle one pixel spans radially at ``r_px``."""
-        phi_max = math.radians(self.phi_max_deg)
-        slope = self.gamma * self.radius_px / phi_max * (max(r_px, 1.0) / self.radius_px) ** (
-            (self.gamma - 1.0) / self.gamma)
-        return float(1.0 / slope)
+        """The nadir angle one pixel spans radially at ``r_px`` (a central difference)."""
+        r = max(r_px, 1.0)
+        return float(self.phi_rad(r + 0.5) - self.phi_rad(r - 0.5))
 
 
 class _Rays:

@@ -137,14 +137,15 @@ def test_the_log_holds_the_poses_the_stream_gives(tmp_path: Path) -> None:
     assert (cov[0], cov[7], cov[35]) == pytest.approx((sigma_m**2, sigma_m**2, sigma_rad**2))
 
 
-def test_the_camera_file_describes_the_camera(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("camera", "model"), [("own", "lookup"), ("mirror", "mirror")])
+def test_the_camera_file_describes_the_camera(tmp_path: Path, camera: str, model: str) -> None:
     """The default detector's centroid of a ball rendered at a known place, read through the
     camera file's calibration, gives the ball's range and bearing back."""
-    options = ForeignOptions(size_px=640)
+    options = ForeignOptions(size_px=640, camera=camera)
     path = tmp_path / "cams.yaml"
     write_camera_file(path, options)
     spec = read_camera_file(path).for_robot("r1")
-    assert spec is not None and spec.model == "lookup"
+    assert spec is not None and spec.model == model
     assert spec.entry == camera_entry(options)
     cal, (cu, cv) = spec.range_calibration, spec.centre_px
     renderer = Renderer(options.model, options.field_spec, np.random.default_rng(0))
@@ -189,6 +190,7 @@ def test_the_suite_keeps_tune_and_report_seeds_apart(tmp_path: Path) -> None:
     assert {log.covariance for log in FOREIGN_LOGS} == {False, True}
     assert {log.rate_hz for log in FOREIGN_LOGS} == {20.0, 30.0}
     assert {log.robots for log in FOREIGN_LOGS} == {2, 3, 4, 5}
+    assert {log.camera for log in FOREIGN_LOGS} == {"own", "mirror"}
     tasks = foreign_tasks(tmp_path, seeds=REPORT_SEEDS, duration_s=10.0)
     assert len({t.log.name for t in tasks}) == len(tasks)
 

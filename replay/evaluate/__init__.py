@@ -5,6 +5,10 @@
 - :mod:`replay.evaluate.suites`: the ``paper`` suite (the paper's Table 1) and the
   ``random`` suite;
 - :mod:`replay.evaluate.match`: the ``match`` suite (the tracker against window fusion);
+- :mod:`replay.evaluate.foreign`: logs in a team's layout drawn without the recorder (its
+  own camera, :mod:`~replay.evaluate.foreign_render`, and motion,
+  :mod:`~replay.evaluate.foreign_scene`), and :mod:`replay.evaluate.foreign_suite`, the
+  ``foreign`` suite that scores the default pipeline on them;
 - :mod:`replay.evaluate.cli`: the thin command.
 
 The only part of replay that imports the recorder (to record the scenes it scores).

@@ -7,6 +7,7 @@
     dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
     dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, in 3-D
     dsp-eval --suite lobs --camera-phase random    # the same, free-running cameras
+    dsp-eval --suite foreign [--foreign-set report|tune]   # logs drawn without the recorder
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the
@@ -45,6 +46,11 @@ from dsp.progress import Progress, progress_bar
 from dsp.realism import REALISM, realism_preset
 from dsp.textfile import TEXT_ERRORS
 from replay.cameras import read_calibration
+from replay.evaluate.foreign_suite import (
+    add_foreign_arguments,
+    foreign_stem,
+    run_foreign_from_args,
+)
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
 from replay.evaluate.lobs import CAMERA_PHASES, LobsOptions, lobs_markdown, run_lobs_suite
 from replay.evaluate.match import (
@@ -86,11 +92,12 @@ def build_parser() -> argparse.ArgumentParser:
         description="Record the paper's four scenarios (or N random scenes), replay them with "
         "paper mode and the corrected estimator under each fusion method, and score them.",
     )
-    p.add_argument("--suite", choices=("paper", "random", "match", "lobs", "images"),
+    p.add_argument("--suite", choices=("paper", "random", "match", "lobs", "images", "foreign"),
                    default="paper",
                    help="the paper's four scenarios (default), random scenes, seeded "
                    "matches (the tracker against window fusion), lobs (3-D, triangulated), "
-                   "or the ball detector on folders of labelled real images (DIR ...)")
+                   "the ball detector on folders of labelled real images (DIR ...), or the "
+                   "default pipeline on logs drawn without the recorder (foreign)")
     p.add_argument("--count", type=int, default=None,
                    help="random scenes (default 200), matches (default 20) or lobs scenes "
                    "(default 3)")
@@ -102,6 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="logs and tables go here (default ./eval)")
     _add_match_arguments(p)
     _add_images_arguments(p)
+    add_foreign_arguments(p)
     add_worker_arguments(p, what="the scenes (record + replay)")
     add_common_arguments(p, camera="ideal", renderer=True)
     declare_files(p, inputs=("--calibration", "dirs", "--check-model", "--ball", "--group-by"),
@@ -270,6 +278,8 @@ def _run_suite(args: argparse.Namespace,
     """Run the chosen suite; return the file stem, the Markdown table and the JSON doc."""
     if args.suite == "match":
         return _run_match_suite(args, workers)
+    if args.suite == "foreign":
+        return run_foreign_from_args(args, workers, progress=progress_enabled(args))
     if args.suite == "lobs":
         options = LobsOptions(camera=args.camera, duration_s=args.duration,
                               rate_hz=10.0 if args.rate is None else args.rate,
@@ -299,6 +309,8 @@ def _run_suite(args: argparse.Namespace,
 
 def _stem(args: argparse.Namespace) -> str:
     """The tables' file stem in --out-dir."""
+    if args.suite == "foreign":
+        return foreign_stem(args)
     stem = f"{args.suite}-{args.camera}"
     if args.realism != "none":
         stem += f"-{args.realism}"

@@ -120,9 +120,8 @@ def detect(image: np.ndarray | None, finder: BallFinder | None = None,
 
 
 FLIGHT_HOLD_NS = 500_000_000
-"""A robot's residual teaches its pose nothing while the 3-D track has the ball in the air
-and this long [ns] after: a ball in the air is placed on the ground where its ray meets
-it, metres from where the other robots' rays put it, and no pose is that far off."""
+"""Residuals teach no pose while the 3-D track has the ball in the air and this long [ns]
+after (such a ball is placed on the ground, metres from where the others put it)."""
 BIAS_SUPPORT_NS = 500_000_000
 """``--localise ball``: a robot's residual teaches its bias only when another robot's
 estimate went into the track this recently [ns] (else the track is its own)."""
@@ -140,20 +139,16 @@ class FrameEstimator:
                  pose_noise: PoseNoiseEstimator | None = None) -> None:
         self.cameras = cameras
         self.bias = bias
+        """``--localise ball``: each robot's pose bias, estimated from the tracker's residuals
+        (:mod:`estimator.tracking.bias`); every estimate is located from the believed pose
+        plus its robot's bias."""
         self.pose_noise = pose_noise
         """Each robot's pose covariance learnt from the track's residuals
         (:mod:`estimator.tracking.pose_noise`), which an estimate carries when neither its
         line fit nor its log pose gives one (``pose_covariance`` None)."""
-        """``--localise ball``: each robot's pose bias, estimated from the tracker's residuals
-        (:mod:`estimator.tracking.bias`); every estimate is located from the believed pose
-        plus its robot's bias."""
-        self._accepted_ns: dict[str, int] = {}
-        self._flying_until_ns: int | None = None
-        """The 3-D track had the ball in the air until this stamp, plus FLIGHT_HOLD_NS."""
-        self._learning: set[str] = set()
-        """The robots whose estimates carry the learnt pose covariance (their log poses
-        state none)."""
-        """Each robot's last estimate the tracker accepted (its stamp)."""
+        self._accepted_ns: dict[str, int] = {}  # each robot's last accepted estimate's stamp
+        self._flying_until_ns: int | None = None  # the ball flew until then (+ the hold)
+        self._learning: set[str] = set()  # robots whose estimates carry the learnt spread
         self.pose_covariance = (None if pose_covariance is None
                                 else covariance3_rows(np.asarray(pose_covariance, np.float64)))
         """The pose covariance (x, y, yaw) an estimate carries when neither its line fit
@@ -249,9 +244,8 @@ class FrameEstimator:
 
     def _pose_covariance(self, robot: str, pose: PoseMatch,
                          loc: Localisation | None) -> Covariance3 | None:
-        """The covariance of the pose an estimate is located from: the line fit's (or its
-        held or prior one), else the log pose's, else the one learnt from the residuals,
-        else the one given."""
+        """The covariance of the located-from pose: the line fit's (or its held or prior
+        one), else the log pose's, else the one learnt, else the one given."""
         if loc is not None:
             return covariance3_rows(np.asarray(loc.covariance, np.float64))
         if pose.covariance is not None:

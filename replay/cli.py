@@ -326,6 +326,9 @@ def describe_belief(b: Mapping[str, object]) -> str:
         parts.append(f"pose off by {100 * float(str(b['pose_sigma_m'])):.1f} cm and "
                      f"{float(str(b['pose_sigma_deg'])):.2f} deg (1 sigma, from "
                      f"{b['residuals']} residuals)")
+    if "stated_sigma_m" in b:
+        parts.append(f"the log states {100 * float(str(b['stated_sigma_m'])):.1f} cm and "
+                     f"{float(str(b['stated_sigma_deg'])):.2f} deg")
     if "bias_x_m" in b:
         parts.append(f"corrected by ({100 * float(str(b['bias_x_m'])):+.1f}, "
                      f"{100 * float(str(b['bias_y_m'])):+.1f}) cm, "
@@ -346,7 +349,7 @@ def format_summary(s: ReplaySummary) -> str:
         lines.append(f"{name:10} {r.frames:7d} {r.detections:7d} {r.estimates:7d} "
                      f"{_m(r.rmse_m):>8} {_m(r.mean_error_m):>8} {_m(r.max_error_m):>8}")
     if s.pose_sources:
-        lines.append("poses from the field lines: " + ", ".join(
+        lines.append("poses corrected (from): " + ", ".join(
             f"{k} {v}" for k, v in s.pose_sources.items()))
     for robot, b in (s.beliefs or {}).items():
         lines.append(f"learnt {robot}: " + describe_belief(b))

@@ -47,7 +47,6 @@ from estimator.detection import Detection, detect_ball
 from estimator.detection.real import Candidate
 from estimator.errors import EstimatorError
 from estimator.estimates import (
-    BallEstimate,
     Covariance,
     Covariance3,
     FusedEstimate,
@@ -63,6 +62,7 @@ from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay import plugins
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.locators import CorrectedLocator, Locator, PaperLocator
+from replay.locators import ball_estimate as _ball
 from replay.plugins import Detector
 from replay.real_ball import BallFinder
 from replay.records import FrameResult, FrameStatus, Localisation, RobotEstimate, StepResult
@@ -148,7 +148,7 @@ class FrameEstimator:
         line fit nor its log pose gives one (``pose_covariance`` None)."""
         self._accepted_ns: dict[str, int] = {}  # each robot's last accepted estimate's stamp
         self._flying_until_ns: int | None = None  # the ball flew until then (+ the hold)
-        self._learning: set[str] = set()  # robots whose estimates carry the learnt spread
+        self._stated: dict[str, tuple[float, float]] = {}  # the log's pose sigma (m, rad)
         self.pose_covariance = (None if pose_covariance is None
                                 else covariance3_rows(np.asarray(pose_covariance, np.float64)))
         """The pose covariance (x, y, yaw) an estimate carries when neither its line fit
@@ -249,9 +249,11 @@ class FrameEstimator:
         if loc is not None:
             return covariance3_rows(np.asarray(loc.covariance, np.float64))
         if pose.covariance is not None:
-            return covariance3_rows(np.asarray(pose.covariance, np.float64).reshape(3, 3))
+            cov = np.asarray(pose.covariance, np.float64).reshape(3, 3)
+            self._stated[robot] = (math.sqrt(max(0.0, 0.5 * (cov[0, 0] + cov[1, 1]))),
+                                   math.sqrt(max(0.0, cov[2, 2])))
+            return covariance3_rows(cov)
         if self.pose_noise is not None:
-            self._learning.add(robot)
             return self.pose_noise.covariance(robot)
         return self.pose_covariance
 
@@ -290,6 +292,9 @@ class FrameEstimator:
                 s_m, s_t = learnt.sigma(robot)
                 d.update(pose_sigma_m=round(s_m, 6), pose_sigma_deg=round(math.degrees(s_t), 6),
                          residuals=learnt.count(robot))
+                if robot in self._stated:  # what the log states, beside what its balls show
+                    m, t = self._stated[robot]
+                    d.update(stated_sigma_m=round(m, 6), stated_sigma_deg=round(math.degrees(t), 6))
             if self.bias is not None and self.bias.updates:
                 b, _ = self.bias.bias(robot)
                 d.update(bias_x_m=round(float(b[0]), 6), bias_y_m=round(float(b[1]), 6),
@@ -406,11 +411,11 @@ class FrameEstimator:
 
     def _learn_pose_noise(self, tracker: BallTracker, f: FrameResult) -> None:
         """The frame's residual against the track the other robots support, before its
-        estimate goes in, into its robot's pose covariance (only where the covariance it
-        carried was the learnt one)."""
+        estimate goes in, into its robot's pose covariance: the one its estimates carry
+        where the log states none, and what a stated one is checked against."""
         assert self.pose_noise is not None and f.estimate is not None
-        if f.localisation is not None or f.robot not in self._learning:
-            return  # its covariance came from the line fit or the log: nothing to learn
+        if f.localisation is not None:
+            return  # the line fit's or the bias filter's: they learn their own
         others = self._supporters(f)
         if not others:
             return
@@ -439,12 +444,3 @@ class FrameEstimator:
         self.bias.update(f.robot, f.stamp_ns, (prior.x_m - est.x_m, prior.y_m - est.y_m),
                          (est.x_m - corr.x_m, est.y_m - corr.y_m), covariance_rows(cov), used,
                          supporters=1 + len(self._supporters(f)))
-
-
-def _ball(e: RobotEstimate, r_px: float | None = None,
-          camera_height_m: float | None = None) -> BallEstimate:
-    return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
-                        range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
-                        visibility=e.visibility, r_px=r_px, camera_height_m=camera_height_m,
-                        pose_covariance=e.pose_covariance, range_sigma_m=e.range_sigma_m,
-                        ray_range_m=e.ray_range_m)

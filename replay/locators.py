@@ -9,13 +9,14 @@ from typing import Protocol
 
 from estimator import corrected, paper
 from estimator.detection import Detection
+from estimator.estimates import BallEstimate
 from estimator.geometry import RobotPose
 from estimator.noise import CalibratedNoise
 from estimator.width import combine_ranges, width_range
 from replay.cameras import Cameras
 from replay.records import RobotEstimate
 
-__all__ = ["CorrectedLocator", "Locator", "PaperLocator"]
+__all__ = ["CorrectedLocator", "Locator", "PaperLocator", "ball_estimate"]
 
 
 class Locator(Protocol):
@@ -74,3 +75,13 @@ class CorrectedLocator:
         return replace(estimate, x_m=pose.x_m + choice.range_m * math.cos(phi),
                        y_m=pose.y_m + choice.range_m * math.sin(phi), range_m=choice.range_m,
                        range_sigma_m=choice.sigma_m, ray_range_m=e.range_m)
+
+
+def ball_estimate(e: RobotEstimate, r_px: float | None = None,
+                  camera_height_m: float | None = None) -> BallEstimate:
+    """A robot's estimate as the fusions and noise models take it."""
+    return BallEstimate(robot=e.robot, robot_x_m=e.robot_x_m, robot_y_m=e.robot_y_m,
+                        range_m=e.range_m, bearing_rad=e.bearing_rad, x_m=e.x_m, y_m=e.y_m,
+                        visibility=e.visibility, r_px=r_px, camera_height_m=camera_height_m,
+                        pose_covariance=e.pose_covariance, range_sigma_m=e.range_sigma_m,
+                        ray_range_m=e.ray_range_m)

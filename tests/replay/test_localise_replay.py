@@ -98,7 +98,7 @@ def test_csv_columns_and_cli(carpet_log: Path, tmp_path: Path,
     table = tmp_path / "r.csv"
     assert main([str(carpet_log), "--localise", "lines", "--pose-sigma", "0.1,2",
                  "--out-csv", str(table), "--threads", "1"]) == 0
-    assert "poses from the field lines: lines 12" in capsys.readouterr().out
+    assert "poses corrected (from): lines 12" in capsys.readouterr().out
     with table.open() as f:
         rows = list(csv.DictReader(f))
     assert tuple(rows[0]) == CSV_COLUMNS + LOCALISATION_COLUMNS

@@ -42,8 +42,11 @@ class _Counts:
 class Diagnosis(SinkBase):
     """Counts per robot for :meth:`warnings` (constant memory)."""
 
-    def __init__(self, path: Path, robots: tuple[str, ...], cameras: Cameras) -> None:
+    def __init__(self, path: Path, robots: tuple[str, ...], cameras: Cameras, *,
+                 detector: str = "paper") -> None:
         self.path = path
+        self.detector = detector
+        """The detector in use ("paper", "real" or one from outside), for the likely cause."""
         self.robots = robots
         self.cameras = cameras
         self.counts = {r: _Counts() for r in robots}
@@ -100,8 +103,11 @@ class Diagnosis(SinkBase):
         blind = [r for r, c in self.counts.items() if c.images and not c.detections]
         if not blind:
             return []
-        cause = ("is the ball another colour than the detector's orange, or the image topic "
-                 "not the ball camera's?")
+        unlike = {"paper": "is the ball another colour than the detector's orange",
+                  "real": "is the ball unlike the ball model's (dsp-calibrate --ball-from "
+                  "labelled frames fits one)"}
+        cause = (unlike.get(self.detector, f"does the {self.detector} detector not find "
+                            "this ball") + ", or the image topic not the ball camera's?")
         if len(blind) == len([c for c in self.counts.values() if c.images]):
             total = sum(self.counts[r].images for r in blind)
             return [f"{log}: no robot saw the ball in any of its images ({total} images: "

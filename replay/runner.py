@@ -45,6 +45,7 @@ from estimator.localisation import PoseCorrection
 from estimator.tracking.bias import BiasEstimator, BiasParams
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
+from replay.detector_choice import choose_detector
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
@@ -110,6 +111,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         options, pipeline = decide(
             options, has_field=info.scenario is not None and info.scenario.field is not None,
             robots=info.robots, camera_robots=tuple(cameras.models))
+        options, pipeline, chosen = choose_detector(reader, options, pipeline, cameras)
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
@@ -124,7 +126,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             if options.localise == "ball" else None)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
-        diagnosis = Diagnosis(path, info.robots, cameras)
+        diagnosis = Diagnosis(path, info.robots, cameras, detector=pipeline.detector)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats,
                                     pipeline if options.profile is not None else None)
@@ -141,8 +143,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader, stream.bad_images)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
-            warnings = diagnosis.warnings(bad_images=stream.bad_images,
-                                          bad_messages=reader.bad_messages)
+            warnings = [*chosen, *diagnosis.warnings(bad_images=stream.bad_images,
+                                                     bad_messages=reader.bad_messages)]
             if options.strict and warnings:
                 raise StrictError(warnings)  # before the outputs are committed
     saved = options.save_path

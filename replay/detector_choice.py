@@ -27,7 +27,8 @@ not the paper's method, which keeps the paper's chain) chooses, in this order:
 
 The choice is a pure function of the log's bytes and the options (the images are detected
 in a pool but counted in a fixed order), so outputs do not depend on ``--threads``. Where
-the chosen detector found no ball in a robot's probe images the replay warns, naming it.
+the chosen detector found no ball in a robot's probe images the replay warns, naming it
+(unless the whole replay's own warning, that the robot saw no ball at all, says more).
 """
 
 from __future__ import annotations
@@ -104,7 +105,8 @@ class Choice:
     its results stay as they were)."""
     ball: Path | None = None
     """The real detector's ball model file."""
-    warnings: tuple[str, ...] = ()
+    warnings: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    """Robot -> a warning: the chosen detector found no clear ball in its probe images."""
     probe: Probe | None = None
 
 
@@ -121,11 +123,11 @@ def _chooses(options: ReplayOptions) -> bool:
 
 
 def choose_detector(reader: LogReader, options: ReplayOptions, pipeline: Pipeline,
-                    cameras: Cameras) -> tuple[ReplayOptions, Pipeline, tuple[str, ...]]:
+                    cameras: Cameras) -> tuple[ReplayOptions, Pipeline, dict[str, str]]:
     """The options and pipeline with the detector chosen from the log (unchanged when the
-    options choose it), and the warnings the choice gives."""
+    options choose it), and the warnings the choice gives, by robot."""
     if not _chooses(options):
-        return options, pipeline, ()
+        return options, pipeline, {}
     choice = choice_for(reader, options, cameras)
     settled = options
     if choice.detector == "real":
@@ -133,7 +135,7 @@ def choose_detector(reader: LogReader, options: ReplayOptions, pipeline: Pipelin
         settled = dataclasses.replace(options, detector="real", ball=ball)
     return settled, dataclasses.replace(
         pipeline, detector=choice.detector, detector_choice=choice.why,
-        detector_choice_recorded=choice.recorded), choice.warnings
+        detector_choice_recorded=choice.recorded), dict(choice.warnings)
 
 
 def choice_for(reader: LogReader, options: ReplayOptions, cameras: Cameras) -> Choice:
@@ -158,12 +160,12 @@ def choice_for(reader: LogReader, options: ReplayOptions, cameras: Cameras) -> C
     if colour is not None:
         why = f"the log's ball is {colour}, not the colour chain's orange; {why}"
     blind = [r for r, n in found.found(detector).items() if n == 0]
-    warnings = tuple(
+    warnings = {r:
         f"{printable(str(reader.path), limit=200)}: {printable(r, limit=60)} shows no clear "
         f"ball in its {found.images[r]} first images to the chosen {detector} detector: is "
         "its camera covered, the ball out of its sight, or the ball unlike the detector's "
         "(dsp-calibrate --ball-from labelled frames fits a model)?"
-        for r in blind)
+        for r in blind}
     return Choice(detector, why, warnings=warnings, probe=found)
 
 

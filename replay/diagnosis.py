@@ -43,10 +43,13 @@ class Diagnosis(SinkBase):
     """Counts per robot for :meth:`warnings` (constant memory)."""
 
     def __init__(self, path: Path, robots: tuple[str, ...], cameras: Cameras, *,
-                 detector: str = "paper") -> None:
+                 detector: str = "paper", early: Mapping[str, str] | None = None) -> None:
         self.path = path
         self.detector = detector
         """The detector in use ("paper", "real" or one from outside), for the likely cause."""
+        self.early = dict(early or {})
+        """Robot -> what the detector's choice found wrong with its first images
+        (:mod:`replay.detector_choice`): said unless the whole replay says more."""
         self.robots = robots
         self.cameras = cameras
         self.counts = {r: _Counts() for r in robots}
@@ -79,6 +82,7 @@ class Diagnosis(SinkBase):
                          "decode: " + "; ".join(f"{printable(k, limit=300)} ({v})"
                                                  for k, v in sorted(bad_images.items())))
         lines += self._sizes(log)
+        lines += [w for r, w in self.early.items() if r not in self._blind()]
         lines += self._unseen(log)
         lines += self._out_of_range(log)
         return lines
@@ -99,8 +103,12 @@ class Diagnosis(SinkBase):
                            "camera? (give --cameras with its size and centre)")
         return out
 
+    def _blind(self) -> list[str]:
+        """The robots that saw no ball in any image that decoded."""
+        return [r for r, c in self.counts.items() if c.images and not c.detections]
+
     def _unseen(self, log: str) -> list[str]:
-        blind = [r for r, c in self.counts.items() if c.images and not c.detections]
+        blind = self._blind()
         if not blind:
             return []
         unlike = {"paper": "is the ball another colour than the detector's orange",

@@ -126,7 +126,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             if options.localise == "ball" else None)
         localiser = _localiser(options, info, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
-        diagnosis = Diagnosis(path, info.robots, cameras, detector=pipeline.detector)
+        diagnosis = Diagnosis(path, info.robots, cameras, detector=pipeline.detector,
+                              early=chosen)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats,
                                     pipeline if options.profile is not None else None)
@@ -143,8 +144,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader, stream.bad_images)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader))
-            warnings = [*chosen, *diagnosis.warnings(bad_images=stream.bad_images,
-                                                     bad_messages=reader.bad_messages)]
+            warnings = diagnosis.warnings(bad_images=stream.bad_images,
+                                          bad_messages=reader.bad_messages)
             if options.strict and warnings:
                 raise StrictError(warnings)  # before the outputs are committed
     saved = options.save_path

@@ -70,14 +70,18 @@ def write_image_log(path: Path, images: dict[str, list[bytes]], *, size: tuple[i
     return path
 
 
-def _msl_log(tmp_path: Path, blind: str | None = None) -> Path:
+def _msl_log(tmp_path: Path, blind: dict[str, int] | None = None, *,
+             name: str = "msl.mcap") -> Path:
+    """Two robots of the real images (7 each, at 4 Hz); ``blind={"robot3": n}`` adds a
+    robot whose camera shows a grey wall in its first n images, then (n > 0) the ball in 4
+    more, or (n < 0) the wall in -n images and no ball."""
     jpgs = [p.read_bytes() for p in sorted(MSL.glob("*.jpg"))]
     images = {"robot1": jpgs[0::2], "robot2": jpgs[1::2]}
-    if blind is not None:  # a robot whose camera shows a grey wall
+    for robot, n in (blind or {}).items():
         ok, buf = cv2.imencode(".jpg", np.full((800, 608, 3), 90, np.uint8))
         assert ok
-        images[blind] = [buf.tobytes()] * 3
-    return write_image_log(tmp_path / "msl.mcap", images, size=(608, 800))
+        images[robot] = [buf.tobytes()] * abs(n) + (jpgs[:4] if n > 0 else [])
+    return write_image_log(tmp_path / name, images, size=(608, 800))
 
 
 def strip_dsp_metadata(src: Path, dst: Path) -> Path:
@@ -207,9 +211,14 @@ def test_a_camera_file_s_ball_model_is_the_real_detector_s(
 
 
 def test_a_robot_the_chosen_detector_finds_no_ball_for_is_named(tmp_path: Path) -> None:
-    log = _msl_log(tmp_path, blind="robot3")
-    summary = replay(log, options_for(progress=False))
+    # blind in the probe's first 5 s (20 images at 4 Hz), the ball later: the probe says so
+    summary = replay(_msl_log(tmp_path, blind={"robot3": 22}), options_for(progress=False))
     assert summary.pipeline is not None and summary.pipeline.startswith(
         "pipeline (best): real detector (chosen:")
-    named = [w for w in summary.warnings if "robot3 shows no clear ball" in w]
-    assert len(named) == 1 and "robot1" not in named[0]
+    named = [w for w in summary.warnings if "robot" in w]
+    assert len(named) == 1 and "robot3 shows no clear ball in its 20 first images" in named[0]
+    # blind all along: the whole replay's warning names it, once
+    summary = replay(_msl_log(tmp_path, blind={"robot3": -6}, name="blind.mcap"),
+                     options_for(progress=False))
+    named = [w for w in summary.warnings if "robot" in w]
+    assert len(named) == 1 and "robot3 saw the ball in none" in named[0], named

@@ -93,9 +93,10 @@ class Probe:
         return sum(self.found(detector).values())
 
     def describe(self, detector: str) -> str:
-        """"robot1 18/20, robot2 17/20" for one detector."""
+        """"robot1 18/20, robot2 17/20" for one detector (names from the log made printable)."""
         found = self.found(detector)
-        return ", ".join(f"{r} {found[r]}/{n}" for r, n in self.images.items())
+        return ", ".join(f"{printable(r, limit=60)} {found[r]}/{n}"
+                         for r, n in self.images.items())
 
 
 @dataclass(frozen=True)
@@ -179,7 +180,7 @@ def _camera_ball(cameras: Cameras) -> Choice | None:
     paths = sorted({str(m) for m in models.values() if isinstance(m, str)})
     if not paths:
         return None
-    robots = ", ".join(sorted(models))
+    robots = ", ".join(printable(r, limit=60) for r in sorted(models))
     why = f"the camera description names the ball model {Path(paths[0]).name} ({robots})"
     if len(paths) > 1:
         why += f"; the others ({', '.join(Path(p).name for p in paths[1:])}) are not used"

@@ -27,15 +27,24 @@ not the paper's method, which keeps the paper's chain) chooses, in this order:
    all robots; otherwise (a tie too) the colour chain, the cheaper and the one every
    simulated result was made with.
 
+Where the robots' poses and cameras place the balls found on the field, the probe also
+counts, per robot, the balls that another robot's agrees with (within :data:`AGREE_M` at
+stamps :data:`AGREE_NS` apart). That is not part of the choice (a fake or poor pose would
+decide it, and two robots agree just as well on an orange box beside the field) but of what
+the replay says: the line gives the count, and a robot the chosen detector finds no clear
+ball for, or (two robots or more finding one) whose balls none of the others' agrees with,
+is named in a warning (unless the whole replay's own warning, that the robot saw no ball at
+all, says more).
+
 The choice is a pure function of the log's bytes and the options (the images are detected
-in a pool but counted in a fixed order), so outputs do not depend on ``--threads``. Where
-the chosen detector found no ball in a robot's probe images the replay warns, naming it
-(unless the whole replay's own warning, that the robot saw no ball at all, says more).
+in a pool but counted in a fixed order), so outputs do not depend on ``--threads``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import math
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -48,14 +57,16 @@ import numpy as np
 from dsp.ball_file import GENERIC_NAME, shipped_check, shipped_generic
 from dsp.text import printable
 from estimator.constants import NS_PER_S
-from estimator.detection.chain import DetectionParams, detect_blobs
+from estimator.detection.chain import Detection, DetectionParams, detect_blobs
 from estimator.errors import EstimatorError
 from replay.cameras import Cameras
-from replay.log import ImageMessage, LogInfo, LogReader, decode_image
+from replay.estimation import Detected, FrameEstimator
+from replay.log import ImageMessage, LogInfo, LogReader, PoseMessage, decode_image
 from replay.options import ReplayOptions
 from replay.profiles import Pipeline
 from replay.real_ball import BallFinder
 from replay.selection import log_origin_ns
+from replay.sync import History, PoseMatch, interpolate_pose
 
 __all__ = ["MAX_CLEAR_BLOBS", "MIN_AREA_PX", "MIN_CIRCULARITY", "PROBE_IMAGES", "PROBE_SECONDS",
            "Choice", "Probe", "choice_for", "choose_detector", "generic_ball_path", "probe"]
@@ -69,8 +80,14 @@ MIN_AREA_PX = 30.0
 a simulated ball at 8 m about 40 px)."""
 MIN_CIRCULARITY = 0.7
 """A colour-chain blob less round than this is no clear ball (a simulated ball: 0.75-0.95)."""
+AGREE_M = 0.5
+"""Two robots' balls agree when they lie this close on the field ..."""
+AGREE_NS = 100_000_000
+"""... at stamps this close (a ball rolling at 5 m/s moves 0.5 m in it)."""
 MAX_CLEAR_BLOBS = 3
 """More ball-like colour-chain blobs than this in one image are no clear ball."""
+Seen = tuple[Detection | None, Detection | None]
+"""An image's clear ball to the colour chain and to the real detector (None: none)."""
 METADATA_BALL = "orange"
 """The ball colour the colour chain's HSV box is made for."""
 
@@ -85,6 +102,9 @@ class Probe:
     """Robot -> images in which the colour chain finds one clear ball."""
     real: Mapping[str, int]
     """Robot -> images in which the real detector (generic model) reports a ball."""
+    agree: Mapping[str, Mapping[str, int]] = dataclasses.field(default_factory=dict)
+    """Detector -> robot -> its balls on the field that another robot's agrees with
+    (:func:`_agreeing`); empty when the probe was given no cameras."""
 
     def found(self, detector: str) -> Mapping[str, int]:
         return self.real if detector == "real" else self.paper
@@ -153,7 +173,7 @@ def choice_for(reader: LogReader, options: ReplayOptions, cameras: Cameras) -> C
     if colour == METADATA_BALL:
         return Choice("paper", "the log's dsp-record metadata states the colour chain's "
                       "orange ball", recorded=False)
-    found = probe(reader, options)
+    found = probe(reader, options, cameras)
     if not found.images:
         return Choice("paper", "no image of the log's first seconds decodes: the colour "
                       "chain, as before")
@@ -162,16 +182,35 @@ def choice_for(reader: LogReader, options: ReplayOptions, cameras: Cameras) -> C
     name = {"real": "the real detector (generic model)", "paper": "the colour chain"}
     why = (f"in its first images {name[detector]} finds a clear ball in "
            f"{found.describe(detector)}, {name[other]} in {found.describe(other)}")
+    agree = found.agree.get(detector, {})
+    if agree and len(found.images) > 1:
+        why += (f"; {sum(agree.values())} of the {found.total(detector)} balls agree with "
+                "another robot's on the field")
     if colour is not None:
         why = f"the log's ball is {colour}, not the colour chain's orange; {why}"
-    blind = [r for r, n in found.found(detector).items() if n == 0]
-    warnings = {r:
-        f"{printable(str(reader.path), limit=200)}: {printable(r, limit=60)} shows no clear "
-        f"ball in its {found.images[r]} first images to the chosen {detector} detector: is "
-        "its camera covered, the ball out of its sight, or the ball unlike the detector's "
-        "(dsp-calibrate --ball-from labelled frames fits a model)?"
-        for r in blind}
-    return Choice(detector, why, warnings=warnings, probe=found)
+    return Choice(detector, why, warnings=_warnings(str(reader.path), found, detector),
+                  probe=found)
+
+
+def _warnings(log: str, found: Probe, detector: str) -> dict[str, str]:
+    """Robot -> what the chosen detector found wrong in its first images: no clear ball, or
+    (two robots or more finding one) none that another robot's agrees with."""
+    where = printable(log, limit=200)
+    seeing = {r: n for r, n in found.found(detector).items() if n}
+    agree = found.agree.get(detector, {})
+    out = {}
+    for r, n in found.found(detector).items():
+        if n == 0:
+            out[r] = (f"{where}: {printable(r, limit=60)} shows no clear ball in its "
+                      f"{found.images[r]} first images to the chosen {detector} detector: is "
+                      "its camera covered, the ball out of its sight, or the ball unlike the "
+                      "detector's (dsp-calibrate --ball-from labelled frames fits a model)?")
+        elif agree and len(seeing) > 1 and agree.get(r, 0) == 0:
+            out[r] = (f"{where}: none of the {n} balls the {detector} detector finds in "
+                      f"{printable(r, limit=60)}'s first images agrees with another robot's "
+                      f"(within {AGREE_M:g} m, {AGREE_NS / NS_PER_S:g} s): is its pose, its "
+                      "camera description or what the detector takes for the ball wrong?")
+    return out
 
 
 def _camera_ball(cameras: Cameras) -> Choice | None:
@@ -195,41 +234,87 @@ def _recorded_ball(info: LogInfo) -> str | None:
     return scenario.recording.ball_colour
 
 
-def probe(reader: LogReader, options: ReplayOptions) -> Probe:
-    """Both detectors on each robot's first images (see the module docstring)."""
-    picked = _probe_images(reader, options)
+def probe(reader: LogReader, options: ReplayOptions, cameras: Cameras | None = None) -> Probe:
+    """Both detectors on each robot's first images (see the module docstring); with
+    ``cameras``, where each ball found lies on the field, and which agree (:func:`_agreeing`)."""
+    picked, poses = _probe_images(reader, options)
     finder = BallFinder(shipped_generic(), shipped_check())
     with ThreadPoolExecutor(max(1, options.thread_count)) as pool:
-        verdicts = list(pool.map(lambda m: _verdict(m, options.max_image_pixels, finder),
-                                 picked))
-    images: dict[str, int] = {}
-    paper: dict[str, int] = {}
-    real: dict[str, int] = {}
-    for msg, verdict in zip(picked, verdicts, strict=True):
-        if verdict is None:
-            continue
-        images[msg.robot] = images.get(msg.robot, 0) + 1
-        paper[msg.robot] = paper.get(msg.robot, 0) + verdict[0]
-        real[msg.robot] = real.get(msg.robot, 0) + verdict[1]
-    order = [r for r in reader.info.robots if r in images]
-    return Probe({r: images[r] for r in order}, {r: paper[r] for r in order},
-                 {r: real[r] for r in order})
+        seen = list(pool.map(lambda m: _seen(m, options.max_image_pixels, finder), picked))
+    order = [r for r in reader.info.robots if any(m.robot == r and s is not None
+                                                  for m, s in zip(picked, seen, strict=True))]
+    images = dict.fromkeys(order, 0)
+    found: dict[str, dict[str, int]] = {d: dict.fromkeys(order, 0) for d in ("paper", "real")}
+    for msg, both in zip(picked, seen, strict=True):
+        if both is not None:
+            images[msg.robot] += 1
+            for d, det in zip(("paper", "real"), both, strict=True):
+                found[d][msg.robot] += det is not None
+    agree: dict[str, Mapping[str, int]] = {}
+    if cameras is not None:
+        tolerance = options.timing(log_origin_ns(reader.info)).tolerance_ns
+        where = _located(picked, seen, poses, options, cameras, tolerance)
+        agree = {d: _agreeing(where[d], order) for d in where}
+    return Probe(images, found["paper"], found["real"], agree)
 
 
-def _probe_images(reader: LogReader, options: ReplayOptions) -> list[ImageMessage]:
+def _located(picked: Sequence[ImageMessage], seen: Sequence[Seen | None],
+             poses: Mapping[str, History[PoseMessage]], options: ReplayOptions,
+             cameras: Cameras, tolerance_ns: int) -> dict[str, list[tuple[str, int, float, float]]]:
+    """Detector -> (robot, stamp, x, y) of each clear ball located from the robot's pose."""
+    locate = FrameEstimator(method=options.method, fusion_method="mean", cameras=cameras)
+    out: dict[str, list[tuple[str, int, float, float]]] = {"paper": [], "real": []}
+    for msg, both in zip(picked, seen, strict=True):
+        for d, det in zip(("paper", "real"), both or (None, None), strict=True):
+            if det is None:
+                continue
+            try:
+                pose = interpolate_pose(poses[msg.robot], msg.stamp_ns, tolerance_ns)
+            except EstimatorError:  # a zero or NaN quaternion
+                continue
+            est = locate.estimate(msg.robot, None, functools.partial(_same, pose),
+                                  detected=Detected(None, det)).estimate
+            if est is not None:
+                out[d].append((msg.robot, msg.stamp_ns, est.x_m, est.y_m))
+    return out
+
+
+def _same(pose: PoseMatch | None) -> PoseMatch | None:
+    return pose
+
+
+def _agreeing(where: Sequence[tuple[str, int, float, float]],
+              robots: Sequence[str]) -> dict[str, int]:
+    """Robot -> its located balls that another robot's lies within :data:`AGREE_M` of, at a
+    stamp within :data:`AGREE_NS`."""
+    out = dict.fromkeys(robots, 0)
+    for robot, t, x, y in where:
+        out[robot] += any(r != robot and abs(t2 - t) <= AGREE_NS
+                          and math.hypot(x2 - x, y2 - y) <= AGREE_M
+                          for r, t2, x2, y2 in where)
+    return out
+
+
+def _probe_images(reader: LogReader, options: ReplayOptions
+                  ) -> tuple[list[ImageMessage], dict[str, History[PoseMessage]]]:
     """Per robot, the first image at or after each of :data:`PROBE_IMAGES` instants spread
-    over its first :data:`PROBE_SECONDS` s; reading stops at the first image logged a second
-    after that span (of the first image's), or when every robot has its images."""
+    over its first :data:`PROBE_SECONDS` s, and the poses read meanwhile; reading stops at
+    the first image logged a second after that span (of the first image's), or when every
+    robot has its images."""
     info = reader.info
     start = options.timing(log_origin_ns(info)).start_ns
     span = round(PROBE_SECONDS * NS_PER_S)
     step = span // PROBE_IMAGES
     first: dict[str, int] = {}
     taken: dict[str, list[ImageMessage]] = {r: [] for r in info.robots}
+    poses: dict[str, History[PoseMessage]] = {r: History(2 * span, 1 << 16)
+                                              for r in info.robots}
     t0: int | None = None
     bad = dict(reader.bad_messages)
     try:
         for msg in reader.messages(start_ns=start):
+            if isinstance(msg, PoseMessage):
+                poses[msg.robot].add(msg)
             if not isinstance(msg, ImageMessage) or (start is not None and msg.stamp_ns < start):
                 continue
             if t0 is not None and msg.log_time_ns > t0 + span + NS_PER_S:
@@ -243,31 +328,32 @@ def _probe_images(reader: LogReader, options: ReplayOptions) -> list[ImageMessag
                 break
     finally:
         reader.bad_messages = bad  # the replay's pass counts them, once
-    return [m for r in info.robots for m in taken[r]]
+    return [m for r in info.robots for m in taken[r]], poses
 
 
-def _verdict(msg: ImageMessage, max_pixels: int, finder: BallFinder) -> tuple[int, int] | None:
-    """(colour chain, real detector): 1 where each finds a clear ball; None: no image."""
+def _seen(msg: ImageMessage, max_pixels: int, finder: BallFinder) -> Seen | None:
+    """The image's clear ball to each detector; None: the image does not decode."""
     image = decode_image(msg, max_pixels=max_pixels)
     if image is None:
         return None
     try:
-        real = int(finder(image).detection is not None)
+        real = finder(image).detection
     except EstimatorError:
-        real = 0
+        real = None
     return _paper_clear(image), real
 
 
-def _paper_clear(image: np.ndarray[Any, Any], params: DetectionParams | None = None) -> int:
-    """1 when the colour chain finds 1 to :data:`MAX_CLEAR_BLOBS` round blobs of a ball's
-    size, else 0."""
+def _paper_clear(image: np.ndarray[Any, Any],
+                 params: DetectionParams | None = None) -> Detection | None:
+    """The colour chain's most ball-like blob when it finds 1 to :data:`MAX_CLEAR_BLOBS`
+    round blobs of a ball's size (in its own order, best first), else None."""
     p = params or DetectionParams()
     try:
         blobs = detect_blobs(image, p)
     except EstimatorError:
-        return 0
+        return None
     clear = [b for b in blobs if _ball_like(b.area_px, b.bbox_px, b.circularity, p)]
-    return int(1 <= len(clear) <= MAX_CLEAR_BLOBS)
+    return clear[0] if 1 <= len(clear) <= MAX_CLEAR_BLOBS else None
 
 
 def _ball_like(area_px: float, bbox_px: Sequence[int], circularity: float,

@@ -216,10 +216,25 @@ def test_a_robot_the_chosen_detector_finds_no_ball_for_is_named(tmp_path: Path) 
     summary = replay(_msl_log(tmp_path, blind={"robot3": 22}), options_for(progress=False))
     assert summary.pipeline is not None and summary.pipeline.startswith(
         "pipeline (best): real detector (chosen:")
-    named = [w for w in summary.warnings if "robot" in w]
+    named = [w for w in summary.warnings if "robot3" in w]
     assert len(named) == 1 and "robot3 shows no clear ball in its 20 first images" in named[0]
     # blind all along: the whole replay's warning names it, once
     summary = replay(_msl_log(tmp_path, blind={"robot3": -6}, name="blind.mcap"),
                      options_for(progress=False))
-    named = [w for w in summary.warnings if "robot" in w]
+    named = [w for w in summary.warnings if "robot3" in w]
     assert len(named) == 1 and "robot3 saw the ball in none" in named[0], named
+
+
+def test_a_robot_whose_balls_the_others_do_not_agree_with_is_named(tmp_path: Path) -> None:
+    """robot3 believes itself 1.5 m from where it is: its balls land 1.5 m off the others'."""
+    from synthetic import write_log
+
+    log = tmp_path / "bias.mcap"
+    write_log(log, duration_s=1.0, pose_bias_m={"robot3": (1.5, 0.0)})
+    summary = replay(log, options_for(progress=False))
+    assert summary.pipeline is not None
+    assert "; 10 of the 15 balls agree with another robot's on the field" in summary.pipeline
+    assert [w for w in summary.warnings if "agrees" in w] == [
+        f"{log}: none of the 5 balls the paper detector finds in robot3's first images "
+        "agrees with another robot's (within 0.5 m, 0.1 s): is its pose, its camera "
+        "description or what the detector takes for the ball wrong?"]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -84,10 +85,10 @@ def _msl_log(tmp_path: Path, blind: dict[str, int] | None = None, *,
     return write_image_log(tmp_path / name, images, size=(608, 800))
 
 
-def strip_dsp_metadata(src: Path, dst: Path) -> Path:
-    """``src`` rewritten without its dsp.scenario and dsp.recorder records (its cameras
-    kept, as a team's camera description): a simulated log that states neither its ball nor
-    who rendered it."""
+def rewrite_metadata(src: Path, dst: Path,
+                     edit: Callable[[str, dict[str, str]], dict[str, str] | None]) -> Path:
+    """``src`` with each metadata record replaced by ``edit(name, record)`` (None: left
+    out); the messages as they were."""
     with src.open("rb") as f_in, dst.open("wb") as f_out:
         reader = make_reader(f_in)
         out = RawWriter(f_out)
@@ -107,10 +108,19 @@ def strip_dsp_metadata(src: Path, dst: Path) -> Path:
                             message.publish_time, message.sequence)
         f_in.seek(0)
         for record in make_reader(f_in).iter_metadata():
-            if record.name == contract.CAMERAS_METADATA:
-                out.add_metadata(record.name, dict(record.metadata))
+            kept = edit(record.name, dict(record.metadata))
+            if kept is not None:
+                out.add_metadata(record.name, kept)
         out.finish()
     return dst
+
+
+def strip_dsp_metadata(src: Path, dst: Path) -> Path:
+    """``src`` without its dsp.scenario and dsp.recorder records (its cameras kept, as a
+    team's camera description): a simulated log that states neither its ball nor who
+    rendered it."""
+    return rewrite_metadata(src, dst, lambda name, record: (
+        record if name == contract.CAMERAS_METADATA else None))
 
 
 def _replay(log: Path, out: Path, **given: object) -> dict[str, object]:
@@ -175,6 +185,27 @@ def test_a_dsp_record_log_gets_the_colour_chain_from_its_metadata_without_probin
     doc = _replay(GOLDEN / "rolling.mcap", tmp_path / "r.json")
     assert doc["pipeline"] == json.loads(
         (GOLDEN / "rolling.profile-best.json").read_text())["pipeline"]  # nothing more
+
+
+def test_a_dsp_record_log_of_another_ball_is_left_to_its_images(tmp_path: Path) -> None:
+    """The metadata says yellow (the images show the orange ball): the colour chain is not
+    taken on the metadata's word, the images are probed, and they choose it."""
+    def yellow(name: str, record: dict[str, str]) -> dict[str, str]:
+        if name != contract.SCENARIO_METADATA:
+            return record
+        params = json.loads(record["params"])
+        params["recording"]["ball_colour"] = "yellow"
+        return {**record, "params": json.dumps(params, sort_keys=True)}
+
+    log = rewrite_metadata(GOLDEN / "rolling.mcap", tmp_path / "yellow.mcap", yellow)
+    with LogReader(log) as reader:
+        recording = reader.info.scenario.recording if reader.info.scenario else None
+        assert recording is not None and recording.ball_colour == "yellow"
+    pipeline = _replay(log, tmp_path / "r.json")["pipeline"]
+    assert isinstance(pipeline, dict) and pipeline["detector"] == "paper"
+    assert str(pipeline["detector_choice"]).startswith(
+        "the log's ball is yellow, not the colour chain's orange; in its first images the "
+        "colour chain finds a clear ball in robot1 ")
 
 
 def test_explicit_options_and_the_paper_method_keep_their_detector(

@@ -33,8 +33,9 @@ stamps :data:`AGREE_NS` apart). That is not part of the choice (a fake or poor p
 decide it, and two robots agree just as well on an orange box beside the field) but of what
 the replay says: the line gives the count, and a robot the chosen detector finds no clear
 ball for, or (two robots or more finding one) whose balls none of the others' agrees with,
-is named in a warning (unless the whole replay's own warning, that the robot saw no ball at
-all, says more).
+is named in a warning (unless the whole replay's own warning says more: that the robot saw
+no ball at all, or that none of its balls agreed with another robot's;
+:mod:`replay.diagnosis`).
 
 The choice is a pure function of the log's bytes and the options (the images are detected
 in a pool but counted in a fixed order), so outputs do not depend on ``--threads``.
@@ -68,8 +69,9 @@ from replay.real_ball import BallFinder
 from replay.selection import log_origin_ns
 from replay.sync import History, PoseMatch, interpolate_pose
 
-__all__ = ["MAX_CLEAR_BLOBS", "MIN_AREA_PX", "MIN_CIRCULARITY", "PROBE_IMAGES", "PROBE_SECONDS",
-           "Choice", "Probe", "choice_for", "choose_detector", "generic_ball_path", "probe"]
+__all__ = ["AGREE_M", "AGREE_NS", "MAX_CLEAR_BLOBS", "MIN_AREA_PX", "MIN_CIRCULARITY",
+           "PROBE_IMAGES", "PROBE_SECONDS", "Choice", "Probe", "choice_for", "choose_detector",
+           "generic_ball_path", "probe"]
 
 PROBE_SECONDS = 5.0
 """The probe looks at each robot's images of its first this many seconds."""

@@ -243,9 +243,12 @@ def _add_input_arguments(p: argparse._ActionsContainer) -> None:
     """What describes the log: its cameras, its topics, the robots and times to replay."""
     p.add_argument("--detector", metavar="paper|real|NAME|package.module:Class", default=None,
                    help="how the ball is found in an image: 'paper' (the paper's colour "
-                   "chain, the default), 'real' (the real-ball detector of --ball), or a "
+                   "chain), 'real' (the real-ball detector of --ball), or a "
                    "detector from outside: an installed dual_sight.detectors entry point's "
-                   "name, or package.module:Class (docs/compare.md)")
+                   "name, or package.module:Class (docs/compare.md); default: chosen "
+                   "from the log (a camera file's ball model, a dsp-record log's orange "
+                   "ball, else the one that finds a clear ball in its first images; "
+                   "docs/detection.md), the colour chain with --profile paper")
     p.add_argument("--calibration", metavar="FILE",
                    help="calibration JSON for every robot, replacing its camera's; 'paper' "
                    "for the paper's eq. 4 (and its image centre where the log names no camera)")

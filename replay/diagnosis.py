@@ -2,7 +2,9 @@
 
 A replay can run to the end and be wrong in silence: a yellow ball the orange detector never
 sees, a camera whose centre is not where the description says (most balls then fall beyond
-the calibration), images of another size than the camera described. :class:`Diagnosis` is
+the calibration), images of another size than the camera described, a robot whose balls
+never lie where the other robots' do (its pose, its camera, or a look-alike taken for the
+ball). :class:`Diagnosis` is
 a sink that counts, per robot, what it needs to tell; :meth:`Diagnosis.warnings` turns the
 counts (and the images and messages the replay skipped) into one line each, with the counts
 and the likely cause. The runner prints them on stderr once the outputs are written, also
@@ -11,6 +13,7 @@ with ``-q``; with ``--strict`` the first one is the replay's error and nothing i
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,13 +22,18 @@ import numpy as np
 
 from dsp.text import printable
 from replay.cameras import Cameras
+from replay.detector_choice import AGREE_M, AGREE_NS
 from replay.records import FrameResult, FrameStatus
 from replay.sink import SinkBase
 
-__all__ = ["OUT_OF_RANGE_SHARE", "Diagnosis"]
+__all__ = ["MIN_COMPARED", "OUT_OF_RANGE_SHARE", "Diagnosis"]
 
 OUT_OF_RANGE_SHARE = 0.5
 """A robot warns when more than this share of the balls it saw are out of range."""
+MIN_COMPARED = 10
+"""A robot warns when none of its balls agrees with another robot's (within
+:data:`~replay.detector_choice.AGREE_M` at stamps :data:`~replay.detector_choice.AGREE_NS`
+apart) once this many could be compared."""
 
 
 @dataclass
@@ -37,21 +45,31 @@ class _Counts:
     other_size: int = 0
     size: tuple[int, int] | None = None
     """The first image size unlike the description's (width, height)."""
+    compared: int = 0
+    """Balls placed on the field with another robot's placed at nearly the same stamp."""
+    agreed: int = 0
+    """... of which another robot's lies near it."""
 
 
 class Diagnosis(SinkBase):
     """Counts per robot for :meth:`warnings` (constant memory)."""
 
     def __init__(self, path: Path, robots: tuple[str, ...], cameras: Cameras, *,
-                 detector: str = "paper", ball: Path | None = None) -> None:
+                 detector: str = "paper", ball: Path | None = None,
+                 early: Mapping[str, str] | None = None) -> None:
         self.path = path
+        self.detector = detector
+        """The detector in use ("paper", "real" or one from outside), for the likely cause."""
+        self.early = dict(early or {})
+        """Robot -> what the detector's choice found wrong with its first images
+        (:mod:`replay.detector_choice`): said unless the whole replay says more."""
         self.robots = robots
         self.cameras = cameras
-        self.detector = detector
-        """The detector in use (``paper``, ``real`` or one from outside)."""
         self.ball = ball
         """The real detector's ball model file, which the warnings name."""
         self.counts = {r: _Counts() for r in robots}
+        self._last: dict[str, tuple[int, float, float]] = {}
+        """Robot -> the stamp and field position of its latest ball."""
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         c = self.counts[result.robot]
@@ -66,6 +84,15 @@ class Diagnosis(SinkBase):
             c.detections += 1
         if result.status is FrameStatus.OUT_OF_RANGE:
             c.out_of_range += 1
+        est = result.estimate
+        if est is not None:
+            near = [(x, y) for r, (t, x, y) in self._last.items()
+                    if r != result.robot and abs(t - result.stamp_ns) <= AGREE_NS]
+            if near:
+                c.compared += 1
+                c.agreed += any(math.hypot(x - est.x_m, y - est.y_m) <= AGREE_M
+                                for x, y in near)
+            self._last[result.robot] = (result.stamp_ns, est.x_m, est.y_m)
 
     def warnings(self, *, bad_images: Mapping[str, int] | None = None,
                  bad_messages: Mapping[str, int] | None = None) -> list[str]:
@@ -81,7 +108,15 @@ class Diagnosis(SinkBase):
                          "decode: " + "; ".join(f"{printable(k, limit=300)} ({v})"
                                                  for k, v in sorted(bad_images.items())))
         lines += self._sizes(log)
+        apart = self._apart()
+        lines += [w for r, w in self.early.items() if r not in self._blind() + apart]
         lines += self._unseen(log)
+        lines += [f"{log}: none of the {self.counts[r].compared} balls "
+                  f"{printable(r, limit=60)} placed on the field agrees with another robot's "
+                  "placed at nearly the same time (within "
+                  f"{AGREE_M:g} m, {AGREE_NS / 1e9:g} s): is its pose or its camera "
+                  f"description wrong, or does the {self.detector} detector take something "
+                  "else for the ball?" for r in apart]
         lines += self._out_of_range(log)
         return lines
 
@@ -101,8 +136,17 @@ class Diagnosis(SinkBase):
                            "camera? (give --cameras with its size and centre)")
         return out
 
+    def _apart(self) -> list[str]:
+        """The robots none of whose balls agrees with another robot's (of enough)."""
+        return [r for r, c in self.counts.items() if c.compared >= MIN_COMPARED
+                and c.agreed == 0]
+
+    def _blind(self) -> list[str]:
+        """The robots that saw no ball in any image that decoded."""
+        return [r for r, c in self.counts.items() if c.images and not c.detections]
+
     def _unseen(self, log: str) -> list[str]:
-        blind = [r for r, c in self.counts.items() if c.images and not c.detections]
+        blind = self._blind()
         if not blind:
             return []
         cause = f"{self._unlike()}, or the image topic not the ball camera's?"

@@ -126,11 +126,20 @@ class Pipeline:
     hops: bool
     notes: tuple[str, ...] = ()
     """Each part the profile wanted that the log did not allow, and why."""
+    detector_choice: str | None = None
+    """Why the log's images, camera file or metadata chose the detector
+    (:mod:`replay.detector_choice`); None: the options gave it."""
+    detector_choice_recorded: bool = True
+    """Whether the header records ``detector_choice`` (not for a dsp-record log's orange
+    ball, whose results stay as they were)."""
 
     def to_dict(self) -> dict[str, Json]:
         d: dict[str, Json] = {k: v for k, v in dataclasses.asdict(self).items()
-                              if k != "notes"}
+                              if k not in ("notes", "detector_choice",
+                                           "detector_choice_recorded")}
         d["notes"] = list(self.notes)
+        if self.detector_choice is not None and self.detector_choice_recorded:
+            d["detector_choice"] = self.detector_choice
         return d
 
     def describe(self) -> str:
@@ -138,7 +147,8 @@ class Pipeline:
         poses = {"lines": "poses corrected from the field lines",
                  "ball": "poses corrected by each robot's bias",
                  "believed": "the believed poses"}[self.poses]
-        parts = [f"{self.detector} detector", f"{self.method} ranges", poses]
+        chosen = "" if self.detector_choice is None else f" (chosen: {self.detector_choice})"
+        parts = [f"{self.detector} detector{chosen}", f"{self.method} ranges", poses]
         if self.pose_uncertainty:
             parts.append("pose uncertainty")
         parts.append(f"{self.fusion} fusion" + (" with hops and flight" if self.hops else ""))

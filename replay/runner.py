@@ -47,6 +47,7 @@ from estimator.tracking.bias import BiasEstimator, BiasParams
 from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
+from replay.detector_choice import choose_detector
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
@@ -115,6 +116,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             options, field=None if field is None else field.name, robots=info.robots,
             camera_robots=tuple(cameras.models), notes=() if field_note is None else
             (field_note,), pose_covariance=reader.states_pose_covariance())
+        options, pipeline, chosen = choose_detector(reader, options, pipeline, cameras)
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))
         estimator = FrameEstimator(
@@ -130,7 +132,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         localiser = _localiser(options, field, estimator, path)
         stats = ReplayStats(info.robots, width_range=options.width_range)
         diagnosis = Diagnosis(path, info.robots, cameras, detector=options.detector_name,
-                              ball=options.ball)
+                              ball=options.ball, early=chosen)
         with contextlib.ExitStack() as stack:
             outputs = _open_outputs(stack, reader, options, estimator, stats,
                                     pipeline if options.profile is not None else None, field)

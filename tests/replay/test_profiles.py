@@ -89,9 +89,10 @@ def test_a_replay_with_no_switches_records_and_prints_its_pipeline(
     out = tmp_path / "r.json"
     assert main([str(log), "--out", str(out)]) == 0
     printed = capsys.readouterr().out.splitlines()
-    assert printed[0] == ("pipeline (best): paper detector, corrected ranges, poses corrected "
-                          "from the field lines, pose uncertainty, track fusion with hops and "
-                          "flight")
+    assert printed[0] == ("pipeline (best): paper detector (chosen: the log's dsp-record "
+                          "metadata states the colour chain's orange ball), corrected ranges, "
+                          "poses corrected from the field lines, pose uncertainty, track fusion "
+                          "with hops and flight")
     doc = json.loads(out.read_text())
     assert doc["pipeline"] == {"profile": "best", "detector": "paper", "method": "corrected",
                                "poses": "lines", "pose_uncertainty": True, "fusion": "track",

@@ -18,7 +18,6 @@ from dsp.errors import InputError
 from dsp.text import printable
 
 __all__ = [
-    "MAX_LISTED_TOPICS",
     "CorruptLogError",
     "ImageDecodeError",
     "InputNotFoundError",

@@ -60,6 +60,7 @@ from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
 from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay import plugins
+from replay.beliefs import beliefs
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.locators import CorrectedLocator, Locator, PaperLocator
 from replay.locators import ball_estimate as _ball
@@ -218,7 +219,7 @@ class FrameEstimator:
             return FrameOutcome(FrameStatus.NO_POSE, det, r_px)
         pose = self.field_pose(robot, pose)
         if loc is None and self.bias is not None:
-            loc = self._bias_corrected(robot, pose.pose)
+            loc = self._bias_corrected(robot, pose)
         if det is None:
             return FrameOutcome(FrameStatus.NO_DETECTION, pose=pose, localisation=loc)
         usable = self.cameras.usable_radius_px(robot)
@@ -235,9 +236,13 @@ class FrameEstimator:
                 np.asarray(loc.covariance, np.float64)))
         return FrameOutcome(FrameStatus.OK, det, r_px, pose, estimate, localisation=loc)
 
-    def _bias_corrected(self, robot: str, pose: RobotPose) -> Localisation:
-        """The believed pose plus the robot's estimated bias (``--localise ball``)."""
+    def _bias_corrected(self, robot: str, match: PoseMatch) -> Localisation:
+        """The believed pose plus the robot's estimated bias (``--localise ball``), whose
+        spread is the one the log states where it states one."""
         assert self.bias is not None
+        if match.covariance is not None:
+            self.bias.state(robot, self._note_stated(robot, match.covariance))
+        pose = match.pose
         (x, y, yaw), cov = self.bias.corrected(robot, pose.x_m, pose.y_m, pose.yaw_rad)
         return Localisation(RobotPose(x, y, yaw), cov, status="ok", source="ball", points=0,
                             inliers=0)
@@ -249,13 +254,17 @@ class FrameEstimator:
         if loc is not None:
             return covariance3_rows(np.asarray(loc.covariance, np.float64))
         if pose.covariance is not None:
-            cov = np.asarray(pose.covariance, np.float64).reshape(3, 3)
-            self._stated[robot] = (math.sqrt(max(0.0, 0.5 * (cov[0, 0] + cov[1, 1]))),
-                                   math.sqrt(max(0.0, cov[2, 2])))
-            return covariance3_rows(cov)
+            return covariance3_rows(self._note_stated(robot, pose.covariance))
         if self.pose_noise is not None:
             return self.pose_noise.covariance(robot)
         return self.pose_covariance
+
+    def _note_stated(self, robot: str, covariance: Sequence[float]) -> np.ndarray:
+        """The log's pose covariance (3 x 3), its sigmas kept for the summary."""
+        cov = np.asarray(covariance, np.float64).reshape(3, 3)
+        self._stated[robot] = (math.sqrt(max(0.0, 0.5 * (cov[0, 0] + cov[1, 1]))),
+                               math.sqrt(max(0.0, cov[2, 2])))
+        return cov
 
     def field_pose(self, robot: str, pose: PoseMatch) -> PoseMatch:
         """The believed pose in the field frame: the camera file's map-to-field transform
@@ -281,27 +290,9 @@ class FrameEstimator:
         return [self._deferred]
 
     def beliefs(self) -> dict[str, dict[str, Json]]:
-        """What the replay came to believe of each robot's pose that the log did not state:
-        the pose spread learnt from the residuals, and (``--localise ball``) the bias it
-        corrects by; empty when nothing was learnt."""
-        learnt = self.pose_noise if self.bias is None else self.bias.learnt
-        out: dict[str, dict[str, Json]] = {}
-        for robot in self.cameras.specs:
-            d: dict[str, Json] = {}
-            if learnt is not None and learnt.count(robot):
-                s_m, s_t = learnt.sigma(robot)
-                d.update(pose_sigma_m=round(s_m, 6), pose_sigma_deg=round(math.degrees(s_t), 6),
-                         residuals=learnt.count(robot))
-                if robot in self._stated:  # what the log states, beside what its balls show
-                    m, t = self._stated[robot]
-                    d.update(stated_sigma_m=round(m, 6), stated_sigma_deg=round(math.degrees(t), 6))
-            if self.bias is not None and self.bias.updates:
-                b, _ = self.bias.bias(robot)
-                d.update(bias_x_m=round(float(b[0]), 6), bias_y_m=round(float(b[1]), 6),
-                         bias_yaw_deg=round(math.degrees(float(b[2])), 6))
-            if d:
-                out[robot] = d
-        return out
+        """What the replay came to believe of each robot's pose (:func:`replay.beliefs.beliefs`)."""
+        return beliefs(list(self.cameras.specs), self.pose_noise if self.bias is None
+                       else self.bias.learnt, self.bias, self._stated)
 
     def flush(self) -> None:
         """Once the log is read: the held-back steps, smoothed, to the sinks."""

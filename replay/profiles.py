@@ -195,22 +195,20 @@ def allowances(*, field: str | None, robots: Sequence[str], camera_robots: Seque
 
 
 def decide(options: ReplayOptions, *, field: str | None, robots: Sequence[str],
-           camera_robots: Sequence[str], notes: Sequence[str] = (),
-           pose_covariance: bool = False) -> tuple[ReplayOptions, Pipeline]:
+           camera_robots: Sequence[str], notes: Sequence[str] = ()
+           ) -> tuple[ReplayOptions, Pipeline]:
     """The options with every ``auto`` choice settled from what the log holds
     (:func:`allowances`), and the pipeline they run. ``field``: the field's name, None when
     neither the log nor the camera file names one; ``camera_robots``: the robots with a
-    camera model; ``notes``: the caller's, first (where the field came from);
-    ``pose_covariance``: the log's poses state their covariance."""
+    camera model; ``notes``: the caller's, first (where the field came from)."""
     line_fit, track = allowances(field=field, robots=robots, camera_robots=camera_robots)
     said = list(notes)
     localise = options.localise
     if localise == "auto":
         # where the lines cannot correct the poses, the ball can, relative to each other
-        # (estimator.tracking.bias): with the tracker and a second robot to compare with,
-        # where the log does not state how far its poses are off (a stated covariance is
-        # used as it is; chosen on dsp-eval --suite foreign --foreign-set tune)
-        ball = options.fusion_method == "track" and len(robots) >= 2 and not pose_covariance
+        # (estimator.tracking.bias): with the tracker and a second robot to compare with;
+        # the biases' spread is the one the log states, else the one learnt from it
+        ball = options.fusion_method == "track" and len(robots) >= 2
         localise = "lines" if line_fit.allowed else "ball" if ball else "none"
         if not line_fit.allowed:
             said.append(f"no {line_fit.part}: {line_fit.detail}")

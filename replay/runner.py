@@ -115,7 +115,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
         options, pipeline = decide(
             options, field=None if field is None else field.name, robots=info.robots,
             camera_robots=tuple(cameras.models), notes=() if field_note is None else
-            (field_note,), pose_covariance=reader.states_pose_covariance())
+            (field_note,))
         options, pipeline, chosen = choose_detector(reader, options, pipeline, cameras)
         finder = (None if options.ball is None
                   else BallFinder(read_ball_file(options.ball), shipped_check()))

@@ -95,12 +95,21 @@ class BiasEstimator:
                  learnt: PoseNoiseEstimator | None = None) -> None:
         self.params = params or BiasParams()
         self.learnt = learnt
+        self._stated: dict[str, Matrix] = {}
         self._robots: dict[str, _Robot] = {}
         self.updates = 0
         """Residuals taken in."""
 
+    def state(self, robot: str, covariance: Matrix) -> None:
+        """The robot's pose covariance as its log states it (x, y, yaw): its b's spread from
+        now on, in place of the learnt one or the params'."""
+        self._stated[robot] = np.diag(np.maximum(np.diag(np.asarray(covariance)), 0.0))
+
     def stationary(self, robot: str) -> Matrix:
-        """The prior covariance of the robot's b: learnt, else the params'."""
+        """The prior covariance of the robot's b: the one its log states, else the learnt
+        one, else the params'."""
+        if robot in self._stated:
+            return np.array(self._stated[robot], dtype=np.float64)
         if self.learnt is None:
             return self.params.stationary()
         s_m2, s_t2 = self.learnt.variances(robot)
@@ -108,7 +117,9 @@ class BiasEstimator:
 
     def _yaw_noise2(self, robot: str) -> float:
         own = self.params.yaw_noise_rad**2
-        return own if self.learnt is None else min(own, self.learnt.variances(robot)[1])
+        if robot not in self._stated and self.learnt is None:
+            return own
+        return min(own, float(self.stationary(robot)[2, 2]))
 
     def bias(self, robot: str) -> tuple[Matrix, Matrix]:
         """The robot's b (x, y, yaw) as last updated, less the robots' mean shift (which the

@@ -7,7 +7,7 @@
     dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
     dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, in 3-D
     dsp-eval --suite lobs --camera-phase random    # the same, free-running cameras
-    dsp-eval --suite foreign [--foreign-set report|tune]   # logs drawn without the recorder
+    dsp-eval --suite foreign [--foreign-set report|tune|check]   # logs drawn without the recorder
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
 as Markdown and JSON into --out-dir, beside the recorded logs (which are reused when the

@@ -42,6 +42,7 @@ from replay.evaluate.suites import rounded_doc
 from replay.parallel import Outcome, Workers, map_tasks
 
 __all__ = [
+    "CHECK_SEEDS",
     "FOREIGN_IMAGE_PX",
     "FOREIGN_LOGS",
     "FOREIGN_SETS",
@@ -110,7 +111,10 @@ TUNE_SEEDS: tuple[int, ...] = (1101, 1102, 1103, 1104, 1105, 1106, 1107, 1108, 1
 """The seeds of the logs a default may be tuned on, one per :data:`FOREIGN_LOGS` entry."""
 REPORT_SEEDS: tuple[int, ...] = (2101, 2102, 2103, 2104, 2105, 2106, 2107, 2108, 2109, 2110)
 """The seeds of the logs a default is reported on: never tuned on."""
-FOREIGN_SETS = {"report": REPORT_SEEDS, "tune": TUNE_SEEDS}
+CHECK_SEEDS: tuple[int, ...] = (3101, 3102, 3103, 3104, 3105, 3106, 3107, 3108, 3109, 3110)
+"""A second report set, for a check that no choice has seen (the report set's figures are
+seen each time a default is reported, and a later choice may remember them)."""
+FOREIGN_SETS = {"report": REPORT_SEEDS, "tune": TUNE_SEEDS, "check": CHECK_SEEDS}
 
 
 @dataclass(frozen=True)

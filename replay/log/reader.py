@@ -281,15 +281,6 @@ class LogReader:
                 "(damaged metadata?)")
 
     # --- streaming -------------------------------------------------------------------------
-    def states_pose_covariance(self) -> bool:
-        """Whether every robot's pose topic is of a type that states a covariance
-        (PoseWithCovarianceStamped, Odometry); an all-zero one still means unknown."""
-        types = {self.catalogue.schemas[c.schema_id].name if c.schema_id in
-                 self.catalogue.schemas else "" for c in self.catalogue.channels.values()
-                 if c.topic in self.info.pose_topics.values()}
-        return bool(types) and types <= {contract.POSE_WITH_COVARIANCE_STAMPED,
-                                         contract.ODOMETRY}
-
     def messages(
         self, *, start_ns: int | None = None
     ) -> Iterator[ImageMessage | PoseMessage | TruthMessage]:

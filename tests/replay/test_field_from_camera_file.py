@@ -53,7 +53,7 @@ def test_a_camera_file_naming_the_field_lets_the_default_fit_the_lines(
     named = _pipeline(team_log, _cameras(tmp_path, field="18x12"), tmp_path / "a.json")
     assert named["poses"] == "lines" and named["notes"] == []
     unnamed = _pipeline(team_log, _cameras(tmp_path, "none.yaml"), tmp_path / "b.json")
-    assert unnamed["poses"] == "believed"  # AMCL states its covariance: used as it is
+    assert unnamed["poses"] == "ball"  # no lines: each robot's bias from the balls
     assert unnamed["notes"] == ["no line fit: the log names no field (dsp.scenario metadata); "
                                 "name it in the camera file: field: 18x12"]
     frames = json.loads((tmp_path / "a.json").read_text())["frames"]

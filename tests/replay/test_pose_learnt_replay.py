@@ -1,7 +1,7 @@
 """What a log does not state is learnt from it: on logs another renderer drew (no dsp
 metadata, PoseStamped), the default learns each robot's pose spread and corrects its
-bias from the ball; a stated covariance is used as it is and checked against the balls;
-what was learnt is in the summary and the results."""
+bias from the ball; a stated covariance is the biases' spread instead, and is checked
+against the balls; what was learnt is in the summary and the results."""
 
 from __future__ import annotations
 
@@ -69,13 +69,13 @@ def test_exact_poses_are_learnt_exact_and_drifting_ones_not(runs: dict) -> None:
 
 
 def test_a_stated_covariance_is_used_and_checked_against_the_balls(runs: dict) -> None:
-    """A localiser that states a fifth of its true error: its covariance weighs the
-    estimates (no bias filter), and the summary sets what the balls show beside it."""
+    """A localiser that states a fifth of its true error: its covariance is the spread of
+    the biases corrected, and the summary sets what the balls show beside it."""
     stated, text = runs["stated"]
-    assert stated["pipeline"]["poses"] == "believed" and stated["pipeline"]["pose_uncertainty"]
+    assert stated["pipeline"]["poses"] == "ball" and stated["pipeline"]["pose_uncertainty"]
     for b in stated["summary"]["learnt"].values():
         assert b["stated_sigma_m"] == pytest.approx(0.02, abs=0.002)
-        assert "bias_x_m" not in b
+        assert "bias_x_m" in b
     shown = sum(b["pose_sigma_m"] ** 2 + (b["pose_sigma_deg"] / 20) ** 2
                 for b in stated["summary"]["learnt"].values())
     told = sum(b["stated_sigma_m"] ** 2 + (b["stated_sigma_deg"] / 20) ** 2

@@ -107,3 +107,15 @@ def test_the_bias_filter_takes_the_learnt_spread_per_robot() -> None:
     assert math.degrees(math.sqrt(cov[2][2])) < 0.15
     _, cov = BiasEstimator().corrected("r1", 0.0, 0.0, 0.0)  # a fixed spread: as before
     assert math.degrees(math.sqrt(cov[2][2])) == pytest.approx(math.hypot(1.0, 0.3))
+
+
+def test_a_stated_covariance_is_the_bias_spread_in_place_of_the_learnt() -> None:
+    learnt = PoseNoiseEstimator()
+    _feed(learnt, 0.10, 2.0)
+    bias = BiasEstimator(learnt=learnt)
+    stated = np.diag([0.02**2, 0.02**2, math.radians(0.1) ** 2])
+    bias.state("r1", stated)
+    assert np.allclose(bias.stationary("r1"), stated)
+    assert math.sqrt(bias.stationary("r2")[0, 0]) == pytest.approx(0.03, abs=0.005)  # learnt's
+    _, cov = bias.corrected("r1", 0.0, 0.0, 0.0)  # no yaw noise beyond what it states
+    assert math.degrees(math.sqrt(cov[2][2])) == pytest.approx(0.1 * math.sqrt(2), rel=0.01)

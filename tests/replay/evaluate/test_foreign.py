@@ -28,6 +28,7 @@ from replay.evaluate.foreign_cli import main as foreign_main
 from replay.evaluate.foreign_render import Renderer
 from replay.evaluate.foreign_scene import BALL_RADIUS_M, PoseError, pose_errors
 from replay.evaluate.foreign_suite import (
+    CHECK_SEEDS,
     FOREIGN_LOGS,
     REPORT_SEEDS,
     TUNE_SEEDS,
@@ -184,7 +185,8 @@ def test_an_exact_pose_log_replays_within_centimetres(tmp_path: Path) -> None:
 
 def test_the_suite_keeps_tune_and_report_seeds_apart(tmp_path: Path) -> None:
     assert not set(TUNE_SEEDS) & set(REPORT_SEEDS)
-    assert len(TUNE_SEEDS) == len(REPORT_SEEDS) == len(FOREIGN_LOGS)
+    assert not (set(TUNE_SEEDS) | set(REPORT_SEEDS)) & set(CHECK_SEEDS)
+    assert len(TUNE_SEEDS) == len(REPORT_SEEDS) == len(CHECK_SEEDS) == len(FOREIGN_LOGS)
     drifts = {log.drift for log in FOREIGN_LOGS}
     assert drifts == {None, (0.02, 0.5), (0.05, 1.0), (0.10, 2.0)}
     assert {log.covariance for log in FOREIGN_LOGS} == {False, True}

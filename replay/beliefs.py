@@ -1,0 +1,38 @@
+"""What a replay came to believe of each robot's pose that its log did not state, for the
+summary and the results (``summary.learnt``)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+from dsp.jsonio import Json
+from estimator.tracking.bias import BiasEstimator
+from estimator.tracking.pose_noise import PoseNoiseEstimator
+
+__all__ = ["beliefs"]
+
+
+def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
+            bias: BiasEstimator | None, stated: Mapping[str, tuple[float, float]]
+            ) -> dict[str, dict[str, Json]]:
+    """Per robot: the pose spread ``learnt`` from the residuals (and how many), the spread its
+    log ``stated`` (m, rad) beside it, and the ``bias`` corrected by at the end; robots of
+    which nothing was learnt are left out."""
+    out: dict[str, dict[str, Json]] = {}
+    for robot in robots:
+        d: dict[str, Json] = {}
+        if learnt is not None and learnt.count(robot):
+            s_m, s_t = learnt.sigma(robot)
+            d.update(pose_sigma_m=round(s_m, 6), pose_sigma_deg=round(math.degrees(s_t), 6),
+                     residuals=learnt.count(robot))
+            if robot in stated:  # what the log states, beside what its balls show
+                m, t = stated[robot]
+                d.update(stated_sigma_m=round(m, 6), stated_sigma_deg=round(math.degrees(t), 6))
+        if bias is not None and bias.updates:
+            b, _ = bias.bias(robot)
+            d.update(bias_x_m=round(float(b[0]), 6), bias_y_m=round(float(b[1]), 6),
+                     bias_yaw_deg=round(math.degrees(float(b[2])), 6))
+        if d:
+            out[robot] = d
+    return out

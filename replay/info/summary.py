@@ -173,8 +173,12 @@ def _default_pipeline(cat: Catalogue, robots: list[str], camera_robots: list[str
             field_name = meta.ScenarioMetadata.from_metadata(scenario).field.name
         except meta.MetadataError:
             pass  # reported in the scenario line
-    lines = [a.describe() for a in allowances(field=field_name, robots=robots,
-                                              camera_robots=camera_robots)]
+    line_fit, track = allowances(field=field_name, robots=robots, camera_robots=camera_robots)
+    lines = [line_fit.describe(), track.describe()]
+    if not line_fit.allowed:
+        lines.append("poses: each robot's bias corrected from the ball (how it disagrees with "
+                     "the other robots')" if len(robots) >= 2 else
+                     "poses: the believed ones (one robot: no other ball to compare with)")
     pose_types = set() if pose_topic is None else {
         types.get(contract.topic_for(pose_topic, r), "") for r in robots}
     if pose_types == {contract.POSE_WITH_COVARIANCE_STAMPED}:

@@ -165,15 +165,22 @@ def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
               metadata=False, pose_schema=contract.POSE_WITH_COVARIANCE_STAMPED, **TEAM)
     assert main([str(bag)]) == 0
     out = capsys.readouterr().out
-    block = out.split("default pipeline:\n", 1)[1].splitlines()[:3]
+    block = out.split("default pipeline:\n", 1)[1].splitlines()[:4]
     assert block == [
         "  line fit: no: the log names no field (dsp.scenario metadata); name it in the "
         "camera file: field: 18x12 and no robot's camera model is known (a camera file's "
         "mirror, fisheye or ideal entry: --cameras FILE)",
         "  3-D track: no: one robot, no rays to cross",
+        "  poses: the believed ones (one robot: no other ball to compare with)",
         "  pose covariance: in the pose messages (PoseWithCovarianceStamped; all zero means "
         "unknown: learnt from the log then)"]
     assert main([str(bag), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert [line.split(":")[0] for line in doc["default_pipeline"]] == [
-        "line fit", "3-D track", "pose covariance"]
+        "line fit", "3-D track", "poses", "pose covariance"]
+    pair = tmp_path / "pair.mcap"  # two robots: each one's bias from how their balls differ
+    write_log(pair, robots={"keeper": (-8.0, 0.0, 0.0), "back": (-4.0, 1.0, 0.0)},
+              duration_s=0.2, cameras=None, metadata=False, **TEAM)
+    assert main([str(pair)]) == 0
+    assert ("  poses: each robot's bias corrected from the ball (how it disagrees with the "
+            "other robots')") in capsys.readouterr().out.splitlines()

@@ -45,12 +45,15 @@ SKIP = {
                                                              "(the golden match log stands in)",
     "dsp-record team-source.mcap": "a 4 s mirror-camera recording: over a minute of "
                                    "simulation (the golden rolling log stands in)",
+    "dsp-record boxes.mcap": "a 3 s match with boxes of the ball's colour: simulation time "
+                             "(the golden match log, which has two, stands in)",
 }
 
 STAND_INS = {
     "dsp-record match.mcap --scenario match --duration 3 #": ("logs/golden/match.mcap",
                                                               "match.mcap"),
     "dsp-record team-source.mcap": ("logs/golden/rolling.mcap", "team-source.mcap"),
+    "dsp-record boxes.mcap": ("logs/golden/match.mcap", "boxes.mcap"),
 }
 """A left-out recording's file, copied from a golden log so the lines after it run."""
 

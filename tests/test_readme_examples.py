@@ -131,6 +131,21 @@ def test_the_tutorials_have_shell_blocks() -> None:
         assert len([line for line in shell_lines(page) if _skipped(line) is None]) >= 3, page
 
 
+OUTPUT = re.compile(r"(?:^| )(?:-o|--out(?:-[a-z]+)?|--save|--plot|--exact-cameras)[ =](\S+)")
+"""An option that names a file a line writes."""
+
+
+def test_no_line_writes_over_what_an_earlier_line_wrote() -> None:
+    """A reader edits what a page has them write (a camera file's template); a later line
+    that writes the same name (with ``--force``) would throw their edits away."""
+    for pages in ([README], TUTORIALS):
+        written: dict[str, str] = {}
+        for line in [line for page in pages for line in shell_lines(page)]:
+            for name in OUTPUT.findall(line):
+                assert name not in written, f"{line.strip()}\nwrites over\n{written[name]}"
+                written[name] = line.strip()
+
+
 needs_install = pytest.mark.skipif(shutil.which("dsp-replay") is None,
                                    reason="the project is not installed")
 

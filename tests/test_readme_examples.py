@@ -146,6 +146,25 @@ def test_no_line_writes_over_what_an_earlier_line_wrote() -> None:
                 written[name] = line.strip()
 
 
+def test_a_tutorial_says_first_where_it_runs_and_what_it_needs() -> None:
+    """A tutorial that runs the clone's files (``scripts/``, ``tests/data/``) says, before its
+    first step, to run from the clone's root; one that uses files an earlier tutorial writes
+    links that tutorial there."""
+    for i, page in enumerate(TUTORIALS):
+        text = page.read_text(encoding="utf-8")
+        intro = text.split("\n## ")[0]
+        lines = shell_lines(page)
+        if any(re.search(r"(?:^| )(?:scripts|tests/data)/", line) for line in lines):
+            assert "Before you start" in intro and "root of a clone" in intro, page.name
+        own = {name for line in lines for name in OUTPUT.findall(line)}
+        used = {name for line in lines
+                for name in re.findall(r"[\w.-]+\.(?:mcap|yaml|json|csv)\b", line)} - own
+        for earlier in TUTORIALS[:i]:
+            theirs = " ".join(shell_lines(earlier))
+            if any(re.search(rf"(?:^| ){re.escape(name)}(?: |$)", theirs) for name in used):
+                assert f"]({earlier.name})" in intro, f"{page.name} needs {earlier.name}"
+
+
 needs_install = pytest.mark.skipif(shutil.which("dsp-replay") is None,
                                    reason="the project is not installed")
 

@@ -182,3 +182,14 @@ def test_a_changelog_in_keep_a_changelog_form() -> None:
 def test_readme_images_are_small() -> None:
     for image in (DOCS / "images").glob("*.png"):
         assert image.stat().st_size < 400_000, f"{image.name} is large for a README"
+
+
+def test_every_page_that_opens_rerun_says_how_without_a_display() -> None:
+    """``rerun FILE`` stops at once without a display (Rerun's own winit error); a page that
+    gives it also gives ``rerun --web-viewer FILE``."""
+    for page in (ROOT / "README.md", *USER_PAGES):
+        text = page.read_text(encoding="utf-8")
+        opens = re.findall(r"^rerun [\w./-]+\.(?:rrd|mcap)|`rerun [\w./-]+\.(?:rrd|mcap)`",
+                           text, flags=re.M)
+        if opens:
+            assert "rerun --web-viewer " in text, f"{page.name}: {opens[0]} without a display"

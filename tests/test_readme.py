@@ -25,3 +25,13 @@ def test_ci_runs_exactly_the_readme_test_command() -> None:
     _, test = _readme_commands()
     ci_lines = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
     assert test in ci_lines
+
+
+def test_the_readme_says_what_to_install_where_it_builds_the_docs() -> None:
+    """The first setup installs no ``docs`` extra; a reader who runs only it and then the
+    README's docs command gets ``sphinx-build: command not found``."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    prose = re.sub(r"```.*?```", "", text, flags=re.S)
+    for paragraph in prose.split("\n\n"):
+        if "sphinx-build docs" in paragraph:
+            assert "pip install -e '.[docs]'" in paragraph, paragraph

@@ -45,12 +45,15 @@ SKIP = {
                                                              "(the golden match log stands in)",
     "dsp-record team-source.mcap": "a 4 s mirror-camera recording: over a minute of "
                                    "simulation (the golden rolling log stands in)",
+    "dsp-record boxes.mcap": "a 3 s match with boxes of the ball's colour: simulation time "
+                             "(the golden match log, which has two, stands in)",
 }
 
 STAND_INS = {
     "dsp-record match.mcap --scenario match --duration 3 #": ("logs/golden/match.mcap",
                                                               "match.mcap"),
     "dsp-record team-source.mcap": ("logs/golden/rolling.mcap", "team-source.mcap"),
+    "dsp-record boxes.mcap": ("logs/golden/match.mcap", "boxes.mcap"),
 }
 """A left-out recording's file, copied from a golden log so the lines after it run."""
 
@@ -126,6 +129,40 @@ def test_every_skip_and_stand_in_names_a_line() -> None:
 def test_the_tutorials_have_shell_blocks() -> None:
     for page in TUTORIALS:
         assert len([line for line in shell_lines(page) if _skipped(line) is None]) >= 3, page
+
+
+OUTPUT = re.compile(r"(?:^| )(?:-o|--out(?:-[a-z]+)?|--save|--plot|--exact-cameras)[ =](\S+)")
+"""An option that names a file a line writes."""
+
+
+def test_no_line_writes_over_what_an_earlier_line_wrote() -> None:
+    """A reader edits what a page has them write (a camera file's template); a later line
+    that writes the same name (with ``--force``) would throw their edits away."""
+    for pages in ([README], TUTORIALS):
+        written: dict[str, str] = {}
+        for line in [line for page in pages for line in shell_lines(page)]:
+            for name in OUTPUT.findall(line):
+                assert name not in written, f"{line.strip()}\nwrites over\n{written[name]}"
+                written[name] = line.strip()
+
+
+def test_a_tutorial_says_first_where_it_runs_and_what_it_needs() -> None:
+    """A tutorial that runs the clone's files (``scripts/``, ``tests/data/``) says, before its
+    first step, to run from the clone's root; one that uses files an earlier tutorial writes
+    links that tutorial there."""
+    for i, page in enumerate(TUTORIALS):
+        text = page.read_text(encoding="utf-8")
+        intro = text.split("\n## ")[0]
+        lines = shell_lines(page)
+        if any(re.search(r"(?:^| )(?:scripts|tests/data)/", line) for line in lines):
+            assert "Before you start" in intro and "root of a clone" in intro, page.name
+        own = {name for line in lines for name in OUTPUT.findall(line)}
+        used = {name for line in lines
+                for name in re.findall(r"[\w.-]+\.(?:mcap|yaml|json|csv)\b", line)} - own
+        for earlier in TUTORIALS[:i]:
+            theirs = " ".join(shell_lines(earlier))
+            if any(re.search(rf"(?:^| ){re.escape(name)}(?: |$)", theirs) for name in used):
+                assert f"]({earlier.name})" in intro, f"{page.name} needs {earlier.name}"
 
 
 needs_install = pytest.mark.skipif(shutil.which("dsp-replay") is None,

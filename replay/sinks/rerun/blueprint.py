@@ -91,7 +91,7 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
             heights: bool) -> rrb.Container:
     error = _series("/plots/error", "error vs ground truth [m]")
     small = [_series("/plots/blob_area", "blob area [px]"),
-             _series("/plots/pose_sigma", "the pose's share of each ball [cm]"),
+             _series("/plots/pose_sigma", "pose sigma [cm]"),
              _series("/plots/estimator_ms", "estimator time [ms]")]
     if kind == "paper":
         # a handful of frames of a still ball: the images and the field say most

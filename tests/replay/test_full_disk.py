@@ -90,3 +90,26 @@ def test_a_file_size_limit_too_small_for_an_rrd_is_refused_before_it_starts(
     assert proc.stderr == (f"dsp-replay: error: {out}: cannot write: File too large (a "
                            "file-size limit of 19 KiB)\n"), proc.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_size_limit_above_a_mib_under_compare_save_is_one_line(
+        log: Path, tmp_path: Path) -> None:
+    """Past the 1 MiB refused at the start, Rerun's writer stopped by the limit (the .rrd
+    holds over 1.1 MB) could say nothing: the command printed "wrote" and exited 0 with an
+    .rrd missing its footer."""
+    from replay.cli import main as replay_main
+
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name, extra in (("a.json", ["--profile", "paper"]), ("b.json", [])):
+        assert replay_main([str(log), "--out", str(runs / name), "-q", "--no-progress",
+                            *extra]) == 0
+    out = tmp_path / "out"
+    out.mkdir()
+    rrd = out / "c.rrd"
+    proc = run_limited("compare", [str(runs / "a.json"), str(runs / "b.json"), "--log",
+                                   str(log), "--save", str(rrd)], 1_060_000)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.startswith(f"dsp-compare: error: {rrd}: cannot write: "), proc.stderr
+    assert proc.stderr.count("\n") == 1 and "wrote" not in proc.stdout, proc.stdout
+    assert list(out.iterdir()) == []

@@ -27,11 +27,12 @@ import rerun as rr
 import rerun.blueprint as rrb
 import rerun_bindings as bindings
 
+from dsp.atomic import AtomicFile
 from dsp.errors import OutputError
 from dsp.launch import end_without_finalising
 
 __all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_complete", "check_room",
-           "flush", "release"]
+           "commit", "flush", "release"]
 
 MIN_FREE_BYTES = 1 << 20
 """1 MiB: less room than this for an .rrd is a full disk."""
@@ -134,6 +135,14 @@ def abandon(rec: rr.RecordingStream) -> None:
     with contextlib.suppress(Exception):
         rr.unregister_shutdown()
     end_without_finalising(rec)  # collecting it would flush it, and wait for ever
+
+
+def commit(rec: rr.RecordingStream, save: AtomicFile) -> None:
+    """Close ``rec``, saved to ``save``'s temporary, and rename the .rrd into place once
+    :func:`check_complete` finds it whole (its footer is written on closing)."""
+    release(rec)
+    check_complete(save.tmp, save.path)
+    save.commit()
 
 
 def check_complete(tmp: Path, path: Path) -> None:

@@ -185,7 +185,9 @@ def _add_track_arguments(p: argparse._ActionsContainer) -> None:
     p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "
-                   "against the truth at the tick")
+                   "against the truth at the tick; only ticks within the pose tolerance "
+                   "(at least one tick) of an image are made: those across a longer gap "
+                   "without images are skipped, and the replay says how many")
 
 
 def _add_localise_arguments(p: argparse._ActionsContainer) -> None:

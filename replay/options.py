@@ -157,7 +157,8 @@ class ReplayOptions:
     clock_hz: float | None = None
     """Also a step at every tick k / clock_hz s of a clock (no image in it): the fused
     estimate the fusion gives then (the tracker's prediction from the estimates so far; none
-    from a window fusion), scored against the truth at the tick. None: steps at images."""
+    from a window fusion), scored against the truth at the tick, only near images
+    (:mod:`replay.clock`). None: steps at images."""
     out: Path | None = None
     out_mcap: Path | None = None
     out_csv: Path | None = None

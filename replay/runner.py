@@ -41,12 +41,14 @@ from dsp.ball_file import read_ball_file, shipped_check
 from dsp.errors import UsageError
 from dsp.field import FieldSpec
 from dsp.progress import Progress, progress_bar
+from dsp.text import printable
 from estimator.errors import EstimatorError
 from estimator.localisation import PoseCorrection
 from estimator.tracking.bias import BiasEstimator, BiasParams
 from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
+from replay.clock import Clock
 from replay.detector_choice import choose_detector
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
@@ -152,6 +154,9 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
                          beliefs=estimator.beliefs())
             warnings = diagnosis.warnings(bad_images=stream.bad_images,
                                           bad_messages=reader.bad_messages)
+            if stream.clock is not None and (note := stream.clock.note(
+                    printable(str(path), limit=200))):
+                warnings.append(note)
             if options.strict and warnings:
                 raise StrictError(warnings)  # before the outputs are committed
     saved = options.save_path
@@ -284,7 +289,8 @@ class _Stream:
             estimator.step_window_ns(timing.window_ns))
         self.frames = 0
         self.steps = 0
-        self.next_tick: int | None = None
+        self.clock = None if timing.clock_ns is None else Clock(timing.clock_ns,
+                                                                 timing.tolerance_ns)
         self.bad_images: dict[str, int] = {}
         """Images that do not decode, by why (:func:`replay.log.image_problem`)."""
 
@@ -409,16 +415,12 @@ class _Stream:
         self._ticks(t0, inclusive=True)
 
     def _ticks(self, t_ns: int, *, inclusive: bool) -> None:
-        """Steps without images at the clock's ticks before ``t_ns`` (and at it when
-        ``inclusive``), from the first tick at or after the first step."""
-        period = self.timing.clock_ns
-        if period is None:
+        """Steps without images at the clock's ticks near the images before ``t_ns`` (and
+        at it when ``inclusive``), from the first tick at or after the first step."""
+        if self.clock is None:
             return
-        if self.next_tick is None:
-            self.next_tick = -(-t_ns // period) * period
-        while self.next_tick < t_ns or (inclusive and self.next_tick == t_ns):
-            self._emit_step(self.next_tick, {})
-            self.next_tick += period
+        for tick in (self.clock.at(t_ns) if inclusive else self.clock.before(t_ns)):
+            self._emit_step(tick, {})
 
     def _emit_step(self, t0: int, frames: dict[str, FrameResult]) -> None:
         ordered = tuple(frames[r] for r in self.robots if r in frames)

@@ -142,6 +142,7 @@ def write_log(
     mount_yaw_rad: float = 0.0,
     map_origin: tuple[float, float] = (0.0, 0.0),
     stamp_offset_ns: int = 0,
+    stamp_jump: tuple[float, int] | None = None,
     truth_topic: str = contract.GT_BALL_TOPIC,
     ball_colour: tuple[int, int, int] = ORANGE_BGR,
     image_topic: str | None = None,
@@ -166,7 +167,8 @@ def write_log(
     none at all (as a robot's own log). ``image_size_px`` (width, height) draws other images
     than 1080 x 1080 (their centre is ``centre_px``), ``mount_yaw_rad`` a camera turned on
     the robot, ``map_origin`` poses in a map frame whose origin is that field point, and
-    ``stamp_offset_ns`` moves every stamp (a robot's clock in Unix time); the truth goes on
+    ``stamp_offset_ns`` moves every stamp (a robot's clock in Unix time), ``stamp_jump`` (t_s,
+    jump_ns) those at or after t_s by jump_ns more (a clock that jumps); the truth goes on
     ``truth_topic``; ``ball_colour`` paints the ball (BGR); ``image_topic`` is a pattern for
     the images (default: the contract's, less ``/compressed`` for raw images);
     ``robot_velocity`` (m/s) moves every robot; ``yaw_bias_rad`` turns the pose a robot
@@ -251,6 +253,8 @@ def write_log(
             )
         image_index = 0
         for t, _order, kind, name in events:
+            off = stamp_offset_ns + (stamp_jump[1] if stamp_jump is not None
+                                     and t >= stamp_jump[0] * NS else 0)
             if kind == "pose":
                 if not with_poses:
                     continue
@@ -260,7 +264,7 @@ def write_log(
                 x, y, yaw = robot_at(name, t)
                 bias = (pose_bias_m or {}).get(name, (0.0, 0.0))
                 x, y = x + bias[0] - map_origin[0], y + bias[1] - map_origin[1]
-                msg = _pose_msg(t + stamp_offset_ns, x, y,
+                msg = _pose_msg(t + off, x, y,
                                 yaw + (yaw_bias_rad or {}).get(name, 0.0))
                 if pose_schema == contract.POSE_WITH_COVARIANCE_STAMPED:
                     cov = (pose_covariance or {}).get(name, [0.0] * 36)
@@ -268,7 +272,7 @@ def write_log(
                            "pose": {"pose": msg["pose"], "covariance": list(cov)}}
                 writer.write_message(
                     contract.topic_for(pose_topic, name), schemas[pose_schema],
-                    msg, log_time=t + stamp_offset_ns, publish_time=t + stamp_offset_ns,
+                    msg, log_time=t + off, publish_time=t + off,
                 )
                 if name == next(iter(robots)):
                     log.pose_stamps_ns.append(t)
@@ -276,8 +280,8 @@ def write_log(
                 (bx, by), (vx, vy) = ball_state(t)
                 writer.write_message(
                     truth_topic, schemas[contract.POSE_STAMPED],
-                    _pose_msg(t + stamp_offset_ns, bx, by, 0.0), log_time=t + stamp_offset_ns,
-                    publish_time=t + stamp_offset_ns,
+                    _pose_msg(t + off, bx, by, 0.0), log_time=t + off,
+                    publish_time=t + off,
                 )
                 if with_odometry:
                     writer.write_message(
@@ -289,7 +293,7 @@ def write_log(
                 img = render(u, v, image_size_px, ball_colour,
                              background=_carpet(name, t) if carpet else None)
                 topic = contract.topic_for(contract.IMAGE_TOPIC, name)
-                header = _header(t + stamp_offset_ns, contract.camera_frame(name))
+                header = _header(t + off, contract.camera_frame(name))
                 if image_encoding in ("png", "jpeg"):
                     ext = ".png" if image_encoding == "png" else ".jpg"
                     ok, buf = cv2.imencode(ext, img)
@@ -319,8 +323,8 @@ def write_log(
                     topic = topic.replace("/compressed", "")
                 if image_topic is not None:
                     topic = contract.topic_for(image_topic, name)
-                writer.write_message(topic, schema, msg, log_time=t + stamp_offset_ns,
-                                     publish_time=t + stamp_offset_ns)
+                writer.write_message(topic, schema, msg, log_time=t + off,
+                                     publish_time=t + off)
                 if name == next(iter(robots)):
                     log.image_stamps_ns.append(t)
                 log.all_image_stamps_ns.append(t)

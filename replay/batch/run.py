@@ -18,6 +18,7 @@
   that order, and the totals. A log that fails is a row with its one-line error; the others
   still run; :func:`replay_batch` returns, and the command then exits 1.
 - Each log is one task of :func:`replay.parallel.map_tasks` (serial, process pool or Ray).
+  Ctrl-C stops the workers and removes the temporaries of the outputs they were writing.
   A worker reads the log and writes the outputs itself, so on a cluster the logs and
   ``DIR`` must be on a folder every node mounts at the same path; a worker that cannot read
   a log says so, naming its host and the path.
@@ -36,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dsp.atomic import atomic_output, check_distinct
+from dsp.atomic import atomic_output, check_distinct, remove_stale_temporaries
 from dsp.errors import DspError, InputError, OutputError, OutputExistsError, UsageError
 from dsp.progress import progress_bar
 from dsp.text import printable
@@ -223,10 +224,25 @@ def replay_batch(paths: Sequence[Path], out_dir: Path, options: ReplayOptions, *
             if on_log is not None and row is not None:
                 on_log(row)
 
-        map_tasks(replay_log, tasks, workers, on_done=done)
+        try:
+            map_tasks(replay_log, tasks, workers, on_done=done)
+        except BaseException:  # Ctrl-C: the stopped workers' temporaries go as well
+            _remove_temporaries(tasks)
+            raise
     summary = BatchSummary(tuple(r for r in rows if r is not None), options.results_view())
     _write_summary(summary, out_dir)
     return summary
+
+
+def _remove_temporaries(tasks: Sequence[LogTask]) -> None:
+    """Remove the hidden temporaries of the outputs whose writers were stopped: pool workers
+    are terminated at once, with no clean-up of their own, and a batch interrupted that way
+    left one for every output of every log in progress. Only those of processes that no
+    longer run are removed (:func:`dsp.atomic.stale_temporaries`)."""
+    for task in tasks:
+        for path in (task.options.out, task.options.out_mcap):
+            if path is not None:
+                remove_stale_temporaries(path)
 
 
 def _write_summary(summary: BatchSummary, out_dir: Path) -> None:

@@ -34,7 +34,7 @@ from replay.runner import file_digest, replay
 from replay.sinks.rerun.blueprint import cameras_view, field_view
 from replay.sinks.rerun.live import check_display
 from replay.sinks.rerun.sink import APPLICATION_ID, RerunSink, recording_id
-from replay.sinks.rerun.streams import check_room, flush, write_failure
+from replay.sinks.rerun.streams import check_room, commit, flush, write_failure
 from replay.sinks.style import FUSED_COLOUR, TRACK_COLOUR
 
 __all__ = ["PREFIXES", "replay_options", "side_by_side", "side_by_side_blueprint"]
@@ -168,9 +168,10 @@ def side_by_side(log: Path, a: ResultsRun, b: ResultsRun, *, save: Path | None,
             if out is not None:
                 raise write_failure(out.path, err, rec) from err
             raise OutputError("the Rerun viewer", str(err)) from err
-        rec.disconnect()
         if out is not None:
-            out.commit()
+            commit(rec, out)  # when whole: a writer stopped mid-way may say nothing
+        else:
+            rec.disconnect()
     finally:
         if out is not None:
             out.discard()

@@ -5,6 +5,10 @@ Ray's own conventions (checked against Ray 2.x's ``ray.init``): with ``RAY_ADDRE
 start --head``) and ``num_cpus`` must not be given; without it we ask for a fresh local
 instance (``address="local"``) with ``num_cpus`` from ``--workers`` when given. A Ray that
 this process already initialised (a test session) is used and left running.
+
+A local instance is watched by :mod:`replay.parallel.ray_reaper`: killed outright (SIGKILL,
+the OOM killer), the command would leave Ray's dashboard and runtime-env agents running on;
+the reaper kills what the command started once the command is gone.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from types import ModuleType
 from typing import TypeVar
 
 from dsp.errors import InputError
+from replay.parallel.ray_reaper import start_reaper, stop_reaper
 from replay.parallel.tasks import (
     RAY_MAX_RETRIES,
     Done,
@@ -68,13 +73,20 @@ def map_ray(call: Callable[[Callable[[T], R], int, T], tuple[int, Outcome[R]]],
             on_done: Done[R] | None, fail_fast: bool) -> list[Outcome[R]]:
     """Submit ``call(fn, i, arg)`` for every argument as a Ray task; outcomes in order."""
     ray = import_ray()
-    started = _init(ray, workers)
+    local = not ray.is_initialized() and not os.environ.get("RAY_ADDRESS")
+    reaper = start_reaper() if local else None  # the local Ray dies with this command
+    try:
+        started = _init(ray, workers)
+    except BaseException:
+        stop_reaper(reaper)
+        raise
     try:
         remote = ray.remote(num_cpus=1, max_retries=RAY_MAX_RETRIES,
                             retry_exceptions=False)(call)
         refs = [remote.remote(fn, i, arg) for i, arg in enumerate(args)]
         return _collect(ray, refs, on_done, fail_fast)
     finally:
+        stop_reaper(reaper)
         if started:
             ray.shutdown()
 

@@ -335,6 +335,29 @@ def test_a_rolling_3d_track_far_looser_than_the_ground_track_gives_its_position(
         assert hops._flight.tracker.x is not None  # kept either way
 
 
+def test_the_looseness_ratio_is_a_ratio_of_variances_as_given() -> None:
+    """loose_ratio 4: a rolling 3-D track 8 times as loose as the ground track (variance)
+    gives the ground track's position, one 3 times as loose its own (a ratio of 16, the
+    ratio squared, kept the 8 times looser one)."""
+    e = _seen("near", 0.0)
+
+    def step(ground_variance: float | None) -> FusedEstimate | None:
+        hops = HopFollower(CalibratedNoise(), loose_ratio=4.0)
+        _joined(hops)
+        hops._flight = type(hops._flight)(hops.noise)  # a fresh track of one image
+        v = 1.0 if ground_variance is None else ground_variance
+        cov = ((v, 0.0), (0.0, v))
+        return hops.step(200 * MS, [e], TrackState(200 * MS, e.x_m, e.y_m, 0.0, 0.0, cov,
+                                                   cov, True))
+
+    own = step(None)  # the ground track far looser: the 3-D track's own position
+    assert own is not None
+    (a, b), (_, d) = own.covariance
+    largest = 0.5 * (a + d) + math.hypot(0.5 * (a - d), b)
+    assert step(largest / 3.0) is not None
+    assert step(largest / 8.0) is None
+
+
 def test_a_3d_track_that_refuses_what_the_ground_tracker_took_gives_its_position() -> None:
     """The ground tracker moved 0.8 m with an estimate the 3-D track refused: the ground
     track's position is given until the 3-D track takes an estimate again."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -63,3 +64,21 @@ def test_log_metadata_round_trips_and_says_how_it_was_recorded() -> None:
                                      metadata.RecorderMetadata),
                            strict=True):
         assert cls.from_metadata(record.to_metadata()) == record  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("given", [{"frames": 72_000}, {"duration_s": 3600.0}])
+def test_the_documented_72000_frames_are_recorded_and_one_more_is_not(
+        tmp_path: Path, given: dict[str, Any]) -> None:
+    """--frames' bound (an hour at a match's 20 Hz) is inclusive, given as frames or as a
+    duration; the plan is made without recording anything."""
+    from recorder.record import MAX_FRAMES, _plan
+
+    assert MAX_FRAMES == 72_000
+    plan = _plan(tmp_path / "long.mcap", RecordOptions(scenario="rolling", rate_hz=20.0,
+                                                       **given))
+    assert plan.frames == MAX_FRAMES and not (tmp_path / "long.mcap").exists()
+    with pytest.raises(UsageError, match=r"--frames 72001: give a whole number in \[1, 72000\]"):
+        RecordOptions(frames=MAX_FRAMES + 1)
+    with pytest.raises(UsageError, match="is 72160 frames; record at most 72000"):
+        _plan(tmp_path / "long.mcap", RecordOptions(scenario="rolling", rate_hz=20.05,
+                                                    duration_s=3599.0))

@@ -90,3 +90,26 @@ def test_a_file_size_limit_too_small_for_an_rrd_is_refused_before_it_starts(
     assert proc.stderr == (f"dsp-replay: error: {out}: cannot write: File too large (a "
                            "file-size limit of 19 KiB)\n"), proc.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_size_limit_above_a_mib_under_compare_save_is_one_line(tmp_path: Path) -> None:
+    """Past the 1 MiB refused at the start (the .rrd of a 2 s log holds 2 MB or more), the
+    writer a limit stops is one line, exit 1, no file, however it stops: with a flush that
+    fails, or (tests/replay/compare/test_side_by_side.py) at the very end, in silence."""
+    from replay.cli import main as replay_main
+
+    log = write_log(tmp_path / "in.mcap", duration_s=2.0).path
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name, extra in (("a.json", ["--profile", "paper"]), ("b.json", [])):
+        assert replay_main([str(log), "--out", str(runs / name), "-q", "--no-progress",
+                            *extra]) == 0
+    out = tmp_path / "out"
+    out.mkdir()
+    rrd = out / "c.rrd"
+    proc = run_limited("compare", [str(runs / "a.json"), str(runs / "b.json"), "--log",
+                                   str(log), "--save", str(rrd)], 1_100_000)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.startswith(f"dsp-compare: error: {rrd}: cannot write: "), proc.stderr
+    assert proc.stderr.count("\n") == 1 and "wrote" not in proc.stdout, proc.stdout
+    assert list(out.iterdir()) == []

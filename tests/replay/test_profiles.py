@@ -41,6 +41,18 @@ def test_a_switch_overrides_one_choice_and_what_it_rules_out_falls_away() -> Non
         options_for("nope")
 
 
+def test_the_paper_s_method_drops_the_line_fit_of_the_profile() -> None:
+    """The paper's method corrects no pose: ``--method paper`` under the default profile
+    falls to the believed poses, as its fusion falls to the mean; an explicit
+    ``--localise`` stays."""
+    assert options_for().localise == "auto"
+    m = options_for(method="paper")
+    assert (m.method, m.localise) == ("paper", "none")
+    assert options_for(method="paper", localise=None).localise == "none"
+    assert options_for(method="paper", localise="none").localise == "none"
+    assert options_for(method="corrected").localise == "auto"  # the profile's own method
+
+
 def test_what_the_log_lacks_is_said_and_the_part_left_out() -> None:
     best = options_for()
     settled, pipe = decide(best, field="18x12", robots=("r1", "r2"), camera_robots=("r1",))

@@ -4,6 +4,7 @@ detector gets wrong counts the per-image rows it writes beside --out."""
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 import subprocess
 import sys
@@ -40,3 +41,13 @@ def test_the_misses_table_counts_the_rows(tmp_path: Path) -> None:
     # 4 test images with ten frames, all 14 with none: the counts are of different rows
     with (tmp_path / "ho-0.csv").open(encoding="utf-8") as f:
         assert sum(1 for _ in f) - 1 == 14
+    # one event: the totals are its figures, each column from its own set of rows (ten
+    # frames' test images, every image with none, the same test images with none)
+    table = [line for line in run.stdout.splitlines() if line.count("|") == 12]
+    event = [c.strip() for c in table[2].strip("|").split("|")]
+    total = [c.strip() for c in table[-1].strip("|").split("|")]
+    assert event[0].startswith("e") and total[0] == "total", table
+    assert total[1:] == event[1:], table
+    doc = json.loads((tmp_path / "ho.json").read_text(encoding="utf-8"))
+    assert doc["total"] == doc["e"], doc
+    assert doc["total"]["no_frame"]["test_images"] == 14, doc["total"]

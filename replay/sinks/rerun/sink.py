@@ -38,6 +38,7 @@ from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
 from replay.records import FrameResult, StepResult
 from replay.sink import SinkBase
+from replay.sinks.rerun import streams
 from replay.sinks.rerun.blueprint import blueprint, scenario_kind
 from replay.sinks.rerun.live import (
     Liveness,
@@ -435,8 +436,7 @@ class RerunSink(SinkBase):
                     print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
                     self.lost = str(err)
             if ok and self._save is not None:
-                release(self.rec)  # the file is complete (its footer written) once closed
-                self._save.commit()
+                streams.commit(self.rec, self._save)  # when whole (a writer may stop mid-way)
         finally:
             self._end()
 

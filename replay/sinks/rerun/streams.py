@@ -9,7 +9,10 @@ makes that stream itself and disconnects it once the blueprint is handed over, a
 (``tests/replay/sinks/test_rerun_release.py`` replays 100 times and counts).
 
 :func:`check_room` refuses an .rrd on a disk with almost no room before Rerun's file writer
-starts: on such a disk it can block for minutes instead of failing.
+starts: on such a disk it can block for minutes instead of failing. With more room, a writer
+that a file-size limit or a full disk stops mid-way may say nothing at all: its flush and
+disconnect return and the file lacks its footer, which :func:`check_complete` looks for
+before the file is committed.
 """
 
 from __future__ import annotations
@@ -24,15 +27,19 @@ import rerun as rr
 import rerun.blueprint as rrb
 import rerun_bindings as bindings
 
+from dsp.atomic import AtomicFile
 from dsp.errors import OutputError
 from dsp.launch import end_without_finalising
 
-__all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_room", "flush", "release"]
+__all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_complete", "check_room",
+           "commit", "flush", "release"]
 
 MIN_FREE_BYTES = 1 << 20
 """1 MiB: less room than this for an .rrd is a full disk."""
 FLUSH_TIMEOUT_S = 10.0
 """How long a flush to a viewer is waited for."""
+RRD_FOOTER = b"RRF2FOOT"
+"""What a complete .rrd ends with (before its 4-byte version): Rerun writes it on closing."""
 FLUSH_STEP_S = 0.5
 FLUSH_STALLS = 3
 """A flush to an .rrd is waited for in steps of FLUSH_STEP_S for as long as the file grows;
@@ -128,6 +135,36 @@ def abandon(rec: rr.RecordingStream) -> None:
     with contextlib.suppress(Exception):
         rr.unregister_shutdown()
     end_without_finalising(rec)  # collecting it would flush it, and wait for ever
+
+
+def commit(rec: rr.RecordingStream, save: AtomicFile) -> None:
+    """Close ``rec``, saved to ``save``'s temporary, and rename the .rrd into place once
+    :func:`check_complete` finds it whole (its footer is written on closing)."""
+    release(rec)
+    check_complete(save.tmp, save.path)
+    save.commit()
+
+
+def check_complete(tmp: Path, path: Path) -> None:
+    """Raise :class:`~dsp.errors.OutputError` naming ``path`` when the closed .rrd ``tmp``
+    (its temporary) does not end with Rerun's footer: its writer stopped before the end."""
+    try:
+        with tmp.open("rb") as f:
+            size = f.seek(0, os.SEEK_END)
+            f.seek(max(0, size - len(RRD_FOOTER) - 4))
+            tail = f.read()
+    except OSError as err:
+        raise OutputError(path, err) from err
+    if tail[:len(RRD_FOOTER)] == RRD_FOOTER:
+        return
+    stopped = f"the Rerun file writer stopped after {size} bytes, before the recording's end"
+    limit, free = file_size_limit(), free_bytes(path.parent)
+    if limit is not None and size >= limit - (1 << 16):
+        raise OutputError(path, f"File too large (a file-size limit of {limit // 1024} KiB): "
+                          + stopped)
+    if free is not None and free < MIN_FREE_BYTES:
+        raise OutputError(path, f"No space left on device: {stopped}")
+    raise OutputError(path, f"{stopped}; is the disk full, or a file-size limit reached?")
 
 
 def write_failure(path: Path, err: RuntimeError, rec: rr.RecordingStream) -> OutputError:

@@ -225,3 +225,20 @@ def test_json_round_trip(model: Calibration) -> None:
 def test_bad_json_names_the_problem(text: str, match: str) -> None:
     with pytest.raises(CalibrationFormatError, match=match):
         calibration_from_json(text)
+
+
+@pytest.mark.parametrize("name", ["a_m_per_px", "b_m"])
+def test_a_linear_calibration_holds_no_number_past_ten_kilometres(name: str) -> None:
+    """Either parameter up to MAX_RANGE_M either way is taken; past it (a range no camera
+    sees a ball at, a product that leaves the floats) it is refused, naming it."""
+    from estimator.calibration.models import MAX_RANGE_M
+
+    for value in (MAX_RANGE_M, -MAX_RANGE_M, 0.0):
+        LinearCalibration(**{"a_m_per_px": 0.01, "b_m": 0.2, name: value})
+    for value in (MAX_RANGE_M * 1.001, -MAX_RANGE_M * 1.001, 1e300):
+        with pytest.raises(CalibrationError, match=rf"^{name} = .* is outside \[-10000, "
+                           r"10000\]"):
+            LinearCalibration(**{"a_m_per_px": 0.01, "b_m": 0.2, name: value})
+    with pytest.raises(CalibrationError, match=rf"{name} = 1e\+300 is outside"):
+        calibration_from_dict({"model": "linear", "a_m_per_px": 0.01, "b_m": 0.2,
+                               name: 1e300})

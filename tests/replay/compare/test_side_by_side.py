@@ -63,3 +63,31 @@ def test_the_log_must_be_the_results_log(tmp_path: Path,
     assert err.count("\n") == 1 and "scenario1.mcap" in err
     assert not (tmp_path / "x.rrd").exists()
     assert main([str(a), str(a), "--save", str(tmp_path / "x.rrd")]) == 2
+
+
+def test_an_rrd_whose_writer_stopped_at_the_end_is_not_kept(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A Rerun writer stopped by a full disk or a file-size limit while closing says
+    nothing (its flush and disconnect return): the .rrd lacks its footer, and was kept."""
+    import rerun as rr
+
+    a = tmp_path / "a.json"
+    assert replay.cli.main([str(LOG), "--out", str(a), "-q"]) == 0
+    out = tmp_path / "out"
+    out.mkdir()
+    disconnect = rr.RecordingStream.disconnect
+
+    def cut_short(self: rr.RecordingStream) -> None:
+        disconnect(self)
+        for f in out.iterdir():  # the last writes lost, as a full disk loses them
+            f.write_bytes(f.read_bytes()[: f.stat().st_size // 2])
+
+    monkeypatch.setattr(rr.RecordingStream, "disconnect", cut_short)
+    capsys.readouterr()
+    rrd = out / "c.rrd"
+    assert main([str(a), str(a), "--log", str(LOG), "--save", str(rrd), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"dsp-compare: error: {rrd}: cannot write: the Rerun file writer "
+                          "stopped after ") and err.count("\n") == 1, err
+    assert list(out.iterdir()) == []

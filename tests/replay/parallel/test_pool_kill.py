@@ -63,3 +63,24 @@ def test_pool_workers_end_when_their_command_is_killed(tmp_path: Path) -> None:
         for pid in _marked(mark):  # on failure: leave no sleeper behind
             os.kill(pid, signal.SIGKILL)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t0.started", "t1.started"]
+
+
+def _state(pid: int) -> bytes:
+    return (Path("/proc") / str(pid) / "stat").read_bytes().rsplit(b")", 1)[1].split()[0]
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_command_that_ended_but_is_not_yet_reaped_is_not_running() -> None:
+    """A command killed outright while its own parent has not yet waited for it is a zombie:
+    a signal still reaches its pid, but the workers must see it gone, not running."""
+    from replay.parallel.pool import _running
+
+    assert _running(os.getpid())
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    try:
+        # not waited for (poll would reap it): the ended child stays a zombie
+        assert _wait_for(lambda: _state(child.pid) == b"Z", 30.0), _state(child.pid)
+        os.kill(child.pid, 0)  # still a pid a signal reaches...
+        assert not _running(child.pid)  # ...but not running
+    finally:
+        child.wait()

@@ -21,6 +21,7 @@ an existing one is reused only by a run that would draw the same one.
 from __future__ import annotations
 
 import argparse
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -217,9 +218,15 @@ def _fmt(v: Any, nd: int = 4) -> str:
     return "-" if v is None else f"{v:.{nd}f}"
 
 
+def _without_reason(pipeline: str) -> str:
+    """A pipeline line without why its detector was chosen (which differs log by log)."""
+    return re.sub(r" \(chosen: (?:[^()]|\([^()]*\))*\)", "", pipeline, count=1)
+
+
 def foreign_markdown(doc: dict[str, Any]) -> str:
-    """A row per log (fused errors; the pipeline it ran, by number), then the pooled row."""
-    pipelines = list(dict.fromkeys(log["pipeline"] for log in doc["logs"]))
+    """A row per log (fused errors; the pipeline it ran, by number, without why its detector
+    was chosen: the results hold that), then the pooled row."""
+    pipelines = list(dict.fromkeys(_without_reason(log["pipeline"]) for log in doc["logs"]))
     lines = [f"Foreign logs, the `{doc['set']}` set: {doc['duration_s']:g} s each, "
              f"{doc['image_px']} px images, replayed with the default pipeline.", "",
              "| log | seed | steps | RMSE [m] | median [m] | p95 [m] | velocity median [m/s] "
@@ -227,7 +234,8 @@ def foreign_markdown(doc: dict[str, Any]) -> str:
     for log in doc["logs"] + [{"label": "all logs", "seed": "", "fused": doc["pooled"],
                                "ground": doc["pooled_ground"], "pipeline": None}]:
         st = log["fused"]
-        which = "" if log["pipeline"] is None else str(pipelines.index(log["pipeline"]) + 1)
+        which = "" if log["pipeline"] is None else str(
+            pipelines.index(_without_reason(log["pipeline"])) + 1)
         lines.append(f"| {log['label']} | {log['seed']} | {st['estimates']} | "
                      f"{_fmt(st['rmse_m'])} | {_fmt(st['median_m'])} | {_fmt(st['p95_m'])} | "
                      f"{_fmt(st['velocity_median_m_s'], 3)} | {_fmt(log['ground']['rmse_m'])} "
@@ -239,7 +247,8 @@ def foreign_markdown(doc: dict[str, Any]) -> str:
 def add_foreign_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("--suite foreign")
     g.add_argument("--foreign-set", choices=tuple(FOREIGN_SETS), default="report",
-                   help="the logs' seeds: report (default; never tuned on) or tune")
+                   help="the logs' seeds: report (default; never tuned on), tune, or check "
+                   "(a second held-out set)")
 
 
 def foreign_stem(args: argparse.Namespace) -> str:

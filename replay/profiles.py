@@ -31,6 +31,7 @@ to give what it needs, once, and the results header records the pipeline that ra
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -43,7 +44,7 @@ if TYPE_CHECKING:
     from replay.options import ReplayOptions
 
 __all__ = ["DEFAULT_PROFILE", "PROFILES", "PROFILE_CHOICES", "Allowance", "Pipeline", "Profile",
-           "allowances", "decide", "options_for"]
+           "allowances", "decide", "options_for", "without_reason"]
 
 
 @dataclass(frozen=True)
@@ -154,6 +155,15 @@ class Pipeline:
         parts.append(f"{self.fusion} fusion" + (" with hops and flight" if self.hops else ""))
         head = "pipeline" + (f" ({self.profile})" if self.profile else "")
         return f"{head}: " + ", ".join(parts) + "".join(f"; {n}" for n in self.notes)
+
+
+_REASON = re.compile(r" \(chosen: (?:[^()]|\([^()]*\))*\)")
+
+
+def without_reason(line: str) -> str:
+    """A pipeline line (:meth:`Pipeline.describe`) without why its detector was chosen,
+    which differs from log to log where the images chose it."""
+    return _REASON.sub("", line, count=1)
 
 
 @dataclass(frozen=True)

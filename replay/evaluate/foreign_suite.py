@@ -21,7 +21,6 @@ an existing one is reused only by a run that would draw the same one.
 from __future__ import annotations
 
 import argparse
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +40,7 @@ from replay.evaluate.foreign import (
 from replay.evaluate.match_score import Scores, score_steps
 from replay.evaluate.suites import rounded_doc
 from replay.parallel import Outcome, Workers, map_tasks
+from replay.profiles import without_reason
 
 __all__ = [
     "CHECK_SEEDS",
@@ -218,15 +218,10 @@ def _fmt(v: Any, nd: int = 4) -> str:
     return "-" if v is None else f"{v:.{nd}f}"
 
 
-def _without_reason(pipeline: str) -> str:
-    """A pipeline line without why its detector was chosen (which differs log by log)."""
-    return re.sub(r" \(chosen: (?:[^()]|\([^()]*\))*\)", "", pipeline, count=1)
-
-
 def foreign_markdown(doc: dict[str, Any]) -> str:
     """A row per log (fused errors; the pipeline it ran, by number, without why its detector
     was chosen: the results hold that), then the pooled row."""
-    pipelines = list(dict.fromkeys(_without_reason(log["pipeline"]) for log in doc["logs"]))
+    pipelines = list(dict.fromkeys(without_reason(log["pipeline"]) for log in doc["logs"]))
     lines = [f"Foreign logs, the `{doc['set']}` set: {doc['duration_s']:g} s each, "
              f"{doc['image_px']} px images, replayed with the default pipeline.", "",
              "| log | seed | steps | RMSE [m] | median [m] | p95 [m] | velocity median [m/s] "
@@ -235,7 +230,7 @@ def foreign_markdown(doc: dict[str, Any]) -> str:
                                "ground": doc["pooled_ground"], "pipeline": None}]:
         st = log["fused"]
         which = "" if log["pipeline"] is None else str(
-            pipelines.index(_without_reason(log["pipeline"])) + 1)
+            pipelines.index(without_reason(log["pipeline"])) + 1)
         lines.append(f"| {log['label']} | {log['seed']} | {st['estimates']} | "
                      f"{_fmt(st['rmse_m'])} | {_fmt(st['median_m'])} | {_fmt(st['p95_m'])} | "
                      f"{_fmt(st['velocity_median_m_s'], 3)} | {_fmt(log['ground']['rmse_m'])} "

@@ -8,7 +8,6 @@ camera file that describes it, it replays as the recorded log does."""
 from __future__ import annotations
 
 import importlib.util
-import re
 import sys
 from pathlib import Path
 
@@ -20,7 +19,7 @@ from dsp.field import FIELDS
 from replay import ReplayOptions, replay
 from replay.calibrate import read_measurements
 from replay.cli import main as replay_main
-from replay.profiles import options_for
+from replay.profiles import options_for, without_reason
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLLING = ROOT / "logs" / "golden" / "rolling.mcap"
@@ -83,7 +82,7 @@ def test_the_exact_camera_file_names_the_field_so_the_default_fits_the_lines(
     # the line fit runs on both; the detector is the same, chosen from the recording's
     # metadata and from the team log's images
     assert described.pipeline is not None and recorded.pipeline is not None
-    assert _without_reason(described.pipeline) == _without_reason(recorded.pipeline)
+    assert without_reason(described.pipeline) == without_reason(recorded.pipeline)
     assert "paper detector (chosen: in its first images" in described.pipeline
     assert recorded.pipeline is not None and "from the field lines" in recorded.pipeline
     assert recorded.fused.rmse_m is not None and described.fused.rmse_m is not None
@@ -96,8 +95,3 @@ def test_measured_points_are_what_dsp_calibrate_reads(tmp_path: Path) -> None:
     m = read_measurements(points)
     assert m.centroids and len(m.samples["default"]) == 8
     assert all(0.5 <= s.range_m <= 8.5 for s in m.samples["default"])
-
-
-def _without_reason(pipeline: str) -> str:
-    """The pipeline line without why its detector was chosen."""
-    return re.sub(r" \(chosen: (?:[^()]|\([^()]*\))*\)", "", pipeline, count=1)

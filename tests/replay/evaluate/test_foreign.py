@@ -5,7 +5,6 @@ describes the camera exactly, and a command that refuses bad values in one line.
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +37,7 @@ from replay.evaluate.foreign_suite import (
     foreign_tasks,
     run_foreign_task,
 )
+from replay.profiles import without_reason
 
 SMALL = ForeignOptions(seed=5, robots=2, rate_hz=10.0, duration_s=2.0, size_px=320)
 
@@ -183,7 +183,10 @@ def test_an_exact_pose_log_replays_within_centimetres(tmp_path: Path) -> None:
     text = foreign_markdown(doc)
     assert "| exact | 7 |" in text and "(chosen: " in score.pipeline
     # the footnote is the pipeline without why its detector was chosen (it differs by log)
-    assert "1. " + re.sub(r" \(chosen: (?:[^()]|\([^()]*\))*\)", "", score.pipeline) in text
+    assert "1. " + without_reason(score.pipeline) in text
+    assert without_reason("pipeline (best): paper detector (chosen: its images (the colour "
+                          "chain) say so), corrected ranges") == (
+        "pipeline (best): paper detector, corrected ranges")
 
 
 def test_the_suite_keeps_tune_and_report_seeds_apart(tmp_path: Path) -> None:

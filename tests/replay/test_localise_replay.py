@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -174,12 +175,14 @@ def test_the_viewer_shows_the_corrected_pose_beside_the_believed_one(
         assert len(got) == len(want)
         for (gx, gy), (wx, wy) in zip(got, want, strict=True):  # float32 in the recording
             assert abs(gx - wx) < 1e-5 and abs(gy - wy) < 1e-5
-        # the believed pose is 6-9 cm off, and the label says so
-        assert all(lab.startswith(f"{robot} lines ") and " cm " in lab for lab in labels[robot])
-        shift_cm = float(labels[robot][0].split()[2])
-        assert 5.0 < shift_cm < 12.0
-        # the two boxes lie centimetres apart: only the believed one's label shows, and it
-        # gives the correction too
+        # the believed pose is 6-9 cm off, and the label says so, in words
+        said = [re.fullmatch(rf"{robot} \(pose corrected (\d+\.\d) cm, [+-]\d+\.\d\d° "
+                             r"from the field lines\)", lab) for lab in labels[robot]]
+        assert all(said), labels[robot][:3]
+        first = said[0]
+        assert first is not None and 5.0 < float(first.group(1)) < 12.0
+        # the two boxes lie centimetres apart: both labels show on hovering (the name is
+        # written beside the believed one), and they give the same correction
         assert believed_labels[robot] == labels[robot]
     assert shown == {(False,)}
 

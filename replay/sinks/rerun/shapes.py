@@ -1,5 +1,6 @@
 """The shapes and labels the Rerun sink draws: covariance ellipses, rings, the fused label,
-the predicted landing's mark, a pose correction's label."""
+the predicted landing's mark, a robot's label and where its name goes, the detection's
+label and where it goes (beside what it names, never on it)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ import numpy as np
 
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Covariance
+from estimator.geometry import RobotPose
 from replay.records import FrameResult, StepResult
 
-__all__ = ["correction_label", "ellipse", "fused_label", "landing_mark", "ring", "truth_mark"]
+__all__ = ["SOURCE_WORDS", "beside_ball", "detection_label", "detection_text", "ellipse",
+           "fused_label", "landing_mark", "name_position", "pose_label", "ring", "truth_mark"]
 
 
 def ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
@@ -80,15 +83,86 @@ def pose_share_cm(result: FrameResult) -> float | None:
                                  + cov[2][2] * rho2))
 
 
-def correction_label(result: FrameResult) -> str:
-    """" lines 3.1 cm +0.50 deg": the frame's pose correction and where it comes from ("" when
-    it has none)."""
-    loc, believed = result.localisation, result.pose
+SOURCE_WORDS = {
+    "lines": "from the field lines",
+    "held": "by its last field-line fit, carried over",
+    "ball": "by its bias learnt from the ball",
+}
+"""How a corrected pose's source (:attr:`replay.records.Localisation.source`) reads in a
+robot's label; "prior" (the believed pose kept) has a sentence of its own."""
+
+
+def pose_label(result: FrameResult) -> str:
+    """The robot's footprint's label, shown on hovering: its name and, with a pose
+    correction, how far the pose was moved and from what, "robot1 (pose corrected 3.1 cm,
+    +0.50° from the field lines)"; the name alone without one."""
+    loc, believed, robot = result.localisation, result.pose, result.robot
     if loc is None:
-        return ""
-    label = f" {loc.source}"
-    if believed is not None:
-        shift = math.hypot(loc.pose.x_m - believed.x_m, loc.pose.y_m - believed.y_m)
-        turn = math.degrees(math.remainder(loc.pose.yaw_rad - believed.yaw_rad, math.tau))
-        label += f" {100 * shift:.1f} cm {turn:+.2f} deg"
-    return label
+        return robot
+    if loc.source == "prior":
+        return f"{robot} (believed pose kept: the field lines gave no fit)"
+    words = SOURCE_WORDS.get(loc.source, f"({loc.source})")
+    if believed is None:
+        return f"{robot} (pose {words})"
+    shift = math.hypot(loc.pose.x_m - believed.x_m, loc.pose.y_m - believed.y_m)
+    turn = math.degrees(math.remainder(loc.pose.yaw_rad - believed.yaw_rad, math.tau))
+    return f"{robot} (pose corrected {100 * shift:.1f} cm, {turn:+.2f}\N{DEGREE SIGN} {words})"
+
+
+NAME_OFFSET_M = 0.45
+"""How far below (-y) a robot's centre its name is written [m]. Rerun hangs a label below
+its position, centred across it; from here it clears the footprint (half diagonal 0.35 m)
+whatever the robot's heading."""
+
+
+def name_position(pose: RobotPose) -> tuple[float, float, float]:
+    """Where a robot's always-shown name goes in the field view: below its footprint (one
+    at the robot would cover it)."""
+    return (pose.x_m, pose.y_m - NAME_OFFSET_M, 0.05)
+
+
+CHAR_PX = (11.0, 26.0)
+"""A label's character's width and the label's height in image pixels, for a 1080-pixel
+omni image shown about 550 pixels tall (the viewer's usual camera view)."""
+GAP_PX = 12.0
+"""The gap between the ball's edge and the nearest edge of its label [image px]."""
+
+
+def detection_text(cx: float, cy: float, r_px: float | None) -> str:
+    """The detection's label in the camera view: its centroid and pixel radius r."""
+    text = f"({cx:.1f}, {cy:.1f}) px"
+    return text if r_px is None else f"{text}, r = {r_px:.1f} px"
+
+
+def beside_ball(centre: tuple[float, float], centroid: tuple[float, float], ball_r_px: float,
+                text: str, size: tuple[int, int] | None = None) -> tuple[float, float]:
+    """Where the detection's label goes: its box (its size guessed from the text) outward
+    from the image centre along the radius, beyond the ball, so far that it does not reach
+    the ball's circle: the ball stays visible. Inward instead (towards the robot, on the
+    radius line) where outward the box would leave an image of ``size`` (width, height).
+    The position returned is the box's top centre: Rerun hangs a label below its position."""
+    dx, dy = centroid[0] - centre[0], centroid[1] - centre[1]
+    norm = math.hypot(dx, dy)
+    ux, uy = (dx / norm, dy / norm) if norm > 1e-6 else (0.0, 1.0)
+    half_w, half_h = 0.5 * CHAR_PX[0] * len(text), 0.5 * CHAR_PX[1]
+    reach = abs(ux) * half_w + abs(uy) * half_h  # the box's extent along (ux, uy)
+    d = ball_r_px + GAP_PX + reach
+    x, y = centroid[0] + d * ux, centroid[1] + d * uy
+    if size is not None and not (half_w <= x <= size[0] - half_w
+                                 and half_h <= y <= size[1] - half_h):
+        x, y = centroid[0] - d * ux, centroid[1] - d * uy
+    return (x, y - half_h)
+
+
+def detection_label(result: FrameResult, shape: tuple[int, ...] | None
+                    ) -> tuple[tuple[float, float], str]:
+    """The frame's detection's (not None) label and where it goes (:func:`beside_ball`,
+    the ball's radius half its box's larger side), in an image of numpy ``shape`` (height,
+    width, ...) if known."""
+    det = result.detection
+    assert det is not None
+    cx, cy = float(det.cx_px), float(det.cy_px)
+    text = detection_text(cx, cy, result.r_px)
+    ball_r_px = 0.5 * max(det.bbox_px[2], det.bbox_px[3])
+    size = None if shape is None else (shape[1], shape[0])
+    return beside_ball(result.centre_px, (cx, cy), ball_r_px, text, size), text

@@ -38,7 +38,7 @@ from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
 from replay.records import FrameResult, StepResult
 from replay.sink import SinkBase
-from replay.sinks.rerun import streams
+from replay.sinks.rerun import shapes, streams
 from replay.sinks.rerun.blueprint import blueprint, scenario_kind
 from replay.sinks.rerun.live import (
     Liveness,
@@ -47,14 +47,6 @@ from replay.sinks.rerun.live import (
     check_reachable,
     grpc_address,
     reachable,
-)
-from replay.sinks.rerun.shapes import (
-    correction_label,
-    ellipse,
-    fused_label,
-    landing_mark,
-    pose_share_cm,
-    truth_mark,
 )
 from replay.sinks.rerun.streams import blueprint_storage, check_room, flush, release, write_failure
 from replay.sinks.style import (
@@ -83,7 +75,7 @@ TIMELINES = ("sim_time", "frame", "step")
 on per-frame data; ``step`` (the fusion step index) on fused data."""
 ENTITY_PATHS = (
     "/field", "/field/lines",
-    "/field/robots/{robot}", "/field/robots/{robot}/heading",
+    "/field/robots/{robot}", "/field/robots/{robot}/heading", "/field/robots/{robot}/name",
     "/field/robots/{robot}/estimate", "/field/robots/{robot}/ray",
     "/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
     "/field/fused", "/field/fused/covariance", "/field/fused/height",
@@ -92,8 +84,8 @@ ENTITY_PATHS = (
     "/robots/{robot}/camera/image", "/robots/{robot}/camera/centre",
     "/robots/{robot}/camera/detection",
     "/robots/{robot}/camera/detection/centroid", "/robots/{robot}/camera/detection/outline",
-    "/robots/{robot}/camera/detection/radius", "/robots/{robot}/camera/candidates",
-    "/robots/{robot}/camera/lines",
+    "/robots/{robot}/camera/detection/radius", "/robots/{robot}/camera/detection/label",
+    "/robots/{robot}/camera/candidates", "/robots/{robot}/camera/lines",
     "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
     "/plots/height/fused", "/plots/height/truth",
     "/plots/blob_area/{robot}", "/plots/pose_sigma/{robot}", "/plots/estimator_ms/{robot}",
@@ -254,10 +246,10 @@ class RerunSink(SinkBase):
             rec.log(f"{cam}/detection", rr.Clear(recursive=True))
             self._scalar(f"/plots/blob_area/{robot}", None)
         else:
-            cx, cy = float(det.cx_px), float(det.cy_px)
+            cx, cy = float(det.cx_px), float(det.cy_px)  # labels on hover, /label beside
             rec.log(f"{cam}/detection/centroid",
                     rr.Points2D([(cx, cy)], labels=[f"({cx:.1f}, {cy:.1f})"],
-                                colors=[BALL_COLOUR], radii=5.0, show_labels=True))
+                                colors=[BALL_COLOUR], radii=5.0, show_labels=False))
             outline = det.outline_px
             if len(outline) >= 3:
                 pts = np.asarray(outline, dtype=np.float32).reshape(-1, 2)
@@ -271,7 +263,12 @@ class RerunSink(SinkBase):
             label = f"r = {result.r_px:.1f} px" if result.r_px is not None else None
             rec.log(f"{cam}/detection/radius",
                     rr.LineStrips2D([[result.centre_px, (cx, cy)]], colors=[RADIUS_COLOUR],
-                                    radii=2.0, labels=[label] if label else None))
+                                    radii=2.0, labels=[label] if label else None,
+                                    show_labels=False))
+            shape = None if image_bgr is None else image_bgr.shape
+            at, text = shapes.detection_label(result, shape)
+            rec.log(f"{cam}/detection/label", rr.Points2D(
+                [at], labels=[text], colors=[BALL_COLOUR], radii=0.0, show_labels=True))
             self._scalar(f"/plots/blob_area/{robot}", float(det.area_px))
         rec.log(f"/plots/estimator_ms/{robot}", rr.Scalars(1e3 * result.estimator_s))
         self._candidates(result)
@@ -299,9 +296,12 @@ class RerunSink(SinkBase):
     def _robot(self, result: FrameResult) -> None:
         rec, robot = self.rec, result.robot
         colour = self.colours[robot]
-        if result.pose is not None:  # the correction in its label (one label, not two)
+        if result.pose is not None:  # the correction in its label, on hover; the name beside
             self._pose(f"/field/robots/{robot}", result.pose, colour, "solid",
-                       robot + correction_label(result))
+                       shapes.pose_label(result))
+            rec.log(f"/field/robots/{robot}/name", rr.Points3D(
+                [shapes.name_position(result.pose)], labels=[robot], colors=[colour], radii=0.0,
+                show_labels=True))
         self._corrected(result)
         est = result.estimate
         if est is None:
@@ -315,18 +315,18 @@ class RerunSink(SinkBase):
                     rr.LineStrips3D([[(est.robot_x_m, est.robot_y_m, 0.05),
                                       (est.x_m, est.y_m, 0.05)]], colors=[colour], radii=0.025))
         self._scalar(f"/plots/error/{robot}", result.error_m)
-        self._scalar(f"/plots/pose_sigma/{robot}", pose_share_cm(result))
+        self._scalar(f"/plots/pose_sigma/{robot}", shapes.pose_share_cm(result))
 
     def _pose(self, path: str, pose: RobotPose, colour: Rgb,
-              fill: Literal["solid", "majorwireframe"], label: str,
-              show_label: bool = True) -> None:
-        """A robot's footprint at ``pose`` and its heading arrow (``path``/heading)."""
+              fill: Literal["solid", "majorwireframe"], label: str) -> None:
+        """A robot's footprint at ``pose``, its label shown on hovering (an always-shown one
+        would cover it), and its heading arrow (``path``/heading)."""
         c, s, h = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad), ROBOT_FOOTPRINT_M / 2
         self.rec.log(path, rr.Boxes3D(
             centers=[(pose.x_m, pose.y_m, 0.02)], half_sizes=[(h, h, 0.02)],
             quaternions=[rr.Quaternion(xyzw=[0.0, 0.0, math.sin(pose.yaw_rad / 2),
                                              math.cos(pose.yaw_rad / 2)])],
-            colors=[colour], fill_mode=fill, labels=[label], show_labels=show_label))
+            colors=[colour], fill_mode=fill, labels=[label], show_labels=False))
         self.rec.log(f"{path}/heading", rr.Arrows3D(
             origins=[(pose.x_m, pose.y_m, 0.05)],
             vectors=[(0.9 * ROBOT_FOOTPRINT_M * c, 0.9 * ROBOT_FOOTPRINT_M * s, 0.0)],
@@ -338,9 +338,9 @@ class RerunSink(SinkBase):
         loc = result.localisation
         if loc is None:
             return
-        robot = result.robot  # (its own label, the same, shows on hovering)
+        robot = result.robot  # (its label, the same as the believed one's, on hovering)
         self._pose(f"/field/robots/{robot}/corrected", loc.pose, self.colours[robot],
-                   "majorwireframe", robot + correction_label(result), show_label=False)
+                   "majorwireframe", shapes.pose_label(result))
         if loc.pixels is None or not len(loc.pixels):
             self.rec.log(f"/robots/{robot}/camera/lines", rr.Clear(recursive=False))
         else:
@@ -360,16 +360,16 @@ class RerunSink(SinkBase):
             rec.log("/field/fused",
                     rr.Points3D([(fused.x_m, fused.y_m, z)], colors=[FUSED_COLOUR],
                                 radii=BALL_RADIUS_M, show_labels=True,
-                                labels=[fused_label(result)]))
+                                labels=[shapes.fused_label(result)]))
             self._height(result, z)
             rec.log("/field/fused/covariance",
-                    rr.LineStrips3D([ellipse(fused.x_m, fused.y_m, fused.covariance)],
+                    rr.LineStrips3D([shapes.ellipse(fused.x_m, fused.y_m, fused.covariance)],
                                     colors=[FUSED_COLOUR], radii=0.025))
         if result.truth is None:
             rec.log("/field/ground_truth/ball", rr.Clear(recursive=False))
         else:
             z_true = BALL_RADIUS_M if result.truth_z_m is None else result.truth_z_m
-            strips = truth_mark(result.truth[0], result.truth[1], z_true)
+            strips = shapes.truth_mark(result.truth[0], result.truth[1], z_true)
             rec.log("/field/ground_truth/ball", rr.LineStrips3D(
                 strips, colors=[TRUTH_COLOUR], radii=[0.03, 0.01][:len(strips)]))
         self._scalar("/plots/error/fused", result.error_m)
@@ -418,7 +418,7 @@ class RerunSink(SinkBase):
         if result.landing is None:
             self.rec.log("/field/track/landing", rr.Clear(recursive=False))
             return
-        strips, label = landing_mark(result)
+        strips, label = shapes.landing_mark(result)
         self.rec.log("/field/track/landing", rr.LineStrips3D(
             strips, colors=[LANDING_COLOUR], radii=0.02, labels=[label], show_labels=True))
 

@@ -4,6 +4,7 @@ gaps (Clear) in its plots where there is no value."""
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -160,3 +161,43 @@ def test_the_fused_label_carries_the_speed_and_the_arrow_has_none(chunks: list) 
     fused = labels("/field/fused")
     assert fused and all(re.fullmatch(r"fused \(-?\d+\.\d\d, -?\d+\.\d\d\), \d+\.\d\d m/s", t)
                          for t in fused), fused[:3]
+
+
+def test_labels_sit_beside_the_ball_and_the_robots_not_on_them(chunks: list) -> None:
+    """The camera view's always-shown label is off the ball (the centroid's and the
+    radius's show on hovering); the robots' names are below their footprints, whose own
+    labels show on hovering."""
+    def column(rx: str, name: str) -> dict[tuple[str, int], object]:
+        out: dict[tuple[str, int], object] = {}
+        for ch in chunks:
+            if ch.is_static or not re.fullmatch(rx, ch.entity_path):
+                continue
+            batch = ch.to_record_batch()
+            if name in batch.schema.names:
+                frames = batch.column("frame").to_pylist()
+                for frame, value in zip(frames, batch.column(name).to_pylist(), strict=True):
+                    out[ch.entity_path.split("/")[2 if rx.startswith("/robots") else 3],
+                        frame] = value
+        return out
+
+    centroids = column(r"/robots/\w+/camera/detection/centroid", "Points2D:positions")
+    labels = column(r"/robots/\w+/camera/detection/label", "Points2D:positions")
+    assert centroids and set(labels) == set(centroids)
+    for key, (at,) in labels.items():  # a rolling ball some metres off: 5+ px across
+        assert math.dist(at, centroids[key][0]) > 10.0, key
+    texts = column(r"/robots/\w+/camera/detection/label", "Points2D:labels")
+    assert all(re.fullmatch(r"\(\d+\.\d, \d+\.\d\) px, r = \d+\.\d px", t[0])
+               for t in texts.values())
+    for rx, name in ((r"/robots/\w+/camera/detection/centroid", "Points2D:show_labels"),
+                     (r"/robots/\w+/camera/detection/radius", "LineStrips2D:show_labels"),
+                     (r"/field/robots/\w+", "Boxes3D:show_labels")):
+        hidden = column(rx, name)
+        assert hidden and all(v == [False] for v in hidden.values()), rx
+    boxes = column(r"/field/robots/\w+", "Boxes3D:centers")
+    names = column(r"/field/robots/\w+/name", "Points3D:positions")
+    assert set(names) == set(boxes)
+    for key, (at,) in names.items():
+        centre = boxes[key][0]
+        assert at[0] == centre[0] and at[1] < centre[1] - 0.36, key  # below, past a corner
+    assert {t[0] for t in column(r"/field/robots/\w+/name", "Points3D:labels").values()} == set(
+        ROBOTS)

@@ -5,6 +5,7 @@ label and where it goes (beside what it names, never on it)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -109,21 +110,43 @@ def pose_label(result: FrameResult) -> str:
     return f"{robot} (pose corrected {100 * shift:.1f} cm, {turn:+.2f}\N{DEGREE SIGN} {words})"
 
 
-NAME_OFFSET_M = 0.45
-"""How far below (-y) a robot's centre its name is written [m]. Rerun hangs a label below
-its position, centred across it; from here it clears the footprint (half diagonal 0.35 m)
-whatever the robot's heading."""
+NAME_GAP_M = 0.4
+"""How far from a robot's centre its name's box begins [m]: past the footprint's half
+diagonal (0.35 m), so the name covers none of it whatever the robot's heading."""
+NAME_BOX_M = (0.2, 0.18, 0.5)
+"""A robot name's box in the field view at its usual zoom [m]: width 0.2 + 0.18 a
+character, height 0.5."""
 
 
-def name_position(pose: RobotPose) -> tuple[float, float, float]:
-    """Where a robot's always-shown name goes in the field view: below its footprint (one
-    at the robot would cover it)."""
-    return (pose.x_m, pose.y_m - NAME_OFFSET_M, 0.05)
+def _box_clears(box: tuple[float, float, float, float], x: float, y: float, r: float) -> bool:
+    """Whether the box (x0, y0, x1, y1) stays out of the circle of radius r at (x, y)."""
+    nx, ny = min(max(x, box[0]), box[2]), min(max(y, box[1]), box[3])
+    return math.hypot(nx - x, ny - y) > r
+
+
+def name_position(robot: str, poses: Mapping[str, RobotPose]) -> tuple[float, float, float]:
+    """Where ``robot``'s always-shown name goes in the field view: beside its footprint (one
+    at the robot would cover it), below it unless that covers another robot's footprint
+    (``poses``: every robot's latest, its own included), else above, right or left; below
+    when none is clear. Rerun hangs a label below its position, centred across it: the
+    position returned is the top centre of the name's box."""
+    pose = poses[robot]
+    x, y, gap = pose.x_m, pose.y_m, NAME_GAP_M
+    half_w, h = 0.5 * (NAME_BOX_M[0] + NAME_BOX_M[1] * len(robot)), NAME_BOX_M[2]
+    tops = [(x, y - gap), (x, y + gap + h), (x + gap + half_w, y + 0.5 * h),
+            (x - gap - half_w, y + 0.5 * h)]  # below, above, right, left
+    others = [p for name, p in poses.items() if name != robot]
+    for tx, ty in tops:
+        box = (tx - half_w, ty - h, tx + half_w, ty)
+        if all(_box_clears(box, p.x_m, p.y_m, gap) for p in others):
+            return (tx, ty, 0.05)
+    return (tops[0][0], tops[0][1], 0.05)
 
 
 CHAR_PX = (11.0, 26.0)
 """A label's character's width and the label's height in image pixels, for a 1080-pixel
-omni image shown about 550 pixels tall (the viewer's usual camera view)."""
+omni image shown about 550 pixels tall (the viewer's usual camera view); an image of
+another height is shown as tall, so its labels span pixels in proportion."""
 GAP_PX = 12.0
 """The gap between the ball's edge and the nearest edge of its label [image px]."""
 
@@ -144,9 +167,10 @@ def beside_ball(centre: tuple[float, float], centroid: tuple[float, float], ball
     dx, dy = centroid[0] - centre[0], centroid[1] - centre[1]
     norm = math.hypot(dx, dy)
     ux, uy = (dx / norm, dy / norm) if norm > 1e-6 else (0.0, 1.0)
-    half_w, half_h = 0.5 * CHAR_PX[0] * len(text), 0.5 * CHAR_PX[1]
+    scale = 1.0 if size is None else size[1] / 1080
+    half_w, half_h = 0.5 * scale * CHAR_PX[0] * len(text), 0.5 * scale * CHAR_PX[1]
     reach = abs(ux) * half_w + abs(uy) * half_h  # the box's extent along (ux, uy)
-    d = ball_r_px + GAP_PX + reach
+    d = ball_r_px + scale * GAP_PX + reach
     x, y = centroid[0] + d * ux, centroid[1] + d * uy
     if size is not None and not (half_w <= x <= size[0] - half_w
                                  and half_h <= y <= size[1] - half_h):
@@ -154,15 +178,14 @@ def beside_ball(centre: tuple[float, float], centroid: tuple[float, float], ball
     return (x, y - half_h)
 
 
-def detection_label(result: FrameResult, shape: tuple[int, ...] | None
+def detection_label(result: FrameResult, image: np.ndarray | None
                     ) -> tuple[tuple[float, float], str]:
     """The frame's detection's (not None) label and where it goes (:func:`beside_ball`,
-    the ball's radius half its box's larger side), in an image of numpy ``shape`` (height,
-    width, ...) if known."""
+    the ball's radius half its box's larger side), in ``image`` if there is one."""
     det = result.detection
     assert det is not None
     cx, cy = float(det.cx_px), float(det.cy_px)
     text = detection_text(cx, cy, result.r_px)
     ball_r_px = 0.5 * max(det.bbox_px[2], det.bbox_px[3])
-    size = None if shape is None else (shape[1], shape[0])
+    size = None if image is None else (image.shape[1], image.shape[0])
     return beside_ball(result.centre_px, (cx, cy), ball_r_px, text, size), text

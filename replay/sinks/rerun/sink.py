@@ -137,6 +137,7 @@ class RerunSink(SinkBase):
         self.heights = options.fusion_method in ("triangulate", "ballistic")
         self.candidates = options.detector_name == "real"
         self._trail: deque[tuple[int, float, float, float]] = deque()
+        self._poses: dict[str, RobotPose] = {}  # each robot's latest, to write names clear of
         try:
             self._open(force=options.force)
         except BaseException:
@@ -260,13 +261,11 @@ class RerunSink(SinkBase):
                 x, y, w, h = (float(v) for v in det.bbox_px)
                 rec.log(f"{cam}/detection/outline",
                         rr.Boxes2D(mins=[(x, y)], sizes=[(w, h)], colors=[OUTLINE_COLOUR]))
-            label = f"r = {result.r_px:.1f} px" if result.r_px is not None else None
+            r_label = None if result.r_px is None else [f"r = {result.r_px:.1f} px"]
             rec.log(f"{cam}/detection/radius",
                     rr.LineStrips2D([[result.centre_px, (cx, cy)]], colors=[RADIUS_COLOUR],
-                                    radii=2.0, labels=[label] if label else None,
-                                    show_labels=False))
-            shape = None if image_bgr is None else image_bgr.shape
-            at, text = shapes.detection_label(result, shape)
+                                    radii=2.0, labels=r_label, show_labels=False))
+            at, text = shapes.detection_label(result, image_bgr)
             rec.log(f"{cam}/detection/label", rr.Points2D(
                 [at], labels=[text], colors=[BALL_COLOUR], radii=0.0, show_labels=True))
             self._scalar(f"/plots/blob_area/{robot}", float(det.area_px))
@@ -299,9 +298,10 @@ class RerunSink(SinkBase):
         if result.pose is not None:  # the correction in its label, on hover; the name beside
             self._pose(f"/field/robots/{robot}", result.pose, colour, "solid",
                        shapes.pose_label(result))
+            self._poses[robot] = result.pose
             rec.log(f"/field/robots/{robot}/name", rr.Points3D(
-                [shapes.name_position(result.pose)], labels=[robot], colors=[colour], radii=0.0,
-                show_labels=True))
+                [shapes.name_position(robot, self._poses)], labels=[robot], colors=[colour],
+                radii=0.0, show_labels=True))
         self._corrected(result)
         est = result.estimate
         if est is None:

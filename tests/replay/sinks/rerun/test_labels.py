@@ -14,6 +14,7 @@ from estimator.geometry import RobotPose
 from replay.records import FrameResult, FrameStatus, Localisation
 from replay.sinks.rerun.shapes import (
     CHAR_PX,
+    NAME_BOX_M,
     beside_ball,
     detection_label,
     name_position,
@@ -48,15 +49,31 @@ def test_a_correction_without_a_believed_pose_names_its_source_alone() -> None:
     assert pose_label(_frame("lines", believed=None)) == "robot1 (pose from the field lines)"
 
 
+def _footprint_lowest(pose: RobotPose) -> float:
+    """The footprint's lowest corner's y, whatever the heading."""
+    h = ROBOT_FOOTPRINT_M / 2
+    return min(pose.y_m + h * (sx * math.sin(pose.yaw_rad) + sy * math.cos(pose.yaw_rad))
+               for sx in (-1, 1) for sy in (-1, 1))
+
+
 @pytest.mark.parametrize("yaw", [0.0, math.pi / 4, 1.0, -2.5])
-def test_a_robot_s_name_is_written_clear_of_its_footprint(yaw: float) -> None:
+def test_a_robot_s_name_is_written_below_its_footprint(yaw: float) -> None:
     pose = RobotPose(-3.0, 1.0, yaw)
-    x, y, _ = name_position(pose)
-    assert x == pose.x_m  # straight below, its label hanging further down
-    h = ROBOT_FOOTPRINT_M / 2  # the footprint's lowest corner, whatever the heading
-    lowest = min(pose.y_m + h * (sx * math.sin(yaw) + sy * math.cos(yaw))
-                 for sx in (-1, 1) for sy in (-1, 1))
-    assert y < lowest
+    x, y, _ = name_position("robot1", {"robot1": pose, "robot2": RobotPose(3.0, 1.0, 0.0)})
+    assert x == pose.x_m and y < _footprint_lowest(pose)  # its label hanging further down
+
+
+def _name_box(robot: str, top: tuple[float, float, float]) -> tuple[float, float, float, float]:
+    half_w = 0.5 * (NAME_BOX_M[0] + NAME_BOX_M[1] * len(robot))
+    return top[0] - half_w, top[1] - NAME_BOX_M[2], top[0] + half_w, top[1]
+
+
+@pytest.mark.parametrize(("dx", "dy"), [(0.0, -0.6), (0.0, 0.6), (0.6, 0.0), (0.3, -0.5)])
+def test_a_robot_s_name_covers_no_other_robot_close_by(dx: float, dy: float) -> None:
+    me, other = RobotPose(0.0, 0.0, 0.4), RobotPose(dx, dy, 1.0)
+    box = _name_box("r2", name_position("r2", {"r2": me, "r3": other}))
+    for pose in (me, other):  # clear of both footprints (within their half diagonals)
+        assert _clear_of(box, (pose.x_m, pose.y_m), math.sqrt(2) * ROBOT_FOOTPRINT_M / 2)
 
 
 def _box(top: tuple[float, float], text: str) -> tuple[float, float, float, float]:
@@ -94,6 +111,6 @@ def test_a_frame_s_detection_label_gives_the_centroid_and_r() -> None:
                     np.zeros((0, 2), dtype=np.int32))
     frame = FrameResult(0, "robot1", 0, FrameStatus.OK, detection=det, r_px=160.0,
                         centre_px=(540.0, 540.0))
-    at, text = detection_label(frame, (1080, 1080, 3))
+    at, text = detection_label(frame, np.zeros((1080, 1080, 3), dtype=np.uint8))
     assert text == "(700.0, 540.0) px, r = 160.0 px"
     assert at[0] - 0.5 * CHAR_PX[0] * len(text) > 700.0 + 10.5  # right of the ball

@@ -5,7 +5,7 @@ label and where it goes (beside what it names, never on it)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -14,8 +14,9 @@ from estimator.estimates import Covariance
 from estimator.geometry import RobotPose
 from replay.records import FrameResult, StepResult
 
-__all__ = ["SOURCE_WORDS", "beside_ball", "detection_label", "detection_text", "ellipse",
-           "fused_label", "landing_mark", "name_position", "pose_label", "ring", "truth_mark"]
+__all__ = ["SOURCE_WORDS", "NamePlacer", "beside_ball", "detection_label", "detection_text",
+           "ellipse", "fused_label", "label_box", "landing_mark", "name_position", "pose_label",
+           "ring", "truth_mark"]
 
 
 def ellipse(x: float, y: float, cov: Covariance, k: float = 2.0, n: int = 48) -> np.ndarray:
@@ -118,29 +119,63 @@ NAME_BOX_M = (0.2, 0.18, 0.5)
 character, height 0.5."""
 
 
-def _box_clears(box: tuple[float, float, float, float], x: float, y: float, r: float) -> bool:
-    """Whether the box (x0, y0, x1, y1) stays out of the circle of radius r at (x, y)."""
-    nx, ny = min(max(x, box[0]), box[2]), min(max(y, box[1]), box[3])
-    return math.hypot(nx - x, ny - y) > r
+Box = tuple[float, float, float, float]
+"""(x0, y0, x1, y1) of a label's box on the field [m]."""
 
 
-def name_position(robot: str, poses: Mapping[str, RobotPose]) -> tuple[float, float, float]:
+def label_box(top_x: float, top_y: float, text: str) -> Box:
+    """The box of a label of ``text`` whose position is (top_x, top_y) in the field view
+    from above: Rerun hangs a label below its position, centred across it."""
+    half_w = 0.5 * (NAME_BOX_M[0] + NAME_BOX_M[1] * len(text))
+    return (top_x - half_w, top_y - NAME_BOX_M[2], top_x + half_w, top_y)
+
+
+def _overlaps(a: Box, b: Box) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def name_position(robot: str, poses: Mapping[str, RobotPose],
+                  avoid: Sequence[Box] = ()) -> tuple[float, float, float]:
     """Where ``robot``'s always-shown name goes in the field view: beside its footprint (one
-    at the robot would cover it), below it unless that covers another robot's footprint
-    (``poses``: every robot's latest, its own included), else above, right or left; below
-    when none is clear. Rerun hangs a label below its position, centred across it: the
-    position returned is the top centre of the name's box."""
+    at the robot would cover it), below it, or above, right or left where below would
+    cover more of the other robots' footprints (``poses``: every robot's latest, its own
+    included) and the boxes to ``avoid`` (their names, the fused ball's label); below when
+    all do alike.
+    The position returned is the label's (the top centre of its box, :func:`label_box`)."""
     pose = poses[robot]
     x, y, gap = pose.x_m, pose.y_m, NAME_GAP_M
     half_w, h = 0.5 * (NAME_BOX_M[0] + NAME_BOX_M[1] * len(robot)), NAME_BOX_M[2]
     tops = [(x, y - gap), (x, y + gap + h), (x + gap + half_w, y + 0.5 * h),
             (x - gap - half_w, y + 0.5 * h)]  # below, above, right, left
-    others = [p for name, p in poses.items() if name != robot]
-    for tx, ty in tops:
-        box = (tx - half_w, ty - h, tx + half_w, ty)
-        if all(_box_clears(box, p.x_m, p.y_m, gap) for p in others):
-            return (tx, ty, 0.05)
-    return (tops[0][0], tops[0][1], 0.05)
+    obstacles = [(p.x_m - gap, p.y_m - gap, p.x_m + gap, p.y_m + gap)
+                 for name, p in poses.items() if name != robot] + list(avoid)
+    best = min(tops, key=lambda t: sum(_overlaps(label_box(t[0], t[1], robot), o)
+                                       for o in obstacles))  # the first of equals
+    return (best[0], best[1], 0.05)
+
+
+class NamePlacer:
+    """Keeps what the robots' names must not cover (each robot's latest pose and name, the
+    fused ball's label) and places each name (:func:`name_position`) as its robot's frame
+    comes."""
+
+    def __init__(self) -> None:
+        self.poses: dict[str, RobotPose] = {}
+        self.names: dict[str, Box] = {}
+        self.ball_label: Box | None = None
+
+    def place(self, robot: str, pose: RobotPose) -> tuple[float, float, float]:
+        self.poses[robot] = pose
+        avoid = [box for name, box in self.names.items() if name != robot]
+        at = name_position(robot, self.poses, avoid + ([] if self.ball_label is None
+                                                       else [self.ball_label]))
+        self.names[robot] = label_box(at[0], at[1], robot)
+        return at
+
+    def ball(self, x: float, y: float, text: str) -> str:
+        """Notes the fused ball's label, ``text`` at (x, y), and returns it."""
+        self.ball_label = label_box(x, y, text)
+        return text
 
 
 CHAR_PX = (11.0, 26.0)

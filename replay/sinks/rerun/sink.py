@@ -137,7 +137,7 @@ class RerunSink(SinkBase):
         self.heights = options.fusion_method in ("triangulate", "ballistic")
         self.candidates = options.detector_name == "real"
         self._trail: deque[tuple[int, float, float, float]] = deque()
-        self._poses: dict[str, RobotPose] = {}  # each robot's latest, to write names clear of
+        self.names = shapes.NamePlacer()  # the robots' names, clear of robots and the ball
         try:
             self._open(force=options.force)
         except BaseException:
@@ -298,9 +298,8 @@ class RerunSink(SinkBase):
         if result.pose is not None:  # the correction in its label, on hover; the name beside
             self._pose(f"/field/robots/{robot}", result.pose, colour, "solid",
                        shapes.pose_label(result))
-            self._poses[robot] = result.pose
             rec.log(f"/field/robots/{robot}/name", rr.Points3D(
-                [shapes.name_position(robot, self._poses)], labels=[robot], colors=[colour],
+                [self.names.place(robot, result.pose)], labels=[robot], colors=[colour],
                 radii=0.0, show_labels=True))
         self._corrected(result)
         est = result.estimate
@@ -355,12 +354,13 @@ class RerunSink(SinkBase):
         fused = result.fused
         if fused is None:
             rec.log("/field/fused", rr.Clear(recursive=True))
+            self.names.ball_label = None
         else:
             z = _BALL_Z if fused.z_m is None else fused.z_m
-            rec.log("/field/fused",
-                    rr.Points3D([(fused.x_m, fused.y_m, z)], colors=[FUSED_COLOUR],
-                                radii=BALL_RADIUS_M, show_labels=True,
-                                labels=[shapes.fused_label(result)]))
+            label = self.names.ball(fused.x_m, fused.y_m, shapes.fused_label(result))
+            rec.log("/field/fused", rr.Points3D([(fused.x_m, fused.y_m, z)], colors=[FUSED_COLOUR],
+                                                radii=BALL_RADIUS_M, labels=[label],
+                                                show_labels=True))
             self._height(result, z)
             rec.log("/field/fused/covariance",
                     rr.LineStrips3D([shapes.ellipse(fused.x_m, fused.y_m, fused.covariance)],

@@ -15,8 +15,10 @@ from replay.records import FrameResult, FrameStatus, Localisation
 from replay.sinks.rerun.shapes import (
     CHAR_PX,
     NAME_BOX_M,
+    NamePlacer,
     beside_ball,
     detection_label,
+    label_box,
     name_position,
     pose_label,
 )
@@ -114,3 +116,27 @@ def test_a_frame_s_detection_label_gives_the_centroid_and_r() -> None:
     at, text = detection_label(frame, np.zeros((1080, 1080, 3), dtype=np.uint8))
     assert text == "(700.0, 540.0) px, r = 160.0 px"
     assert at[0] - 0.5 * CHAR_PX[0] * len(text) > 700.0 + 10.5  # right of the ball
+
+
+def test_a_robot_s_name_keeps_off_the_fused_ball_s_label() -> None:
+    """A robot with the ball at its feet: the fused label hangs below the ball, so the name
+    goes elsewhere than below."""
+    me = RobotPose(0.0, 0.0, 0.0)
+    fused = label_box(0.2, 0.0, "fused (0.20, 0.00), 1.00 m/s")
+    placer = NamePlacer()
+    placer.ball(0.2, 0.0, "fused (0.20, 0.00), 1.00 m/s")
+    at = placer.place("robot3", me)
+    assert at == name_position("robot3", {"robot3": me}, (fused,))
+    box = _name_box("robot3", at)
+    assert not (box[0] < fused[2] and fused[0] < box[2] and box[1] < fused[3]
+                and fused[1] < box[3])
+    assert at[1] > me.y_m  # above it
+
+
+def test_two_robots_side_by_side_keep_their_names_apart() -> None:
+    placer = NamePlacer()
+    a, b = RobotPose(0.0, 0.0, 0.0), RobotPose(0.9, 0.0, 0.0)
+    placer.place("robot1", a)
+    placer.place("robot2", b)
+    one, two = placer.names["robot1"], placer.names["robot2"]
+    assert not (one[0] < two[2] and two[0] < one[2] and one[1] < two[3] and two[1] < one[3])

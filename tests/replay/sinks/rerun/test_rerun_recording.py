@@ -12,6 +12,7 @@ import pytest
 
 from replay.options import ReplayOptions, RerunTarget
 from replay.runner import replay
+from replay.sinks.rerun.shapes import label_box
 from replay.sinks.rerun.sink import ENTITY_PATHS, LOCALISED_PATHS, TIMELINES
 
 chunk = pytest.importorskip("rerun.chunk")
@@ -196,8 +197,8 @@ def test_labels_sit_beside_the_ball_and_the_robots_not_on_them(chunks: list) -> 
     boxes = column(r"/field/robots/\w+", "Boxes3D:centers")
     names = column(r"/field/robots/\w+/name", "Points3D:positions")
     assert set(names) == set(boxes)
-    for key, (at,) in names.items():
-        centre = boxes[key][0]
-        assert at[0] == centre[0] and at[1] < centre[1] - 0.36, key  # below, past a corner
+    for key, (at,) in names.items():  # the name's box clear of the footprint's corners
+        (x, y, _), (x0, y0, x1, y1) = boxes[key][0], label_box(at[0], at[1], key[0])
+        assert math.hypot(min(max(x, x0), x1) - x, min(max(y, y0), y1) - y) > 0.36, key
     assert {t[0] for t in column(r"/field/robots/\w+/name", "Points3D:labels").values()} == set(
         ROBOTS)

@@ -59,18 +59,24 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(log: Path, tmp_path: Path, f
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("room", [0, 20_000])
-def test_a_full_disk_under_compare_save_is_one_line(log: Path, tmp_path: Path,
-                                                     room: int) -> None:
+def _two_runs(log: Path, tmp_path: Path) -> tuple[Path, Path]:
+    """The results of two replays of ``log`` (a.json the paper's, b.json the default's) in
+    ``runs/``, and an empty ``out/`` folder for what dsp-compare writes."""
     from replay.cli import main as replay_main
 
-    runs = tmp_path / "runs"
+    runs, out = tmp_path / "runs", tmp_path / "out"
     runs.mkdir()
+    out.mkdir()
     for name, extra in (("a.json", ["--profile", "paper"]), ("b.json", [])):
         assert replay_main([str(log), "--out", str(runs / name), "-q", "--no-progress",
                             *extra]) == 0
-    out = tmp_path / "out"
-    out.mkdir()
+    return runs, out
+
+
+@pytest.mark.parametrize("room", [0, 20_000])
+def test_a_full_disk_under_compare_save_is_one_line(log: Path, tmp_path: Path,
+                                                     room: int) -> None:
+    runs, out = _two_runs(log, tmp_path)
     rrd = out / "c.rrd"
     proc = run_limited("compare", [str(runs / "a.json"), str(runs / "b.json"), "--log",
                                    str(log), "--save", str(rrd), "-q"], room)
@@ -96,16 +102,8 @@ def test_a_file_size_limit_above_a_mib_under_compare_save_is_one_line(tmp_path: 
     """Past the 1 MiB refused at the start (the .rrd of a 2 s log holds 2 MB or more), the
     writer a limit stops is one line, exit 1, no file, however it stops: with a flush that
     fails, or (tests/replay/compare/test_side_by_side.py) at the very end, in silence."""
-    from replay.cli import main as replay_main
-
     log = write_log(tmp_path / "in.mcap", duration_s=2.0).path
-    runs = tmp_path / "runs"
-    runs.mkdir()
-    for name, extra in (("a.json", ["--profile", "paper"]), ("b.json", [])):
-        assert replay_main([str(log), "--out", str(runs / name), "-q", "--no-progress",
-                            *extra]) == 0
-    out = tmp_path / "out"
-    out.mkdir()
+    runs, out = _two_runs(log, tmp_path)
     rrd = out / "c.rrd"
     proc = run_limited("compare", [str(runs / "a.json"), str(runs / "b.json"), "--log",
                                    str(log), "--save", str(rrd)], 1_100_000)

@@ -8,11 +8,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 from synthetic import write_log
+from waiting import wait_for
 
 from dsp.errors import EXIT_INTERRUPTED
 
@@ -29,14 +29,6 @@ if os.environ.get("DSP_SLOW_FRAMES"):
 """Every frame half a second slower, in the command and in each worker (a sitecustomize
 module runs in every Python process that starts with it on the path)."""
 
-
-def _wait_for(condition: object, timeout_s: float) -> bool:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if condition():  # type: ignore[operator]
-            return True
-        time.sleep(0.05)
-    return False
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="sends SIGINT to a child")
@@ -56,7 +48,7 @@ def test_an_interrupted_pool_batch_leaves_no_temporary(tmp_path: Path) -> None:
         text=True)
     try:
         # both logs in progress: each its results JSON and estimates MCAP being written
-        assert _wait_for(lambda: len(list(out.glob(".*.tmp"))) == 4, 120.0), \
+        assert wait_for(lambda: len(list(out.glob(".*.tmp"))) == 4, 120.0), \
             sorted(p.name for p in out.glob("*")) if out.exists() else "no output folder"
         child.send_signal(signal.SIGINT)
         _, err = child.communicate(timeout=60)

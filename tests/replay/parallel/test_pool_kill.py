@@ -7,11 +7,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 import uuid
 from pathlib import Path
 
 import pytest
+from waiting import wait_for
 
 HERE = Path(__file__).resolve().parent
 CHILD = """
@@ -36,14 +36,6 @@ def _marked(mark: str) -> list[int]:
     return found
 
 
-def _wait_for(condition: object, timeout_s: float) -> bool:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if condition():  # type: ignore[operator]
-            return True
-        time.sleep(0.05)
-    return False
-
 
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="finds processes in /proc")
 def test_pool_workers_end_when_their_command_is_killed(tmp_path: Path) -> None:
@@ -54,11 +46,11 @@ def test_pool_workers_end_when_their_command_is_killed(tmp_path: Path) -> None:
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         started = lambda: len(list(tmp_path.glob("*.started"))) == 2  # noqa: E731
-        assert _wait_for(started, 60.0), "the workers never started"
+        assert wait_for(started, 60.0), "the workers never started"
         child.send_signal(signal.SIGKILL)
         child.wait(timeout=30)
         # the workers (and the fork server after them) end within a second or two
-        assert _wait_for(lambda: not _marked(mark), 10.0), _marked(mark)
+        assert wait_for(lambda: not _marked(mark), 10.0), _marked(mark)
     finally:
         for pid in _marked(mark):  # on failure: leave no sleeper behind
             os.kill(pid, signal.SIGKILL)
@@ -79,7 +71,7 @@ def test_a_command_that_ended_but_is_not_yet_reaped_is_not_running() -> None:
     child = subprocess.Popen([sys.executable, "-c", "pass"])
     try:
         # not waited for (poll would reap it): the ended child stays a zombie
-        assert _wait_for(lambda: _state(child.pid) == b"Z", 30.0), _state(child.pid)
+        assert wait_for(lambda: _state(child.pid) == b"Z", 30.0), _state(child.pid)
         os.kill(child.pid, 0)  # still a pid a signal reaches...
         assert not _running(child.pid)  # ...but not running
     finally:

@@ -10,10 +10,10 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
+from waiting import wait_for
 
 pytest.importorskip("ray", reason="Ray is not installed (pip install -e '.[ray]')")
 
@@ -43,14 +43,6 @@ def _ray_processes(folder: Path) -> dict[int, str]:
     return found
 
 
-def _wait_for(condition: object, timeout_s: float) -> bool:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if condition():  # type: ignore[operator]
-            return True
-        time.sleep(0.1)
-    return False
-
 
 @pytest.mark.skipif(not Path("/proc/self/fd").exists(), reason="finds processes in /proc")
 def test_a_ray_command_killed_outright_leaves_no_ray_process(tmp_path: Path) -> None:
@@ -62,14 +54,14 @@ def test_a_ray_command_killed_outright_leaves_no_ray_process(tmp_path: Path) -> 
     child = subprocess.Popen([sys.executable, "-c", CHILD, str(tmp_path)], env=env,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        assert _wait_for(lambda: any(tmp_path.glob("*.started")), 120.0), "no task started"
+        assert wait_for(lambda: any(tmp_path.glob("*.started")), 120.0), "no task started"
         agents = lambda: sum("Agent" in n for n in _ray_processes(folder).values())  # noqa: E731
-        assert _wait_for(lambda: agents() == 2, 30.0), _ray_processes(folder)
+        assert wait_for(lambda: agents() == 2, 30.0), _ray_processes(folder)
         child.send_signal(signal.SIGKILL)
         child.wait(timeout=30)
         # Ray's processes end with the command, its agents too, within a few seconds (the
         # agents alone took over a minute)
-        assert _wait_for(lambda: not _ray_processes(folder), 20.0), _ray_processes(folder)
+        assert wait_for(lambda: not _ray_processes(folder), 20.0), _ray_processes(folder)
     finally:
         for pid in _ray_processes(folder):  # on failure: leave none behind
             os.kill(pid, signal.SIGKILL)

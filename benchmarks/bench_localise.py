@@ -5,8 +5,11 @@ on the replay's own thread with OpenCV on one core (``cv2.setNumThreads(1)``), i
 of that thread (``time.thread_time``: what other processes on a busy machine do not move):
 the ball's detection in the frame's image (``detect_ball``, what every replay does), the
 line points (:meth:`replay.localise.Localiser.points`) and the pose fit around the believed
-pose (:meth:`~replay.localise.Localiser.fit`), each frame's three calls taking turns. It
-prints each one's median per frame [ms] and the lines' total as a ratio to the detection.
+pose (:meth:`~replay.localise.Localiser.fit`) as the replay runs it, from the robot's last
+correction carried to the frame (:meth:`~replay.localise.Localiser.start`), and beside it
+the same fit from the belief, every stage (what every fit cost before); each frame's calls
+taking turns. It prints each one's median per frame [ms] and the lines' total as a ratio
+to the detection.
 The one-time grids (distance grid, one ground grid per camera model) are timed apart.
 ``dsp-replay --threads N`` runs the line points in its look-ahead threads and the fits in
 its pool.
@@ -39,7 +42,8 @@ ROOT = Path(__file__).resolve().parents[1]
 class _Timer(SinkBase):
     def __init__(self, localiser: Localiser) -> None:
         self.localiser = localiser
-        self.ms: dict[str, list[float]] = {"detection": [], "line points": [], "fit": []}
+        self.ms: dict[str, list[float]] = {"detection": [], "line points": [], "fit": [],
+                                           "fit from the belief": []}
 
     def frame(self, result: FrameResult, image_bgr: np.ndarray | None) -> None:
         if image_bgr is None or result.pose is None:
@@ -48,10 +52,14 @@ class _Timer(SinkBase):
         detect_ball(image_bgr)
         t1 = time.thread_time()
         points = self.localiser.points(result.robot, image_bgr)
+        start = self.localiser.start(result.robot, result.stamp_ns, result.pose)
         t2 = time.thread_time()
-        self.localiser.fit(points, result.pose)
+        fit = self.localiser.fit(points, result.pose, start)
         t3 = time.thread_time()
-        for key, dt in zip(self.ms, (t1 - t0, t2 - t1, t3 - t2), strict=True):
+        self.localiser.fit(points, result.pose)
+        t4 = time.thread_time()
+        self.localiser.settle(result.robot, result.stamp_ns, result.pose, fit, points)
+        for key, dt in zip(self.ms, (t1 - t0, t2 - t1, t3 - t2, t4 - t3), strict=True):
             self.ms[key].append(1e3 * dt)
 
 
@@ -71,7 +79,7 @@ def main() -> None:
     timer = _Timer(localiser)
     replay(args.log, ReplayOptions(threads=1, progress=False, quiet=True), sinks=[timer])
     med = {k: statistics.median(v) for k, v in timer.ms.items()}
-    lines = med["line points"] + med["fit"]
+    lines = med["line points"] + med["fit"]  # as the replay fits: from the last correction
     print(f"{args.log.name}: {len(timer.ms['fit'])} frames, CPU time of one thread, one core")
     print("median per frame: " + ", ".join(f"{k} {v:.1f} ms" for k, v in med.items())
           + f"; the lines {lines:.1f} ms (x{lines / med['detection']:.2f} the detection)")

@@ -23,6 +23,7 @@ A robot whose log names no camera model is not corrected (status ``no_camera``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 from collections.abc import Mapping
@@ -57,6 +58,9 @@ __all__ = [
     "prior_covariance",
 ]
 
+WARM_AGE_NS = 500_000_000
+"""A robot's correction at most this old starts the next fit (:meth:`Localiser.start`)."""
+
 NO_CAMERA = "no_camera"
 """The status of a robot the log names no camera model for (not corrected)."""
 
@@ -85,8 +89,18 @@ class LocalisedPoints:
     """An image's line points (robot frame) and where they are in the image [px]."""
 
     points: LinePoints
-    pixels: np.ndarray
-    """(N, 2) float32: (u, v) of each point, for the viewer."""
+    camera: CameraModel
+    camera_xy_m: np.ndarray
+    """(N, 2): the points in the camera's frame (before its mount yaw is turned back)."""
+
+    @functools.cached_property
+    def pixels(self) -> np.ndarray:
+        """(N, 2) float32: (u, v) of each point, for the viewer (worked out when asked)."""
+        if not len(self.camera_xy_m):
+            return np.zeros((0, 2), np.float32)
+        rays = np.column_stack([self.camera_xy_m, np.full(len(self.camera_xy_m),
+                                                          -self.camera.height_m)])
+        return np.asarray(self.camera.ray_to_pixel(rays), np.float32).reshape(-1, 2)
 
 
 def prior_covariance(sigma_m: float, sigma_deg: float) -> np.ndarray:
@@ -127,24 +141,29 @@ class Localiser:
             pts = detect_line_points(image, grid)
         except LocalisationError:  # an image of another size than the camera's
             return None
-        camera = self.cameras[robot]
-        rays = np.column_stack([pts.xy_m, np.full(len(pts), -camera.height_m)])
-        pixels = (np.asarray(camera.ray_to_pixel(rays), np.float32).reshape(-1, 2)
-                  if len(pts) else np.zeros((0, 2), np.float32))
+        camera_xy = pts.xy_m
         yaw = self.mount_yaw_rad.get(robot, 0.0)
         if yaw:  # the camera's frame turned into the robot's
             c, s = math.cos(yaw), math.sin(yaw)
             xy = pts.xy_m @ np.array([[c, s], [-s, c]])
             pts = LinePoints(xy, pts.sigma_m, pts.contrast)
-        return LocalisedPoints(pts, pixels)
+        return LocalisedPoints(pts, self.cameras[robot], camera_xy)
 
-    def fit(self, points: LocalisedPoints | None, believed: RobotPose) -> PoseCorrection | None:
-        """The pose the points give around ``believed`` (None: no points to fit). Pure and
-        thread-safe."""
+    def start(self, robot: str, stamp_ns: int, believed: RobotPose) -> RobotPose | None:
+        """Where the fit of the robot's frame at ``stamp_ns`` starts: its last settled
+        correction carried to ``believed`` while at most :data:`WARM_AGE_NS` old (the
+        error drifts over seconds), else None (from the belief, every stage). Called in
+        frame order, on the replay's own thread."""
+        return self.hold.carried(robot, stamp_ns, believed, WARM_AGE_NS)
+
+    def fit(self, points: LocalisedPoints | None, believed: RobotPose,
+            start: RobotPose | None = None) -> PoseCorrection | None:
+        """The pose the points give around ``believed``, searched from ``start`` when given
+        (None: no points to fit). Pure and thread-safe."""
         if points is None:
             return None
         return correct_pose(believed, self.prior_covariance, points.points, self.distance,
-                            self.lines)
+                            self.lines, start=start)
 
     def settle(self, robot: str, stamp_ns: int, believed: RobotPose,
                correction: PoseCorrection | None,
@@ -154,11 +173,11 @@ class Localiser:
             cov = self.prior_covariance
             status = NO_CAMERA if robot not in self.grids else "too_few_points"
             return Localisation(believed, _rows3(cov), status, "prior", 0, 0,
-                                None if points is None else points.pixels)
+                                points)
         held = self.hold.update(robot, stamp_ns, believed, self.prior_covariance, correction)
         return Localisation(held.pose, _rows3(held.covariance), correction.status.value,
                             held.source, correction.points, correction.inliers,
-                            None if points is None else points.pixels)
+                            points)
 
 
 def _rows3(m: np.ndarray) -> tuple[tuple[float, float, float], ...]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -70,6 +71,15 @@ class RobotEstimate:
     the ground-plane [m] (the estimate itself is placed under the ball); None otherwise."""
 
 
+class LinePixels(Protocol):
+    """Line points that know where they are in their image
+    (:class:`replay.localise.LocalisedPoints`)."""
+
+    @property
+    def pixels(self) -> np.ndarray:
+        """(N, 2) float32 (u, v)."""
+
+
 Covariance3 = tuple[tuple[float, float, float], ...]
 """A 3 x 3 covariance over (x_m, y_m, yaw_rad), row by row."""
 
@@ -93,8 +103,14 @@ class Localisation:
     """Line points on the field under the believed pose."""
     inliers: int
     """Of them, within the fit's inlier distance of a line at the result."""
-    pixels: np.ndarray | None = field(default=None, compare=False, repr=False)
-    """(N, 2) float32 (u, v) of the line points in the image, for the viewer."""
+    line_points: LinePixels | None = field(default=None, compare=False, repr=False)
+    """The frame's line points, whose place in the image the viewer shows (:attr:`pixels`)."""
+
+    @property
+    def pixels(self) -> np.ndarray | None:
+        """(N, 2) float32 (u, v) of the line points in the image, for the viewer: worked
+        out when first asked for (a replay with no viewer never pays for it)."""
+        return None if self.line_points is None else self.line_points.pixels
 
 
 @dataclass(frozen=True)

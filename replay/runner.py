@@ -356,7 +356,8 @@ class _Stream:
         field_pose = None if pose is None else self.estimator.field_pose(img.robot, pose)
         fit: Callable[[], PoseCorrection | None] = _nothing
         if field_pose is not None and decoded.points is not None:
-            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose)
+            start = self.localiser.start(img.robot, img.stamp_ns, field_pose.pose)
+            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose, start)
         self.pending.append(_Pending(img, decoded, pose, fit))
 
     def _settle(self, now_ns: int | None) -> None:

@@ -212,16 +212,16 @@ def line_mask(image_bgr: NDArray[np.uint8], grid: GroundGrid) -> tuple[
 
 
 def _centroids(mask: NDArray[np.bool_], tophat: NDArray[np.uint8], grid: GroundGrid,
-               rows: NDArray[np.intp], cols: NDArray[np.intp]) -> FloatArray:
+               cells: NDArray[np.intp]) -> FloatArray:
     """(N, 2) [m]: the contrast-weighted centroid of the line cells' positions in a
-    ``centroid_cells`` square window about each of (rows, cols)."""
+    ``centroid_cells`` square window about each of ``cells`` (flat, row-major indices)."""
     side = grid.params.centroid_cells
     t = np.where(mask, tophat, 0).astype(np.float64)
 
     def window_sum(a: FloatArray) -> FloatArray:
         out = cv2.boxFilter(a, cv2.CV_64F, (side, side), normalize=False,
                             borderType=cv2.BORDER_CONSTANT)
-        return np.asarray(out, dtype=np.float64)[rows, cols]
+        return np.asarray(out, dtype=np.float64).ravel()[cells]
 
     s0, sx, sy = window_sum(t), window_sum(t * grid.x_m), window_sum(t * grid.y_m)
     return np.stack([sx / s0, sy / s0], axis=1)
@@ -235,10 +235,12 @@ def detect_line_points(image_bgr: NDArray[np.uint8], grid: GroundGrid) -> LinePo
     if p.checkerboard:
         keep[0::2, 1::2] = False
         keep[1::2, 0::2] = False
-    rows, cols = np.nonzero(keep)  # row-major: a fixed order, whatever the threads
-    if p.centroid_cells > 1 and len(rows):
-        xy = _centroids(mask, tophat, grid, rows, cols)
+    # flat, row-major indices: a fixed order, whatever the threads (and several times
+    # cheaper than np.nonzero's row and column arrays)
+    cells = np.flatnonzero(keep)
+    if p.centroid_cells > 1 and len(cells):
+        xy = _centroids(mask, tophat, grid, cells)
     else:
-        xy = np.stack([grid.x_m[rows, cols], grid.y_m[rows, cols]], axis=1)
-    return LinePoints(xy, grid.sigma_m[rows, cols].astype(np.float64),
-                      tophat[rows, cols].astype(np.float64))
+        xy = np.stack([grid.x_m.ravel()[cells], grid.y_m.ravel()[cells]], axis=1)
+    return LinePoints(xy, grid.sigma_m.ravel()[cells].astype(np.float64),
+                      tophat.ravel()[cells].astype(np.float64))

@@ -89,6 +89,10 @@ class PoseFitParams:
     what the Hessian cannot see (the painted lines' and the exposure's few millimetres)."""
     max_points: int = 6000
     """More points are thinned to this many (every k-th, in their fixed order)."""
+    warm_stages: int = 1
+    """Stages run (the last ones) when the fit starts from a recent correction (``start``
+    of :func:`correct_pose`: near the minimum already, so the wide basins of the first
+    stages are not needed)."""
 
     def __post_init__(self) -> None:
         ok = (self.stages and all(c > 0 for c in self.stages) and self.iterations >= 1
@@ -96,7 +100,8 @@ class PoseFitParams:
               and 0 <= self.min_inlier_fraction <= 1 and self.inlier_m > 0
               and self.max_jump_chi2 > 0 and self.information_scale > 0
               and len(self.floor_sigma) == 3 and all(f >= 0 for f in self.floor_sigma)
-              and self.field_margin_m >= 0 and self.refine_margin_m >= 0)
+              and self.field_margin_m >= 0 and self.refine_margin_m >= 0
+              and 1 <= self.warm_stages <= len(self.stages))
         if not ok:
             raise LocalisationError(f"bad pose fit parameters: {self}")
 
@@ -145,15 +150,17 @@ def _normal_equations(q: FloatArray, p: FloatArray, inv_var: FloatArray, grid: D
 
 
 def _gauss_newton(q0: FloatArray, info0: FloatArray, p: FloatArray, inv_var: FloatArray,
-                  grid: DistanceGrid, lines: FieldLines, params: PoseFitParams) -> tuple[
-                      FloatArray, FloatArray, FloatArray]:
-    """The minimum of E from q0; returns (q, H_L at q, distances at q). After the first
+                  grid: DistanceGrid, lines: FieldLines, params: PoseFitParams,
+                  start: FloatArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The minimum of E from q0 (from ``start`` when given: then only the last
+    ``warm_stages`` stages run); returns (q, H_L at q, distances at q). After the first
     stage the points are kept to the field grown by ``refine_margin_m`` under the pose
     found so far (what stands just behind an outer line, a goal, drops out)."""
-    q = q0.copy()
+    q = q0.copy() if start is None else start.copy()
     use = np.ones(len(p), dtype=bool)
-    for k, c_m in enumerate(params.stages):
-        if k == 1:
+    stages = params.stages if start is None else params.stages[-params.warm_stages:]
+    for k, c_m in enumerate(stages):
+        if k == 1 or (start is not None and k == 0):
             use = lines.inside(_to_field(q, p), params.refine_margin_m)
         pk, wk = p[use], inv_var[use]
         for _ in range(params.iterations):
@@ -189,10 +196,13 @@ def _prior_covariance(value: FloatArray) -> FloatArray:
 
 def correct_pose(prior: RobotPose, prior_covariance: FloatArray, points: LinePoints,
                  grid: DistanceGrid, lines: FieldLines,
-                 params: PoseFitParams | None = None) -> PoseCorrection:
+                 params: PoseFitParams | None = None, *,
+                 start: RobotPose | None = None) -> PoseCorrection:
     """The pose that fits ``points`` (robot frame) to the field's lines around ``prior``
-    (covariance ``prior_covariance``, 3 x 3 over x, y, yaw). Deterministic: the same inputs
-    give the same bits (no randomness; the points' order is fixed)."""
+    (covariance ``prior_covariance``, 3 x 3 over x, y, yaw). ``start``: where the search
+    begins when it is not the prior (a recent correction carried to this frame): the
+    minimum sought is the same, fewer steps reach it. Deterministic: the same inputs give
+    the same bits (no randomness; the points' order is fixed)."""
     p = params or PoseFitParams()
     cov0 = _prior_covariance(prior_covariance)
     q0 = np.array([prior.x_m, prior.y_m, prior.yaw_rad])
@@ -208,7 +218,8 @@ def correct_pose(prior: RobotPose, prior_covariance: FloatArray, points: LinePoi
         keep = np.arange(0, n, math.ceil(n / p.max_points))
         xy, sigma = xy[keep], sigma[keep]
     info0 = np.asarray(np.linalg.inv(cov0), dtype=np.float64)
-    q, h, d = _gauss_newton(q0, info0, xy, 1.0 / (sigma * sigma), grid, lines, p)
+    q_start = None if start is None else np.array([start.x_m, start.y_m, start.yaw_rad])
+    q, h, d = _gauss_newton(q0, info0, xy, 1.0 / (sigma * sigma), grid, lines, p, q_start)
     inliers = int(np.count_nonzero(d <= p.inlier_m))
     if inliers < p.min_inliers or inliers < p.min_inlier_fraction * len(d):
         return _failed(prior, cov0, FitStatus.POOR_FIT, n, inliers)

@@ -54,6 +54,16 @@ class CorrectionHold:
     """Random-walk growth of a held offset per sqrt(second): x [m], y [m], yaw [rad]."""
     _last: dict[str, _Last] = field(default_factory=dict)
 
+    def carried(self, robot: str, stamp_ns: int, believed: RobotPose,
+                max_age_ns: int) -> RobotPose | None:
+        """The last accepted correction's offset applied to ``believed``, when it is at most
+        ``max_age_ns`` old at ``stamp_ns`` (where a fit of this frame may start), else None."""
+        last = self._last.get(robot)
+        if last is None or not 0 <= stamp_ns - last.stamp_ns <= max_age_ns:
+            return None
+        return RobotPose(believed.x_m - float(last.offset[0]), believed.y_m - float(last.offset[1]),
+                         wrap_angle(believed.yaw_rad - float(last.offset[2])))
+
     def update(self, robot: str, stamp_ns: int, believed: RobotPose,
                prior_covariance: FloatArray, correction: PoseCorrection) -> HeldPose:
         """The frame's pose: the correction when it is accepted (and remembered), else the

@@ -10,6 +10,7 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from synthetic import write_log
 
@@ -211,3 +212,36 @@ def test_a_camera_turned_on_its_robot_is_turned_back() -> None:
                         abs(got.yaw_rad - true.yaw_rad))
     assert errors["turned back"][0] < 0.01 and errors["turned back"][1] < math.radians(0.1)
     assert errors["not"][0] > 0.02 or errors["not"][1] > math.radians(0.5)
+
+
+def test_the_line_points_pixels_are_worked_out_only_for_a_viewer() -> None:
+    """The line points' place in the image (what the viewer draws) is their ground point
+    seen through the camera, in the camera's own frame however it is turned on the robot;
+    it is worked out when first asked for, so a replay with no viewer never pays for it."""
+    from field_images import render_carpet
+
+    from dsp.field import FIELDS
+    from estimator.camera import make_camera
+    from estimator.geometry import RobotPose
+    from replay.localise import Localiser
+
+    camera = make_camera("ideal", cu_px=539.0, cv_px=539.0)
+    image = render_carpet(camera, RobotPose(-2.0, 1.5, 0.4))
+    loc = Localiser(FIELDS["18x12"], {"r": camera}, sigma_m=0.05, sigma_deg=1.0,
+                    mount_yaw_rad={"r": math.radians(35.0)})
+    points = loc.points("r", image)
+    assert points is not None and len(points.points) > 100
+    settled = loc.settle("r", 0, RobotPose(-2.0, 1.5, 0.4), loc.fit(points, RobotPose(
+        -2.0, 1.5, 0.4)), points)
+    assert "pixels" not in vars(points)  # not worked out yet
+    pixels = settled.pixels
+    assert pixels is not None and pixels.shape == (len(points.points), 2)
+    # each pixel reads the white line the point was found on (the points are in the robot's
+    # frame, turned by the mount; the pixels in the image's)
+    uv = np.round(pixels).astype(int)
+    assert np.median(image[uv[:, 1], uv[:, 0]].min(axis=1)) > 150
+    back = camera.pixel_to_ray(pixels[:, 0].astype(np.float64), pixels[:, 1].astype(np.float64))
+    ground = back[:, :2] * (camera.height_m / -back[:, 2:3])
+    c, s = math.cos(math.radians(35.0)), math.sin(math.radians(35.0))
+    turned = points.points.xy_m @ np.array([[c, -s], [s, c]])  # robot frame -> camera's
+    assert np.allclose(ground, turned, atol=0.01)

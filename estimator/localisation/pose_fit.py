@@ -72,8 +72,11 @@ class PoseFitParams:
     iterations: int = 8
     """Most Gauss-Newton steps per stage (a stage ends early once a step is below the
     tolerances)."""
-    tolerance_m: float = 2e-4
-    tolerance_rad: float = 2e-5
+    tolerance_m: float = 1e-3
+    tolerance_rad: float = 1e-4
+    """A stage ends once a step moves the pose less than these (|dx| + |dy| [m], |dyaw|
+    [rad]): a millimetre, a twentieth of the points' own spread. Tighter (0.2 mm, 2e-5
+    rad) took 1.5 more steps a fit and moved no replay's fused RMSE by 0.1 %."""
     min_points: int = 80
     min_inliers: int = 60
     min_inlier_fraction: float = 0.35

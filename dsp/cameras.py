@@ -23,11 +23,11 @@ file, :mod:`dsp.camera_file`: the same object, in YAML or JSON)::
 
 ``ideal``, ``fisheye`` and ``mirror`` are projection models: the range comes from the model
 (the ball-height correction, :class:`~estimator.calibration.CameraCalibration`) unless
-``calibration`` replaces it, and the model tells how large a whole ball looks. ``lookup``
-has no projection model: the range is looked up in ``calibration`` (required; any
-calibration model: linear, lookup table, mirror). Every key a model needs is required:
-nothing about a camera's geometry is ever guessed. The recorder writes exactly the model's
-``to_dict()`` (the optional keys are absent), so its logs are what they always were.
+``calibration`` replaces it, and the model tells how large a whole ball looks. ``lookup``:
+the range is looked up in ``calibration`` (required; linear, lookup table, mirror); with
+``height_m`` it makes a projection model (:mod:`estimator.table_camera`). Every key a
+model needs is required: nothing about a camera's geometry is ever guessed. The recorder
+writes exactly the model's ``to_dict()``, so its logs are what they always were.
 
 An entry named ``default`` applies to every robot without one; a robot's entry is the
 default with the robot's own keys put over it. ``ball`` is reserved for the ball model (a
@@ -60,6 +60,7 @@ from estimator.calibration import (
 from estimator.camera import CameraModel, make_camera
 from estimator.constants import PAPER_CENTRE_PX, PAPER_IMAGE_SIZE_PX
 from estimator.errors import EstimatorError
+from estimator.table_camera import table_camera
 
 __all__ = [
     "CAMERA_KINDS",
@@ -99,7 +100,7 @@ _MODEL_KEYS = {
 }
 """Required keys besides :data:`_COMMON`, per model."""
 _OPTIONAL = ("usable_radius_px", "mount_yaw_deg", "calibration", "ball", "map_to_field",
-             "max_radius_px")
+             "max_radius_px", "height_m")
 _POSITIVE = ("max_radius_px", "height_m", "k_m_per_px", "fov_deg", "a_m", "b_rad_per_px",
              "usable_radius_px")
 
@@ -136,7 +137,7 @@ class CameraSpec:
     height_px: int
     centre_px: tuple[float, float]
     camera: CameraModel | None = None
-    """The projection model (ideal, fisheye, mirror); None for ``lookup``."""
+    """The projection model; None for a ``lookup`` without ``height_m``."""
     calibration: Calibration | None = None
     """The entry's ``calibration``, when it gives one (it replaces the model's)."""
     calibration_rms_m: float | None = None
@@ -298,7 +299,7 @@ def camera_spec_from_json(entry: Any, where: str) -> CameraSpec:
         raise _fail(where, "self_radius_px", "must be >= 0")
     if abs(numbers.get("mount_yaw_deg", 0.0)) > 360.0:
         raise _fail(where, "mount_yaw_deg", "must be within [-360, 360] deg")
-    camera = None
+    camera: CameraModel | None = None
     if model != "lookup":
         params = {k: v for k, v in numbers.items()
                   if k not in ("usable_radius_px", "mount_yaw_deg")}
@@ -309,6 +310,13 @@ def camera_spec_from_json(entry: Any, where: str) -> CameraSpec:
             raise _fail(where, "model", f"{model} cannot be made: {err}") from err
     calibration, rms = (None, None) if "calibration" not in entry else _calibration(
         where, entry["calibration"])
+    if model == "lookup" and "height_m" in numbers and calibration is not None:
+        rim = numbers.get("max_radius_px", numbers.get("usable_radius_px", max(width, height) / 2))
+        try:  # the calibration and the camera's height make a projection model
+            camera = table_camera(calibration, height_m=numbers["height_m"], width_px=width,
+                                  height_px=height, centre_px=(cu, cv), max_radius_px=rim)
+        except ValueError as err:
+            raise _fail(where, "height_m", f"with its calibration makes no camera: {err}") from err
     return CameraSpec(
         model=model, width_px=width, height_px=height, centre_px=(cu, cv), camera=camera,
         calibration=calibration, calibration_rms_m=rms,

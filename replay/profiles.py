@@ -194,7 +194,7 @@ def allowances(*, field: str | None, robots: Sequence[str], camera_robots: Seque
                        f"camera file: field: {DEFAULT_FIELD}")
     if not camera_robots:
         missing.append("no robot's camera model is known (a camera file's mirror, fisheye "
-                       "or ideal entry: --cameras FILE)")
+                       "or ideal entry, or a lookup entry with height_m: --cameras FILE)")
     n = len(camera_robots)
     line_fit = Allowance("line fit", not missing, " and ".join(missing) if missing else
                          f"field {field}, camera models of {n} robot{'s' * (n != 1)}")

@@ -43,7 +43,8 @@ FIELD_NAMED = "the field the log's dsp.scenario names: the default fits its line
 """The comment after the ``field`` key of a template for a log that names its field."""
 
 TEMPLATE_COMMENTS = {
-    "model": "lookup: no projection model, the range comes from the calibration",
+    "model": "lookup: the range comes from the calibration; add height_m (the camera's "
+             "height [m]) for the line fit and the 3-D track",
     "cu_px": "the image's middle; the mirror's centre goes here (dsp-calibrate fits it)",
     "usable_radius_px": "a ball seen farther from the centre is out of range",
     "mount_yaw_deg": "the robot-frame direction image up shows (0 forward, 90 left)",

@@ -86,7 +86,7 @@ def test_the_rules_decide_goes_by_say_what_each_part_needs() -> None:
     assert line_fit.describe() == (
         "line fit: no: the log names no field (dsp.scenario metadata); name it in the camera "
         "file: field: 18x12 and no robot's camera model is known (a camera file's mirror, "
-        "fisheye or ideal entry: --cameras FILE)")
+        "fisheye or ideal entry, or a lookup entry with height_m: --cameras FILE)")
     assert track.describe() == "3-D track: no: one robot, no rays to cross"
     line_fit, track = allowances(field="22x14", robots=("r1", "r2", "r3"),
                                  camera_robots=("r1", "r2", "r3"))

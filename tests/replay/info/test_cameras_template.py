@@ -169,7 +169,7 @@ def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
     assert block == [
         "  line fit: no: the log names no field (dsp.scenario metadata); name it in the "
         "camera file: field: 18x12 and no robot's camera model is known (a camera file's "
-        "mirror, fisheye or ideal entry: --cameras FILE)",
+        "mirror, fisheye or ideal entry, or a lookup entry with height_m: --cameras FILE)",
         "  3-D track: no: one robot, no rays to cross",
         "  poses: the believed ones (one robot: no other ball to compare with)",
         "  pose covariance: in the pose messages (PoseWithCovarianceStamped; all zero means "

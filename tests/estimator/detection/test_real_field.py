@@ -23,7 +23,7 @@ from estimator.detection.real import (
 )
 from estimator.detection.real.colour import ColourTables
 from estimator.detection.real.detector import search_for
-from estimator.detection.real.field import OffField, beyond, find_field
+from estimator.detection.real.field import OFF_FIELD, OffField, beyond, find_field
 
 FIELD_TOP = 300
 GREEN_BGR = (60, 140, 40)  # Cr 84, Cb 105: the field's green of the shared images
@@ -78,6 +78,7 @@ def test_the_rule_divides_the_odds_by_how_far_up_a_candidate_is() -> None:
                                                               math.log(8)])
     assert rule.is_off(off, side).tolist() == [False, False, True, True]
     assert OffField(weight=0.0).penalty(off, side).tolist() == [0.0] * 4
+    assert OFF_FIELD == rule  # the detector applies it by default
 
 
 def _logit(p: float) -> float:

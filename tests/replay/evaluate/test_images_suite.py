@@ -120,7 +120,8 @@ def test_a_threshold_given_scores_the_venue_at_it(tmp_path: Path) -> None:
     """Fitted on 4 of the subset, scored on 10: a higher threshold turns look-alikes of
     0.72-0.992 into no report; every report reaches the threshold; the summary says which.
     (Four frames give the shipped check no venue head, so the model's own threshold is
-    0.5.)"""
+    0.5; a third look-alike, P 0.85 above the field, is held under it by the detector's
+    rule for candidates beyond the field.)"""
     outcomes = {}
     for threshold in (None, 0.95, 0.995):
         out = tmp_path / str(threshold)
@@ -132,7 +133,7 @@ def test_a_threshold_given_scores_the_venue_at_it(tmp_path: Path) -> None:
         assert all(float(r["p_ball"]) >= (threshold or 0.5) for r in rows if r["p_ball"])
         outcomes[threshold] = [r["outcome"] for r in rows]
     assert outcomes[None].count("tp") == outcomes[0.995].count("tp") == 7
-    assert [outcomes[t].count("fp") for t in (None, 0.95, 0.995)] == [3, 1, 0]
+    assert [outcomes[t].count("fp") for t in (None, 0.95, 0.995)] == [2, 1, 0]
 
 
 def test_train_from_fits_on_later_frames_and_scores_every_other(tmp_path: Path) -> None:

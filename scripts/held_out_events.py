@@ -2,7 +2,8 @@
 trained without it and, with no labelled frame, with the generic model fitted without it.
 
     python scripts/held_out_events.py ../shared/real/msl-images ../shared/real/msl-more \
-        --groups train/msl-events.txt --checks train/checks [--out held-out.json]
+        --groups train/msl-events.txt --checks train/checks [--out held-out.json] \
+        [--off-field-weight 0]
 
 For each event E of the grouping (``train/train.py --groups ... --held-out DIR`` makes
 DIR/lovo-E.onnx and DIR/generic-E.json): ``dsp-eval --suite images ROOTS --group-by GROUPS
@@ -12,12 +13,17 @@ every image scored; and, to compare the two on the same images, on the images af
 first 10 alone). Prints one Markdown table, a row per event and the totals, with the
 targets (precision >= 0.95, recall >= 0.90, centroid median <= 2 px with 10 frames on an
 event of 30 or more test images; precision >= 0.90, recall >= 0.85 with none) marked.
-Everything but the time is the same on every run.
+Then what each event's detector gets wrong (false hits in empty images, over a ball,
+balls unreported), and balls, false hits and misses on the field and beyond it
+(:mod:`replay.evaluate.images`). ``--off-field-weight 0`` scores the detector without its
+rule for candidates beyond the field (:mod:`estimator.detection.real.field`), to see what
+the rule moved. Everything but the time is the same on every run.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from collections.abc import Sequence
@@ -28,6 +34,7 @@ from dsp.ball_file import read_ball_file, read_check_file
 from dsp.cli import run_main
 from dsp.errors import UsageError
 from dsp.image_groups import read_grouping
+from estimator.detection.real.field import OFF_FIELD
 from replay.evaluate.images import ImageRow, images_csv, run_images_suite, summarise
 
 TARGET_10 = (0.95, 0.90, 2.0)
@@ -64,6 +71,32 @@ def _misses_table(per_event: dict[str, tuple[list[ImageRow], list[ImageRow]]]) -
     return "\n".join(lines)
 
 
+def _kinds(rows: Sequence[ImageRow]) -> tuple[int, ...]:
+    """(balls on the field, beyond it; false hits on it, beyond; misses on it, beyond)."""
+    on_ball = [r.balls_off_field for r in rows if r.balls > 0]
+    fp = [r.report_off_field for r in rows if r.outcome == "fp"]
+    fn = [r.balls_off_field for r in rows if r.balls > 0 and r.outcome != "tp"]
+    return tuple(x for kinds in (on_ball, fp, fn) for x in (kinds.count(False), kinds.count(True)))
+
+
+def _kinds_table(per_event: dict[str, tuple[list[ImageRow], list[ImageRow]]]) -> str:
+    """Balls, false hits and misses on the field and beyond it, per event, with ten frames
+    (with none in brackets)."""
+    lines = ["| event | balls on the field | beyond | false hits on the field | beyond | "
+             "misses on the field | beyond |", "|---" * 7 + "|"]
+    totals = [[0] * 6, [0] * 6]
+    for name, (rows10, rows0) in per_event.items():
+        ten, none = _kinds(rows10), _kinds(rows0)
+        for i in range(6):
+            totals[0][i] += ten[i]
+            totals[1][i] += none[i]
+        cells = [f"{a}" if a == b else f"{a} ({b})" for a, b in zip(ten, none, strict=True)]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    cells = [f"{a}" if a == b else f"{a} ({b})" for a, b in zip(*totals, strict=True)]
+    lines.append("| total | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _main(argv: Sequence[str] | None) -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("roots", type=Path, nargs="+")
@@ -72,11 +105,17 @@ def _main(argv: Sequence[str] | None) -> int:
                     help="folder of lovo-EVENT.onnx and generic-EVENT.json")
     ap.add_argument("--out", type=Path, help="also write the figures as JSON, and beside it "
                     "one row per image (OUT stem + -10.csv and -0.csv, as dsp-eval's images.csv)")
+    ap.add_argument("--off-field-weight", type=float, default=OFF_FIELD.weight,
+                    help="the weight of the detector's rule for a candidate beyond the field "
+                    f"(default {OFF_FIELD.weight:g}, the shipped one; 0: the rule off)")
     args = ap.parse_args(argv)
+    if not args.off_field_weight >= 0:
+        raise UsageError(f"--off-field-weight {args.off_field_weight}: use 0 or more")
     grouping = read_grouping(args.groups)
     if grouping.kind != "file":
         raise UsageError(f"--groups {args.groups}: give a grouping file (one event a line)")
     names = [name for name, _ in grouping.lines]
+    rule = dataclasses.replace(OFF_FIELD, weight=args.off_field_weight)
     doc: dict[str, Any] = {}
     same0: list[ImageRow] = []
     per_event: dict[str, tuple[list[ImageRow], list[ImageRow]]] = {}
@@ -87,7 +126,8 @@ def _main(argv: Sequence[str] | None) -> int:
     for name in names:
         check = read_check_file(args.checks / f"lovo-{name}.onnx")
         generic = read_ball_file(args.checks / f"generic-{name}.json")
-        common: dict[str, Any] = {"check": check, "grouping": grouping, "only": [name]}
+        common: dict[str, Any] = {"check": check, "grouping": grouping, "only": [name],
+                                  "off_field": rule}
         d10, rows10 = run_images_suite(args.roots, train_count=10, **common)
         d0, rows0 = run_images_suite(args.roots, train_count=0, generic=generic, **common)
         tested = {(r.folder, r.image) for r in rows10}
@@ -114,6 +154,7 @@ def _main(argv: Sequence[str] | None) -> int:
         + " |")
     print("\n".join(lines))
     print("\n" + _misses_table(per_event))
+    print("\n" + _kinds_table(per_event))
     if args.out is not None:
         for part in doc.values():
             for s in part.values():

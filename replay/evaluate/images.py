@@ -12,6 +12,14 @@ other labelled image is scored:
 - precision = tp / (tp + fp); recall = tp / (images with a labelled ball); the centroid
   error of a hit is its distance to the centre of the box it hit (the nearest, when it lies
   in several), summarised by its median and 95th percentile;
+- by kind: a false hit is off the field when the report's box's bottom centre lies above
+  the field's far edge by more than its larger side (the detector's rule,
+  :mod:`estimator.detection.real.field`, the field found with the scored model's field
+  colour; the paper's chain: the generic model's), a ball (found or missed) when every
+  labelled ball's box does; the labels
+  say nothing of a ball in the air, so off the field stands for it (a ball in the air
+  above the far side, or held up) as well as for the look-alikes among the spectators:
+  ``with_ball_off_field``, ``fp_off_field`` and ``fn_off_field`` count them;
 - ``ms_per_image``: the median wall time of the detector on one image (decoded already),
   the only figure that differs from run to run.
 
@@ -40,12 +48,15 @@ from pathlib import Path
 
 import numpy as np
 
+from dsp.ball_file import shipped_generic
 from dsp.errors import InputError
 from dsp.image_groups import BY_FOLDER, Grouping, group_folders
 from dsp.jsonio import Json
 from dsp.labelled import Labelled, find_labelled, labelled_folders
-from estimator.detection import detect_ball
+from estimator.detection import Detection, detect_ball
 from estimator.detection.real import BallCheck, BallModel, RealBallDetector
+from estimator.detection.real.colour import ColourTables
+from estimator.detection.real.field import OFF_FIELD, OffField, beyond, find_field
 from replay.calibrate.ball import fit_from_labelled
 
 __all__ = ["KEYS", "MARGIN_PX", "ImageRow", "images_csv", "images_markdown", "judge",
@@ -53,10 +64,15 @@ __all__ = ["KEYS", "MARGIN_PX", "ImageRow", "images_csv", "images_markdown", "ju
 
 MARGIN_PX = 2.0
 KEYS = ("test_images", "with_ball", "tp", "fp", "fn", "precision", "recall",
-        "centroid_median_px", "centroid_p95_px", "ms_per_image")
+        "centroid_median_px", "centroid_p95_px", "with_ball_off_field", "fp_off_field",
+        "fn_off_field", "ms_per_image")
 Box = tuple[float, float, float, float]
 Report = tuple[float, float, float] | None
 """(cx, cy, P(ball)) of the reported ball, or None."""
+Foot = tuple[float, float, float]
+"""A ball's (or report's) box's bottom centre x, y and its larger side [px]."""
+Scored = tuple[Report, Foot | None]
+"""A report and its box's :data:`Foot` (None without a report)."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +87,11 @@ class ImageRow:
     report: Report
     error_px: float | None
     ms: float
+    balls_off_field: bool = False
+    """Every labelled ball lies beyond the field (see the module docstring); False
+    without one."""
+    report_off_field: bool = False
+    """The report lies beyond the field; False without one."""
 
 
 def judge(report: tuple[float, float] | None, balls: Sequence[Box]
@@ -99,21 +120,32 @@ def summarise(rows: Sequence[ImageRow]) -> dict[str, Json]:
         "recall": round(tp / with_ball, 4) if with_ball else None,
         "centroid_median_px": round(float(np.median(errors)), 3) if errors else None,
         "centroid_p95_px": round(float(np.percentile(errors, 95)), 3) if errors else None,
+        "with_ball_off_field": sum(r.balls > 0 and r.balls_off_field for r in rows),
+        "fp_off_field": sum(r.outcome == "fp" and r.report_off_field for r in rows),
+        "fn_off_field": sum(r.balls > 0 and r.outcome != "tp" and r.balls_off_field
+                            for r in rows),
         "ms_per_image": round(float(np.median(ms)), 3) if ms else None,
     }
 
 
-def _paper(image: np.ndarray) -> Report:
+def _paper(image: np.ndarray) -> Scored:
     det = detect_ball(image)
-    return None if det is None else (det.cx_px, det.cy_px, 1.0)
+    return (None, None) if det is None else ((det.cx_px, det.cy_px, 1.0), _lowest(det))
+
+
+def _lowest(det: Detection) -> Foot:
+    x, y, w, h = det.bbox_px
+    return x + w / 2.0, float(y + h), float(max(w, h))
 
 
 def _scorer(source: str, labelled: Sequence[Labelled], *, detector: str, train_count: int,
             ball_class: int, check: bytes, head: bool, threshold: float | None = None,
-            train_from: int = 0, generic: BallModel | None = None
-            ) -> Callable[[np.ndarray], Report]:
+            train_from: int = 0, generic: BallModel | None = None,
+            off_field: OffField = OFF_FIELD
+            ) -> tuple[Callable[[np.ndarray], Scored], ColourTables]:
+    """The scoring function and the colour tables the field is found with."""
     if detector == "paper":
-        return _paper
+        return _paper, ColourTables.of(shipped_generic())
     if train_count == 0:
         if generic is None:
             raise InputError(f"{source}: --train-count 0 needs a generic ball model")
@@ -122,31 +154,49 @@ def _scorer(source: str, labelled: Sequence[Labelled], *, detector: str, train_c
         model = fit_from_labelled(source, labelled, ball_class=ball_class,
                                   train_count=train_count, head=head, check=check,
                                   train_from=train_from)
-    real = RealBallDetector(model, BallCheck(check))
+    real = RealBallDetector(model, BallCheck(check), off_field=off_field)
     cut = model.threshold if threshold is None else threshold
 
-    def score(image: np.ndarray) -> Report:
+    def score(image: np.ndarray) -> Scored:
         ranked = real.candidates(image)
         if ranked and ranked[0].check_score >= cut:
             d = ranked[0].detection
-            return d.cx_px, d.cy_px, ranked[0].check_score
-        return None
+            return (d.cx_px, d.cy_px, ranked[0].check_score), _lowest(d)
+        return None, None
 
-    return score
+    return score, real.tables
+
+
+def _off_field(image: np.ndarray, tables: ColourTables, balls: Sequence[Box],
+               lowest: Foot | None) -> tuple[bool, bool]:
+    """Whether every labelled ball lies beyond the field by the detector's rule
+    (:data:`field.OFF_FIELD`), and whether the report does."""
+    feet = [((x0 + x1) / 2.0, y1, max(x1 - x0, y1 - y0)) for x0, y0, x1, y1 in balls]
+    if lowest is not None:
+        feet.append(lowest)
+    if not feet:
+        return False, False
+    at = np.array(feet, np.float64)
+    off = OFF_FIELD.is_off(beyond(find_field(image, tables), at[:, :2]), at[:, 2])
+    return (bool(balls) and bool(off[:len(balls)].all()),
+            lowest is not None and bool(off[-1]))
 
 
 def _score_folder(keys: Sequence[str], tests: Sequence[Labelled],
-                  score: Callable[[np.ndarray], Report], ball_class: int) -> list[ImageRow]:
+                  scorer: tuple[Callable[[np.ndarray], Scored], ColourTables],
+                  ball_class: int) -> list[ImageRow]:
+    score, tables = scorer
     rows = []
     if tests:  # untimed: the first call sets the network up
         score(tests[0].read(ball_class)[0])
     for key, item in zip(keys, tests, strict=True):
         image, balls = item.read(ball_class)
         t0 = time.perf_counter()
-        report = score(image)
+        report, lowest = score(image)
         ms = (time.perf_counter() - t0) * 1000.0
         outcome, error = judge(None if report is None else report[:2], balls)
-        rows.append(ImageRow(key, item.image.name, len(balls), outcome, report, error, ms))
+        rows.append(ImageRow(key, item.image.name, len(balls), outcome, report, error, ms,
+                             *_off_field(image, tables, balls, lowest)))
     return rows
 
 
@@ -174,10 +224,13 @@ def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str =
                      threshold: float | None = None,
                      on_folder: Callable[[str], None] | None = None, train_from: int = 0,
                      grouping: Grouping | None = None, generic: BallModel | None = None,
-                     only: Sequence[str] = ()) -> tuple[dict[str, Json], list[ImageRow]]:
+                     only: Sequence[str] = (), off_field: OffField = OFF_FIELD
+                     ) -> tuple[dict[str, Json], list[ImageRow]]:
     """The summary document (per folder, or per group under "groups" with "group_by", and
     "total"; "train_from" only when not 0) and the per-image rows; ``only``: score these
-    groups (or folders) alone."""
+    groups (or folders) alone; ``off_field``: the detector's rule for a candidate beyond
+    the field (the shipped one; its ``weight`` 0: off; the kinds are judged by the shipped
+    one's ``sides`` either way)."""
     grouping = grouping or Grouping(BY_FOLDER)
     groups: dict[str, Json] = {}
     every: list[ImageRow] = []
@@ -200,11 +253,12 @@ def run_images_suite(roots: Sequence[Path], *, train_count: int, detector: str =
             left = "needs more" if train_from and len(labelled) < end else "leaves none to score"
             raise InputError(f"{source}: {len(labelled)} labelled images; fitting on "
                              f"{which} {left}")
-        score = _scorer(source, labelled, detector=detector, train_count=train_count,
+        scorer = _scorer(source, labelled, detector=detector, train_count=train_count,
                         ball_class=ball_class, check=check, head=head,
-                        threshold=threshold, train_from=train_from, generic=generic)
+                        threshold=threshold, train_from=train_from, generic=generic,
+                        off_field=off_field)
         tests = found[:train_from] + found[end:]
-        rows = _score_folder([k for k, _ in tests], [it for _, it in tests], score,
+        rows = _score_folder([k for k, _ in tests], [it for _, it in tests], scorer,
                              ball_class)
         groups[name] = summarise(rows)
         every += rows
@@ -250,14 +304,16 @@ def images_markdown(doc: dict[str, Json]) -> str:
 
 
 def images_csv(rows: Sequence[ImageRow]) -> str:
-    """One line per test image: folder, image, balls, outcome, cx, cy, p, error_px, ms."""
+    """One line per test image: folder, image, balls, outcome, cx, cy, p, error_px, ms,
+    balls_off_field and report_off_field (1: beyond the field, else 0)."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(["folder", "image", "balls", "outcome", "cx_px", "cy_px", "p_ball",
-                     "error_px", "ms"])
+                     "error_px", "ms", "balls_off_field", "report_off_field"])
     for r in rows:
         cx, cy, p = (("", "", "") if r.report is None
                      else (f"{r.report[0]:.3f}", f"{r.report[1]:.3f}", f"{r.report[2]:.4f}"))
         err = "" if r.error_px is None else f"{r.error_px:.3f}"
-        writer.writerow([r.folder, r.image, r.balls, r.outcome, cx, cy, p, err, f"{r.ms:.2f}"])
+        writer.writerow([r.folder, r.image, r.balls, r.outcome, cx, cy, p, err, f"{r.ms:.2f}",
+                         int(r.balls_off_field), int(r.report_off_field)])
     return buf.getvalue()

@@ -9,6 +9,8 @@ of the ball's colour), fitted per venue from a few labelled frames:
   fit from (image, ball boxes) samples; :mod:`estimator.detection.real.adapt`:
   :func:`adapt`, the venue's head on the shared check;
 - :mod:`estimator.detection.real.candidates`: ball-coloured blobs at several levels;
+- :mod:`estimator.detection.real.field`: where the field is (its far edge), and the rule
+  for a candidate beyond it;
 - :mod:`estimator.detection.real.check`: :class:`BallCheck`, the shared small CNN, from the
   ONNX bytes the caller read (the shipped ones: ``ball_check.onnx`` beside this file, with
   its NOTICE), run through OpenCV's ``dnn``;

@@ -3,9 +3,17 @@
     image --colour map (half resolution, or every step-th pixel of a large frame)-->
           blobs at the model's levels (candidates.find_coarse)
           --crops (5 channels)--> the check's P(ball), centre and size (check.BallCheck)
-          --the venue's head (head.venue_logits)--> best P >= threshold: the ball
+          --the venue's head (head.venue_logits)
+          --less the off-field penalty (field.OffField)--> best P >= threshold: the ball
 
-The ball is the candidate with the highest venue logit (ties: the most ball-coloured,
+A candidate above the field's far edge (:mod:`field`: the convex hull of the image's
+field green, found at an eighth of the resolution) by more than its own size needs more
+evidence: its logit loses ``ln(b / d)`` (``b`` px above the edge, ``d`` its size), so one
+k sizes up needs k times the odds, to be reported and to win over one on the field. A ball
+in the air is above the edge too: it loses the same, and one the check is sure of is still
+reported. The candidate's ``beyond_px`` says how far above the edge it lies.
+
+The ball is the candidate with the highest (penalised) venue logit (ties: the most ball-coloured,
 then top to bottom, left to right); it is reported when its P(ball) reaches the model's
 threshold. Its centroid is the check's regressed centre (the centre of the ball as
 labelled, which a colour blob shaded on one side or cut by a robot is not), refined once
@@ -42,6 +50,7 @@ from estimator.detection.chain import Detection
 from estimator.detection.real.candidates import Coarse, find_coarse, measure
 from estimator.detection.real.check import SPEC, BallCheck, Square, crop_input, field_share
 from estimator.detection.real.colour import ColourTables
+from estimator.detection.real.field import OFF_FIELD, OffField, beyond, find_field
 from estimator.detection.real.head import blob_features, context, venue_logits
 from estimator.detection.real.model import BallModel
 from estimator.errors import DetectionError
@@ -63,6 +72,9 @@ class Candidate:
     """The learned check's probability that the region is a ball (0-1)."""
     field_score: float
     """Share of field-green pixels in the ring of the candidate's crop (0-1)."""
+    beyond_px: float = 0.0
+    """How far the candidate's lowest point (its box's bottom centre) lies beyond the
+    field's hull [px] (:mod:`field`; 0 on the field, or when no field was found)."""
 
 
 @dataclass(frozen=True)
@@ -77,13 +89,18 @@ class Search:
     fine: int = 8
     """Far balls' specks (too small for the size range in the map) looked at again in
     full resolution, checked beside the blobs (:func:`candidates.find_coarse`)."""
+    field: bool = True
+    """Find the field's far edge (:mod:`field`) and hold a candidate above it to the
+    detector's :class:`field.OffField` rule (a forward-looking camera; an omnidirectional
+    frame's field surrounds the robot)."""
 
 
 def search_for(height: int, width: int) -> Search:
     """The default search of a frame size: a 608 x 800 camera image at half resolution with
-    24 candidates and 8 specks; a frame over LARGE_FRAME_PX strided by 4 with 6 and none."""
+    24 candidates and 8 specks; a frame over LARGE_FRAME_PX (an omnidirectional one)
+    strided by 4 with 6 and none, and no field edge."""
     if height * width > LARGE_FRAME_PX:
-        return Search(step=4, max_candidates=6, fine=0)
+        return Search(step=4, max_candidates=6, fine=0, field=False)
     return Search()
 
 
@@ -106,11 +123,12 @@ class RealBallDetector:
     """The detector for one venue's model and (optionally) the shared learned check."""
 
     def __init__(self, model: BallModel, check: BallCheck | None,
-                 search: Search | None = None) -> None:
+                 search: Search | None = None, off_field: OffField = OFF_FIELD) -> None:
         self.model = model
         self.check = check
         self.tables = ColourTables.of(model)
         self.search = search
+        self.off_field = off_field
 
     def _scores(self, image: npt.NDArray[np.uint8], coarse: list[Coarse],
                 squares: list[Square]
@@ -126,6 +144,15 @@ class RealBallDetector:
         out[:, 0] = venue_logits(out[:, 0], feat, ctx, blob_features(coarse),
                                  self.model.check_head)
         return out, ctx
+
+    def _beyond(self, image: npt.NDArray[np.uint8], coarse: list[Coarse], search: Search
+                ) -> npt.NDArray[np.float64]:
+        """How far each candidate's lowest point lies above the field's far edge."""
+        if not search.field:
+            return np.zeros(len(coarse))
+        boxes = np.array([c.full_box() for c in coarse], np.float64)
+        return beyond(find_field(image, self.tables),
+                      np.stack([(boxes[:, 0] + boxes[:, 2]) / 2.0, boxes[:, 3]], axis=1))
 
     def check_centre(self, image: npt.NDArray[np.uint8], square: Square,
                      out: npt.NDArray[np.float64], ctx: npt.NDArray[np.float64],
@@ -173,6 +200,10 @@ class RealBallDetector:
         spec = SPEC if self.check is None else self.check.spec
         squares = [spec.square(*c.centre()) for c in coarse]
         out, ctx = self._scores(image_bgr, coarse, squares)
+        off = self._beyond(image_bgr, coarse, search)
+        if self.check is not None:
+            sides = np.array([c.centre()[2] for c in coarse], np.float64)
+            out[:, 0] -= self.off_field.penalty(off, sides)
         # colour alone: find_coarse's order; else by the logit (P saturates at 1.0)
         order = (list(range(len(coarse))) if self.check is None
                  else sorted(range(len(coarse)), key=lambda i: (-out[i, 0], i)))
@@ -185,7 +216,8 @@ class RealBallDetector:
                 det = _rough(coarse[i], (squares[i][0] + out[i, 1] * squares[i][2],
                                          squares[i][1] + out[i, 2] * squares[i][2]))
             p = 1.0 if self.check is None else float(0.5 * (1.0 + np.tanh(0.5 * out[i, 0])))
-            ranked.append(Candidate(det, coarse[i].mean / 16.0, p, float(ctx[i, 2])))
+            ranked.append(Candidate(det, coarse[i].mean / 16.0, p, float(ctx[i, 2]),
+                                    float(off[i])))
         return ranked
 
     def detect(self, image_bgr: npt.NDArray[np.uint8]) -> Detection | None:

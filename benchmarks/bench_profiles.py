@@ -13,7 +13,10 @@ Each run replays the log in a fresh child process (``replay()`` writing results 
 ``dsp-replay --out``); the variants run interleaved, so the machine's other work falls on
 all alike. Printed per variant: the median frames/s of the whole call, the median CPU time
 (user + sys, all threads) a frame, and the fused RMSE; then each variant's frames/s and CPU
-as a ratio to the plain pipeline's, measured in the same run.
+as a ratio to the plain pipeline's, measured in the same run, and to the floor: reading and
+decoding the same log's images (the mcap library and ``cv2.imdecode``, one thread, warm: the
+second of two passes in one process, with the replay's malloc setting; as
+``benchmarks/bench_replay.py`` times it), interleaved with the variants too.
 """
 
 from __future__ import annotations
@@ -52,6 +55,17 @@ print(json.dumps({"frames": s.frames, "frames_per_s": s.frames / wall,
 VARIANTS = ("plain", "fast", "best")
 
 
+def _floor(log: Path) -> dict[str, float]:
+    """One warm read + decode pass over the log's images (bench_replay.py's floor)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_replay import FLOOR
+
+    proc = subprocess.run([sys.executable, "-c", FLOOR, str(log), "keep"], cwd=ROOT,
+                          capture_output=True, text=True, check=True)
+    out: dict[str, float] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("log", type=Path, help="the MCAP log to replay")
@@ -68,8 +82,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{args.log.name}: median of {args.runs} interleaved runs, each in a fresh process; "
           f"load average {os.getloadavg()[0]:.1f} at the start, {os.cpu_count()} cores")
     runs: dict[str, list[dict[str, float]]] = {v: [] for v in VARIANTS}
+    floors: list[dict[str, float]] = []
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(args.runs):
+            floors.append(_floor(args.log))
             for v in VARIANTS:
                 proc = subprocess.run(
                     [sys.executable, "-c", CHILD, str(args.log), str(Path(tmp) / "r.json"), v,
@@ -82,6 +98,10 @@ def main(argv: list[str] | None = None) -> int:
     med = {v: {k: statistics.median(r[k] for r in rs) for k in ("frames_per_s", "cpu_ms")}
            for v, rs in runs.items()}
     base = med["plain"]
+    floor = statistics.median(f["frames_per_s"] for f in floors)
+    floor_cpu = statistics.median(f["cpu_ms"] for f in floors)
+    print(f"floor (read + decode, 1 thread, warm) {floor:6.1f} frames/s, CPU {floor_cpu:5.2f} "
+          "ms a frame")
     for v in VARIANTS:
         name = "plain pipeline" if v == "plain" else f"--profile {v}"
         print(f"{name:16s} {int(runs[v][0]['frames']):5d} frames  "
@@ -89,7 +109,8 @@ def main(argv: list[str] | None = None) -> int:
               f"({med[v]['frames_per_s'] / base['frames_per_s']:4.2f}x plain)  "
               f"CPU {med[v]['cpu_ms']:6.2f} ms a frame "
               f"({med[v]['cpu_ms'] / base['cpu_ms']:4.2f}x plain)  "
-              f"fused RMSE {runs[v][0]['rmse_m']:.4f} m")
+              f"fused RMSE {runs[v][0]['rmse_m']:.4f} m; "
+              f"{med[v]['frames_per_s'] / floor:4.2f}x the floor")
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     return 0
 

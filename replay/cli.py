@@ -245,7 +245,8 @@ def _add_input_arguments(p: argparse._ActionsContainer) -> None:
     """What describes the log: its cameras, its topics, the robots and times to replay."""
     p.add_argument("--detector", metavar="paper|real|NAME|package.module:Class", default=None,
                    help="how the ball is found in an image: 'paper' (the paper's colour "
-                   "chain), 'real' (the real-ball detector of --ball), or a "
+                   "chain), 'real' (the real-ball detector with --ball's model, else the camera "
+                   "file's, else the generic one), or a "
                    "detector from outside: an installed dual_sight.detectors entry point's "
                    "name, or package.module:Class (docs/compare.md); default: chosen "
                    "from the log (a camera file's ball model, a dsp-record log's orange "

@@ -152,7 +152,15 @@ def _chooses(options: ReplayOptions) -> bool:
 def choose_detector(reader: LogReader, options: ReplayOptions, pipeline: Pipeline,
                     cameras: Cameras) -> tuple[ReplayOptions, Pipeline, dict[str, str]]:
     """The options and pipeline with the detector chosen from the log (unchanged when the
-    options choose it), and the warnings the choice gives, by robot."""
+    options choose it), and the warnings the choice gives, by robot. ``--detector real``
+    with no ``--ball`` takes the ball model a camera file names, else the generic one."""
+    if options.detector_name == "real" and options.ball is None:
+        named = _camera_ball(cameras)
+        ball, why = ((named.ball, named.why) if named is not None and named.ball is not None
+                     else (generic_ball_path(), "--detector real with no --ball: the generic "
+                           "ball model"))
+        return (dataclasses.replace(options, ball=ball),
+                dataclasses.replace(pipeline, detector="real", detector_choice=why), {})
     if not _chooses(options):
         return options, pipeline, {}
     choice = choice_for(reader, options, cameras)

@@ -206,9 +206,6 @@ class ReplayOptions:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise UsageError(f"--method {self.method!r}; choose one of {', '.join(METHODS)}")
-        if self.detector_name == "real" and self.ball is None:
-            raise UsageError("--detector real needs --ball ball.json (dsp-calibrate "
-                             "--ball-from DIR writes one from labelled images)")
         if self.detector_name != "real" and self.ball is not None:
             raise UsageError(f"--ball goes with the real detector, not --detector "
                              f"{self.detector_name}")

@@ -16,6 +16,7 @@ from dsp.errors import InputError, UsageError
 from estimator.detection.real.head import HEAD_THRESHOLD
 from replay import ReplayOptions, replay
 from replay.calibrate.cli import main
+from replay.profiles import options_for
 
 ROOT = Path(__file__).resolve().parents[3]
 SUBSET = ROOT / "tests" / "data" / "msl-images" / "20220715" / "r7"
@@ -111,9 +112,20 @@ def test_a_bad_ball_file_is_one_line_naming_it(ball_file: Path, tmp_path: Path) 
         read_ball_file(bad)
 
 
-def test_the_real_detector_needs_a_ball_model() -> None:
-    with pytest.raises(UsageError, match="--detector real needs --ball"):
-        ReplayOptions(detector="real")
+def test_the_real_detector_with_no_ball_model_takes_the_generic_one(tmp_path: Path) -> None:
+    """--detector real with no --ball: the generic model (a camera file's, when it names
+    one), said in the pipeline and recorded in the results."""
+    out = tmp_path / "r.json"
+    replay(GOLDEN / "match.mcap", options_for(detector="real", out=out, progress=False,
+                                              quiet=True, threads=1))
+    doc = json.loads(out.read_text())
+    assert doc["pipeline"]["detector"] == "real"
+    assert doc["pipeline"]["detector_choice"] == ("--detector real with no --ball: the "
+                                                  "generic ball model")
+    assert doc["options"]["ball"].endswith("ball_generic.json")
+
+
+def test_a_ball_model_goes_with_the_real_detector() -> None:
     with pytest.raises(UsageError, match="--ball goes with the real detector"):
         ReplayOptions(detector="paper", ball=Path("ball.json"))
     assert ReplayOptions(ball=Path("b.json")).detector_name == "real"

@@ -54,10 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", default="10", metavar="S", help="seconds (default 10)")
     p.add_argument("--poses", default="exact", metavar="exact|drift",
                    help="the poses the robots publish: exact, or drifting (default exact)")
-    p.add_argument("--drift", default="0.05,1.0", metavar="M,DEG",
+    p.add_argument("--drift", default=None, metavar="M,DEG",
                    help="--poses drift: the bias's stationary sigma in m and deg "
                    "(default 0.05,1.0)")
-    p.add_argument("--tau", default="3", metavar="S",
+    p.add_argument("--tau", default=None, metavar="S",
                    help="--poses drift: the bias's time constant (default 3 s)")
     p.add_argument("--covariance", default="none", metavar="none|honest",
                    help="none: geometry_msgs/PoseStamped on /{robot}/pose; honest: "
@@ -108,14 +108,18 @@ def _drift(text: str) -> tuple[float, float]:
 
 def options_from_args(args: argparse.Namespace) -> ForeignOptions:
     """The options, each value checked (:class:`UsageError`, one line naming it)."""
+    poses = _choice("--poses", args.poses, POSE_KINDS)
+    for flag, value in (("--drift", args.drift), ("--tau", args.tau)):
+        if value is not None and poses != "drift":
+            raise UsageError(f"{flag} goes with --poses drift (the poses are {poses})")
     return ForeignOptions(
         seed=int(_number("--seed", args.seed, 0, MAX_SEED, whole=True)),
         robots=int(_number("--robots", args.robots, 1, MAX_ROBOTS, whole=True)),
         rate_hz=_number("--rate", args.rate, MIN_RATE_HZ, MAX_RATE_HZ),
         duration_s=_number("--duration", args.duration, 0.1, MAX_DURATION_S),
-        poses=_choice("--poses", args.poses, POSE_KINDS),
-        drift=_drift(args.drift),
-        tau_s=_number("--tau", args.tau, 0.1, 600.0),
+        poses=poses,
+        drift=_drift(args.drift or "0.05,1.0"),
+        tau_s=_number("--tau", args.tau or "3", 0.1, 600.0),
         covariance=_choice("--covariance", args.covariance, COVARIANCES),
         covariance_scale=_number("--covariance-scale", args.covariance_scale, 0.01, 100.0),
         image=_choice("--image", args.image, IMAGE_KINDS),

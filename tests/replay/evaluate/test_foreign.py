@@ -205,7 +205,9 @@ def test_the_suite_keeps_tune_and_report_seeds_apart(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("argv", [
     ["--robots", "0"], ["--robots", "two"], ["--rate", "x"], ["--rate", "500"],
-    ["--poses", "wobbly"], ["--drift", "0.05"], ["--drift", "a,b"], ["--image", "png"],
+    ["--poses", "wobbly"], ["--drift", "0.05", "--poses", "drift"],
+    ["--drift", "a,b", "--poses", "drift"], ["--image", "png"],
+    ["--drift", "0.05,1"], ["--tau", "5"],  # with exact poses: they would be ignored
     ["--duration", "-1"], ["--covariance", "sometimes"], ["--seed", "-3"], ["--size", "nan"],
 ])
 def test_bad_values_are_refused_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],

@@ -166,6 +166,8 @@ class CameraSpec:
                  f"centre ({self.centre_px[0]:g}, {self.centre_px[1]:g})"]
         if self.usable_radius_px is not None:
             parts.append(f"usable radius {self.usable_radius_px:g} px")
+        if self.model == "lookup" and self.camera is not None:
+            parts.append(f"height {self.camera.height_m:g} m (a projection model)")
         if self.mount_yaw_rad:
             parts.append(f"mounted at {math.degrees(self.mount_yaw_rad):g} deg")
         parts.append(f"calibration {self.calibration.name}" if self.calibration is not None

@@ -80,3 +80,14 @@ def test_a_height_no_ball_can_be_seen_from_is_one_line(team_log: Path, tmp_path:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(cams) in err[0] and "height_m" in err[0]
     assert "above the ball's centre" in err[0] and "Traceback" not in err[0]
+
+
+def test_a_lookup_entry_with_its_height_is_described_as_a_projection_model() -> None:
+    from dsp.cameras import camera_spec_from_json
+    from estimator.table_camera import TableCamera
+
+    spec = camera_spec_from_json(_lookup(height_m=0.85), "cams.yaml: default")
+    assert isinstance(spec.camera, TableCamera) and spec.camera.height_m == 0.85
+    assert "height 0.85 m (a projection model)" in spec.describe()
+    plain = camera_spec_from_json(_lookup(), "cams.yaml: default")
+    assert plain.camera is None and "height" not in plain.describe()

@@ -16,6 +16,7 @@ ranks them, the camera file written with its residual figure (default: OUT with 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Sequence
 from contextlib import ExitStack
@@ -25,11 +26,14 @@ from dsp import contract
 from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.ball_file import ball_file_text, shipped_generic
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
+from dsp.cameras import field_from_json
 from dsp.checks import check_number, check_suffix, check_topic_pattern
 from dsp.cli import echo, run_main
-from dsp.errors import UsageError
+from dsp.errors import InputError, UsageError
+from dsp.field import FIELD_ALIASES, FIELDS
 from dsp.plotting import FIGURE_SUFFIXES, save
 from dsp.textfile import TEXT_ERRORS
+from estimator.constants import BALL_RADIUS_M
 from recorder import calibrate_cli as simulated
 from replay.calibrate.ball import fit_ball, format_fit
 from replay.calibrate.figure import measured_figure
@@ -88,6 +92,13 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--map-to-field", metavar="X,Y,YAW",
                       help="the poses' frame in the field (m, m, deg), written to the file "
                       "(and, with --from-log, applied to the poses)")
+    real.add_argument("--camera-height", type=float, metavar="M",
+                      help="the camera's optical centre above the floor [m], written to the "
+                      "file (height_m): with it the calibration is a projection model, and the "
+                      "default fits the field lines and crosses rays in 3-D")
+    real.add_argument("--field", metavar="NAME",
+                      help="the field the robots play on (18x12, 22x14, msl), written to the "
+                      "file: with it the default fits the field lines")
     ball = p.add_argument_group("a ball model (the real-ball detector)")
     ball.add_argument("--ball-from", type=Path, metavar="DIR|LOG.mcap",
                       help="fit the ball model (-o ball.json, dsp-replay --ball reads it) from "
@@ -146,6 +157,16 @@ def _measure(args: argparse.Namespace) -> MeasuredRun:
     transform = _numbers("--map-to-field", args.map_to_field, 3)
     check_number("--usable-radius", args.usable_radius, low=0, high=1e6, low_open=True,
                  unit="px")
+    check_number("--camera-height", args.camera_height, low=BALL_RADIUS_M, high=10.0,
+                 low_open=True, unit="m")
+    if args.field is not None:
+        try:
+            field_from_json(args.field, "--field")
+        except InputError:
+            known = ", ".join([*FIELDS, *FIELD_ALIASES])
+            raise UsageError(f"--field {args.field!r} is not a field's name (known: {known}); "
+                             "a field of other dimensions goes in the camera file's field key "
+                             "(docs/cameras.md)") from None
     size = _image_size(args.image_size)
     mtf = None if transform is None else (transform[0], transform[1], transform[2])
     if args.from_measurements is not None:
@@ -166,9 +187,10 @@ def _measure(args: argparse.Namespace) -> MeasuredRun:
             pose_topic=args.pose_topic, map_to_field=mtf)
         if size is not None:
             sizes = dict.fromkeys(sizes, size)
-    return calibrate_measured(measurements, image_sizes=sizes,
-                              centre_px=None if centre is None else (centre[0], centre[1]),
-                              usable_radius_px=args.usable_radius, map_to_field=mtf)
+    run = calibrate_measured(measurements, image_sizes=sizes,
+                             centre_px=None if centre is None else (centre[0], centre[1]),
+                             usable_radius_px=args.usable_radius, map_to_field=mtf)
+    return dataclasses.replace(run, height_m=args.camera_height, field=args.field)
 
 
 def _run_measured(args: argparse.Namespace) -> int:
@@ -203,7 +225,8 @@ def _main(argv: Sequence[str] | None) -> int:
         raise UsageError("--train-count and --no-head go with --ball-from")
     if args.from_measurements is None and args.from_log is None:
         given = [f"--{k.replace('_', '-')}" for k in ("ball_at", "truth_topic", "image_size",
-                                                       "centre", "usable_radius", "map_to_field")
+                                                       "centre", "usable_radius", "map_to_field",
+                                                       "camera_height", "field")
                  if getattr(args, k) is not None]
         if given:
             raise UsageError(f"{', '.join(given)} go with --from-measurements or --from-log")

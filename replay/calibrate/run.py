@@ -27,6 +27,10 @@ class MeasuredRun:
     cameras: tuple[CameraFit, ...]
     source: str
     map_to_field: tuple[float, float, float] | None = None
+    height_m: float | None = None
+    """The camera's height, written to every entry (``--camera-height``)."""
+    field: str | None = None
+    """The field's name, written to the file (``--field``)."""
 
 
 def calibrate_measured(measurements: Measurements, *,
@@ -51,12 +55,14 @@ def calibrate_measured(measurements: Measurements, *,
 def camera_file(run: MeasuredRun, suffix: str) -> str:
     """The camera file of the run (YAML with a header saying how it was made, or JSON)."""
     entries = {c.robot: c.entry(run.map_to_field) for c in run.cameras}
+    if run.height_m is not None:
+        entries = {robot: {**entry, "height_m": run.height_m} for robot, entry in entries.items()}
     lines = [f"Cameras calibrated by dsp-calibrate from {Path(run.source).name}:"]
     for c in run.cameras:
         lines.append(f"  {c.robot}: {len(c.r_px)} samples, {_centre_text(c)}, best "
                      f"{c.best.model.name} (held-out RMS {_held(c)})")
     lines.append("Give it to dsp-replay --cameras; the keys: docs/cameras.md.")
-    return camera_file_text(entries, suffix, header="\n".join(lines))
+    return camera_file_text(entries, suffix, header="\n".join(lines), field=run.field)
 
 
 def _held(c: CameraFit) -> str:

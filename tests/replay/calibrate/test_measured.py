@@ -66,6 +66,32 @@ def test_from_measurements_fits_centre_mounting_and_range(
     assert s.fused.rmse_m is not None and s.fused.rmse_m < 0.02
 
 
+def test_the_camera_height_and_the_field_are_written_for_the_line_fit(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--camera-height and --field go into the file: the lookup camera becomes a projection
+    model (what the line fit and the 3-D track need) and the file names the field; a height
+    no ball is seen from, or a field of no known name, is one line, and no file."""
+    points = _points(tmp_path / "points.csv")
+    out = tmp_path / "cameras.yaml"
+    code, _, err = _run(["--from-measurements", points, "--image-size", "1280x1024",
+                         "--camera-height", "0.85", "--field", "msl", "-o", out], capsys)
+    assert code == 0 and err == ""
+    cameras = read_camera_file(out)
+    assert cameras.field is not None and cameras.field.name == "22x14"
+    spec = cameras.default
+    assert spec is not None and spec.model == "lookup" and spec.camera is not None
+    assert spec.camera.height_m == 0.85
+    bad = tmp_path / "bad.yaml"
+    for flag, value, said in (("--camera-height", "0.05", "(0.11, 10] m"),
+                              ("--field", "30x20", "is not a field's name")):
+        code, _, err = _run(["--from-measurements", points, "--image-size", "1280x1024",
+                             flag, value, "-o", bad], capsys)
+        assert code == 2 and len(err.splitlines()) == 1 and said in err and flag in err
+        assert not bad.exists()
+    code, _, err = _run(["--field", "msl", "-o", tmp_path / "c.json"], capsys)
+    assert code == 2 and "--field go with --from-measurements or --from-log" in err
+
+
 def test_the_figure_and_file_are_the_same_bytes_every_run(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     points = _points(tmp_path / "points.csv", robot="robot2")

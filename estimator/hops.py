@@ -154,6 +154,8 @@ class HopFollower:
             own = self._lob(crossed) and (
                 math.hypot(crossed[0] - estimate.x_m, crossed[1] - estimate.y_m) < self.near_m)
         self._own |= own
+        if not own:  # a lob's first rays: the ground tracker refuses a ball kicked up
+            self._flight.offer(estimate)
         return own
 
     def step(self, stamp_ns: int, taken: Sequence[BallEstimate],
@@ -197,7 +199,8 @@ class HopFollower:
         if taken:
             self._loose = not tracker.airborne and self._looser(
                 fused.covariance, track.position_covariance)
-        if self._refusing or self._loose or (kick and not taken and not tracker.airborne):
+        if (self._refusing and not tracker.airborne) or self._loose or (
+                kick and not taken and not tracker.airborne):
             return None  # the ground track's position, the 3-D track kept
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
                              z_m=fused.z_m, covariance_3d=fused.covariance_3d,

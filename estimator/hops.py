@@ -182,18 +182,22 @@ class HopFollower:
         flight = self._flight.step(stamp_ns, taken)
         if taken:
             self._refusing = tracker.last_accepted_ns != stamp_ns
-        if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:
-            self._vouched_ns = stamp_ns
+        if ((self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns) or (
+                tracker.airborne and not taken and self._vouched_ns is not None):
+            self._vouched_ns = stamp_ns  # an unseen flight (above the lens) vouches on
         self._own = False
         if flight is None or track is None:
             return None
         fused = flight.fused
-        if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m:
-            self._joined = True
+        if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m or (
+                self._flight.flights.flying and tracker.airborne):
+            self._joined = True  # (a flight fitted to rays of several images is the ball's)
         else:
             vouched = self._vouched_ns
             if not self._joined or vouched is None or stamp_ns - vouched > self.keep_ns:
-                self._flight, self._joined = BallisticFusion(self.noise), False
+                fresh = BallisticFusion(self.noise)
+                fresh.flights = self._flight.flights.afresh()  # the rays seen stay seen
+                self._flight, self._joined = fresh, False
                 self._vouched_ns = None
                 return None
         if taken:

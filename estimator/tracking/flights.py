@@ -7,15 +7,16 @@ and those only offered to it, :meth:`FlightFollower.offer_all`) and after each s
 
 - **no flight followed**, from a ray more than ``off_sigma`` off the track (as it was at
   the last step, moved on) for ``window_s``: it fits the last ``window_s`` of rays as a
-  kick up from the
-  ground at some instant, the ball rolling before it, or falling before it (kicked, or
-  bouncing, as it landed: :func:`~estimator.tracking.flight_fit.contact_time`, two rays at
-  least before the kick), and as one flight through them all (a ball already in the air);
-  the best fit, each ray it dropped counted at the gate, is a lob when its rays after the
-  kick are three or more of two robots or more (or ``lone_rays`` of one: the ball's fall
-  gives the height where the camera's view of it turns), it is ``launch_m`` up by now,
-  rising at ``launch_mps`` to ``top_mps``, fits to ``fit_per_dof`` per degree of freedom,
-  and beats a kick along the ground (rolling after it) by ``margin_chi2``. The 3-D track
+  kick up from the ground at some instant, the ball rolling before it, or falling before
+  it (kicked, or bouncing, as it landed: :func:`~estimator.tracking.flight_fit.
+  contact_time`, two rays at least before the kick), and as one flight through them all
+  (a ball already in the air, or coming down from above the lens); the best fit, each ray
+  it dropped counted at the gate, is a flight when its rays after the kick are three or
+  more of two robots or more (``check_rays`` through one flight; or ``lone_rays`` of one:
+  the ball's fall gives the height where the camera's view of it turns), it is
+  ``launch_m`` up by now, rising at ``launch_mps`` to ``top_mps`` (one flight: no faster
+  either way), fits to ``fit_per_dof`` per degree of freedom, and beats a kick along the
+  ground (rolling after it) by ``margin_chi2``. The 3-D track
   takes the fitted state at the step, with its covariance: a flight from the first rays
   a ball on the ground does not explain, with no simultaneous pair.
 - **in flight, before the landing the track predicts**: one flight through the last
@@ -38,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -95,6 +96,11 @@ class FlightFollower:
         """Whether a flight is followed."""
         return self._kink is not None
 
+    def afresh(self) -> FlightFollower:
+        """A follower for a new track: no flight, the rays kept."""
+        return replace(self, _rays=list(self._rays), _offered=list(self._offered), _kink=None,
+                       _landing_ns=None, _prior=None, _alert_until_ns=-(2 ** 62))
+
     def offer_all(self, rays: Sequence[BallRay]) -> None:
         """Rays of images the 3-D track was not given (the ground tracker refused a ball
         kicked up): the fits see them at the next step, and drop those that are off."""
@@ -109,11 +115,10 @@ class FlightFollower:
         self._offered = []
         self._rays = [(t, r) for t, r in self._rays if t >= stamp_ns - _KEEP_NS]
         self._rays += [(stamp_ns, r) for r in rays]
-        if tracker.x is None:
-            return False
         if self._kink is None and self._surprised(stamp_ns, rays):
             self._alert_until_ns = stamp_ns + round(self.window_s * NS_PER_S)
-        self._prior = (stamp_ns, tracker.x.copy(), tracker.airborne)
+        self._prior = None if tracker.x is None else (
+            stamp_ns, tracker.x.copy(), tracker.airborne)
         if self._kink is None and stamp_ns > self._alert_until_ns:
             return False  # every ray as the track foresaw it: no lob to look for
         kink = self._launch(stamp_ns) if self._kink is None else self._follow(stamp_ns, tracker)
@@ -129,7 +134,8 @@ class FlightFollower:
 
     def _surprised(self, stamp_ns: int, rays: Sequence[BallRay]) -> bool:
         """Whether a ray is more than ``off_sigma`` off the track as it was at the last
-        step, moved on to this one (a rolling ball on, a flying one under gravity too)."""
+        step, moved on to this one (a rolling ball on, a flying one under gravity too);
+        True without a track."""
         if self._prior is None:
             return True
         t0, x, flying = self._prior
@@ -165,11 +171,14 @@ class FlightFollower:
         return fly
 
     def _lob(self, kink: Kink, window: Sequence[StampedRay], stamp_ns: int) -> bool:
-        after = sum(1 for t, _ in window if t >= kink.contact_ns or kink.before == "free")
-        return ((kink.robots >= 2 and after >= 3) or after >= self.lone_rays) and (
+        free = kink.before == "free"
+        after = sum(1 for t, _ in window if t >= kink.contact_ns or free)
+        vz = float(kink.velocity_after[2])
+        rising = -self.top_mps <= vz if free else self.launch_mps <= vz
+        return ((kink.robots >= 2 and after >= (self.check_rays if free else 3))
+                or after >= self.lone_rays) and (
             height_at(kink, stamp_ns) - BALL_RADIUS_M >= self.launch_m) and (
-            self.launch_mps <= float(kink.velocity_after[2]) <= self.top_mps) and (
-            per_dof(kink) <= self.fit_per_dof)
+            rising and vz <= self.top_mps and per_dof(kink) <= self.fit_per_dof)
 
     def _follow(self, stamp_ns: int, tracker: BallisticTracker) -> Kink | None:
         """The flight checked, or its bounce fitted (module docstring)."""

@@ -135,3 +135,22 @@ def test_a_reset_state_is_the_track_s() -> None:
     tracker.reset_to(5, x, np.eye(6) * 1e-4)
     assert tracker.airborne and tracker.last_accepted_ns == 5
     assert tracker.x is not None and np.allclose(tracker.x, x)
+
+
+def test_a_ball_coming_down_from_above_the_lens_is_flown_with_no_track_before() -> None:
+    """Cameras at robot height lose a lob above their lens: its first rays are of a ball
+    already falling, and there is no track (every ray went to the fits alone). One flight
+    through six rays of three robots starts the track, 6 cm off two images on; one made
+    afresh (for a new track) keeps the rays seen."""
+    shots = [s for s in images(KICK_S + 2 * LOB[2] / G_MPS2 - 0.05)
+             if s[0] >= (KICK_S + 0.6) * NS_PER_S]
+    tracker, follower = BallisticTracker(), FlightFollower()
+    for k, (stamp, r, _) in enumerate(shots[:8]):
+        follower.offer_all([r])
+        taken = follower.step(stamp, [], tracker)
+        assert taken == (k == 5), k  # the sixth ray: a flight, coming down
+        if k == 4:
+            follower = follower.afresh()
+    tracker.predict(shots[7][0])
+    assert tracker.x is not None and tracker.airborne and tracker.x[5] < -2.0
+    assert np.linalg.norm(tracker.x[:3] - shots[7][2]) < 0.06

@@ -22,7 +22,9 @@ and those only offered to it, :meth:`FlightFollower.offer_all`) and after each s
 - **in flight, before the landing the track predicts**: one flight through the last
   ``window_s`` of rays since the kick (``check_rays`` or more of two robots) is the check
   of the track's filter: when the track is off it beyond ``agree_chi2`` (3 degrees of
-  freedom, 99.9 %: a flight begun wrong, the filter lagging) it takes the fit's state.
+  freedom, 99.9 %: a flight begun wrong, the filter lagging), or less sure of its position
+  than the fit (a flight that came down unseen from above the lenses, its variance grown
+  on the way), it takes the fit's state.
   Air drag bends long flights off one parabola: the filter, with its process noise,
   follows them, and the fit looks back no further than ``window_s``.
 - **past the landing**: the track's own bounce carries the ball until ``bounce_rays`` rays
@@ -222,7 +224,8 @@ class FlightFollower:
             return None
         x, P = free.state_at(stamp_ns)
         d = tracker.x[:3] - x[:3]
-        if float(d @ np.linalg.solve(tracker.P[:3, :3] + P[:3, :3], d)) <= self.agree_chi2:
+        if float(d @ np.linalg.solve(tracker.P[:3, :3] + P[:3, :3], d)) <= self.agree_chi2 and (
+                np.trace(P[:3, :3]) >= np.trace(tracker.P[:3, :3])):
             return None
         return free
 

@@ -12,8 +12,8 @@ and those only offered to it, :meth:`FlightFollower.offer_all`) and after each s
   contact_time`, two rays at least before the kick), and as one flight through them all
   (a ball already in the air, or coming down from above the lens); the best fit, each ray
   it dropped counted at the gate, is a flight when its rays after the kick are three or
-  more of two robots or more (``check_rays`` through one flight; or ``lone_rays`` of one:
-  the ball's fall gives the height where the camera's view of it turns), it is
+  more of two robots or more (``check_rays`` through one flight: one robot's rays over
+  0.3 s fix a flight's height to decimetres only, docs/notes/hops.md), it is
   ``launch_m`` up by now, rising at ``launch_mps`` to ``top_mps`` (one flight: no faster
   either way), fits to ``fit_per_dof`` per degree of freedom, and beats a kick along the
   ground (rolling after it) by ``margin_chi2``. The 3-D track
@@ -77,7 +77,6 @@ class FlightFollower:
     top_mps: float = 12.0
     fit_per_dof: float = 3.0
     margin_chi2: float = 10.0
-    lone_rays: int = 6
     check_rays: int = 6
     agree_chi2: float = GATE_CHI2_3DOF_999
     bounce_rays: int = 3
@@ -177,8 +176,7 @@ class FlightFollower:
         after = sum(1 for t, _ in window if t >= kink.contact_ns or free)
         vz = float(kink.velocity_after[2])
         rising = -self.top_mps <= vz if free else self.launch_mps <= vz
-        return ((kink.robots >= 2 and after >= (self.check_rays if free else 3))
-                or after >= self.lone_rays) and (
+        return kink.robots >= 2 and after >= (self.check_rays if free else 3) and (
             height_at(kink, stamp_ns) - BALL_RADIUS_M >= self.launch_m) and (
             rising and vz <= self.top_mps and per_dof(kink) <= self.fit_per_dof)
 

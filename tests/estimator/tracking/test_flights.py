@@ -154,3 +154,23 @@ def test_a_ball_coming_down_from_above_the_lens_is_flown_with_no_track_before() 
     tracker.predict(shots[7][0])
     assert tracker.x is not None and tracker.airborne and tracker.x[5] < -2.0
     assert np.linalg.norm(tracker.x[:3] - shots[7][2]) < 0.06
+
+
+def test_one_robot_s_rays_fix_a_flight_s_height_over_enough_of_it() -> None:
+    """Gravity is known, so one camera's rays fix a flight's scale (a flight c + s (p - c)
+    falls s g): over 0.85 s of a lob, 18 images of one robot place the ball within 0.1 m
+    of the truth, while over 0.3 s the fit's own covariance says decimetres (along the
+    ray)."""
+    def fitted(span_s: float, seed: int) -> tuple[float, float]:
+        rng = np.random.default_rng(seed)
+        times = [KICK_S + 0.05 + k / 20 for k in range(round(span_s * 20) + 1)]
+        rays = [(round(t * NS_PER_S), ray("robot1", ball(t), rng)) for t in times]
+        free = fit_kink(rays, rays[-1][0], "free", "fly")
+        assert free is not None and free.robots == 1
+        x, P = free.state_at(rays[-1][0])
+        return (float(np.linalg.norm(x[:3] - ball(times[-1]))),
+                float(np.sqrt(np.linalg.eigvalsh(P[:3, :3])[-1])))
+
+    long_errors = [fitted(0.85, seed)[0] for seed in range(5)]
+    assert max(long_errors) < 0.1, long_errors
+    assert min(fitted(0.3, seed)[1] for seed in range(5)) > 0.1

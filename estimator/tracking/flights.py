@@ -11,7 +11,7 @@ and those only offered to it, :meth:`FlightFollower.offer_all`) and after each s
   it (kicked, or bouncing, as it landed: :func:`~estimator.tracking.flight_fit.
   contact_time`, two rays at least before the kick), and as one flight through them all
   (a ball already in the air, or coming down from above the lens); the best fit, each ray
-  it dropped counted at the gate, is a flight when its rays after the kick are three or
+  it dropped counted at the gate, is a flight when its rays after the kick are two or
   more of two robots or more (``check_rays`` through one flight: one robot's rays over
   0.3 s fix a flight's height to decimetres only, docs/notes/hops.md), it is
   ``launch_m`` up by now, rising at ``launch_mps`` to ``top_mps`` (one flight: no faster
@@ -176,7 +176,7 @@ class FlightFollower:
         after = sum(1 for t, _ in window if t >= kink.contact_ns or free)
         vz = float(kink.velocity_after[2])
         rising = -self.top_mps <= vz if free else self.launch_mps <= vz
-        return kink.robots >= 2 and after >= (self.check_rays if free else 3) and (
+        return kink.robots >= 2 and after >= (self.check_rays if free else 2) and (
             height_at(kink, stamp_ns) - BALL_RADIUS_M >= self.launch_m) and (
             rising and vz <= self.top_mps and per_dof(kink) <= self.fit_per_dof)
 

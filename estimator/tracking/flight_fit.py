@@ -24,6 +24,7 @@ made again. Pure and deterministic.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -134,26 +135,34 @@ def _model(taus: Matrix, before: str, after: str) -> tuple[Matrix, Matrix]:
     return M, b
 
 
+@functools.lru_cache(maxsize=4096)
+def _ray_rows(ray: BallRay) -> Matrix:
+    """A ray as the fits use it, one row: camera (3), direction (3), the two unit vectors
+    across it (6), its two sigmas, the distance to its ground point (made once a ray)."""
+    c = np.array(ray.origin)
+    e_az, e_el = ray.across()
+    length = max(float(np.linalg.norm(np.array(ray.ground_point) - c)), _MIN_LENGTH_M)
+    return np.concatenate([c, ray.direction, e_az, e_el,
+                           [ray.sigma_azimuth_rad, ray.sigma_elevation_rad, length]])
+
+
 def _solve(rays: Sequence[StampedRay], contact_ns: int, before: str, after: str
            ) -> tuple[Matrix, Matrix, Matrix] | None:
     """theta, its covariance and each ray's chi-square; None when the rays do not fix it."""
     taus = np.array([(t - contact_ns) / NS_PER_S for t, _ in rays])
     M, b = _model(taus, before, after)
-    c = np.array([r.origin for _, r in rays])
-    d = np.array([r.direction for _, r in rays])
-    E = np.array([np.stack(r.across()) for _, r in rays])  # (m, 2, 3)
-    sig = np.array([(r.sigma_azimuth_rad, r.sigma_elevation_rad) for _, r in rays])
-    ground = np.array([r.ground_point for _, r in rays])
-    length = np.maximum(np.linalg.norm(ground - c, axis=1), _MIN_LENGTH_M)
+    rows = np.array([_ray_rows(r) for _, r in rays])
+    c, d, E = rows[:, 0:3], rows[:, 3:6], rows[:, 6:12].reshape(-1, 2, 3)
+    sig, length = rows[:, 12:14], rows[:, 14]
     EM = np.einsum("mij,mjn->min", E, M)  # (m, 2, n)
     Ey = np.einsum("mij,mj->mi", E, c - b)
     theta = cov = chi = None
-    for _ in range(_PASSES):
+    for k in range(_PASSES):
         w = 1.0 / (length[:, None] * sig)
         A = (EM * w[:, :, None]).reshape(-1, M.shape[2])
         y = (Ey * w).reshape(-1)
         N = A.T @ A
-        if np.linalg.cond(N) > 1e12:
+        if k == 0 and np.linalg.cond(N) > 1e12:
             return None
         cov = np.linalg.inv(N)
         theta = cov @ (A.T @ y)

@@ -5,28 +5,28 @@ fixed by rays of different instants (:mod:`estimator.tracking.flight_fit`).
 :class:`FlightFollower` keeps the last two seconds of rays (those the 3-D track was given
 and those only offered to it, :meth:`FlightFollower.offer_all`) and after each step:
 
-- **no flight followed**, from a ray more than ``off_sigma`` off the track (as it was at
-  the last step, moved on) for ``window_s``: it fits the last ``window_s`` of rays as a
-  kick up from the ground at some instant, the ball rolling before it, or falling before
-  it (kicked, or bouncing, as it landed: :func:`~estimator.tracking.flight_fit.
-  contact_time`, two rays at least before the kick), and as one flight through them all
-  (a ball already in the air, or coming down from above the lens); the best fit, each ray
-  it dropped counted at the gate, is a flight when its rays after the kick are two or
-  more of two robots or more (``check_rays`` through one flight: one robot's rays over
-  0.3 s fix a flight's height to decimetres only, docs/notes/hops.md), it is
+- **no flight followed**, at a step with a ray more than ``off_sigma`` off the track (as
+  it was at the last step, moved on), another robot's too within ``window_s``: it fits
+  the last ``window_s`` of rays as a kick up from the ground at some instant, the ball
+  rolling before it, or falling before it (kicked, or bouncing, as it landed; two rays
+  at least before the kick: :func:`~estimator.tracking.flight_fit.contact_time`), and as
+  one flight through them all (a ball already in the air, or coming down from above the
+  lens). The best fit, each ray it dropped counted at the gate, is a flight when its rays
+  after the kick are two or more of two robots or more (``check_rays`` through one
+  flight; one robot's rays over 0.3 s fix a flight's height to decimetres only), it is
   ``launch_m`` up by now, rising at ``launch_mps`` to ``top_mps`` (one flight: no faster
   either way), fits to ``fit_per_dof`` per degree of freedom, and beats a kick along the
-  ground (rolling after it) by ``margin_chi2``. The 3-D track
-  takes the fitted state at the step, with its covariance: a flight from the first rays
-  a ball on the ground does not explain, with no simultaneous pair.
+  ground (rolling after it) by ``margin_chi2``. The 3-D track takes the fitted state at
+  the step, with its covariance: a flight from the first rays a ball on the ground does
+  not explain, with no simultaneous pair.
 - **in flight, before the landing the track predicts**: one flight through the last
   ``window_s`` of rays since the kick (``check_rays`` or more of two robots) is the check
   of the track's filter: when the track is off it beyond ``agree_chi2`` (3 degrees of
   freedom, 99.9 %: a flight begun wrong, the filter lagging), or less sure of its position
   than the fit (a flight that came down unseen from above the lenses, its variance grown
-  on the way), it takes the fit's state.
-  Air drag bends long flights off one parabola: the filter, with its process noise,
-  follows them, and the fit looks back no further than ``window_s``.
+  on the way), it takes the fit's state. Air drag bends long flights off one parabola:
+  the filter, with its process noise, follows them, and the fit looks back no further
+  than ``window_s``.
 - **past the landing**: the track's own bounce carries the ball until ``bounce_rays`` rays
   after it; then the contact is fitted between the flight before and the one after
   (within ``retry_ns`` of the landing). A ball leaving it surely slower than
@@ -89,8 +89,8 @@ class FlightFollower:
     """When the track, at the last step before it, predicted the landing."""
     _prior: tuple[int, Matrix, bool] | None = None
     """The track after the last step: its stamp, state and whether it flew."""
-    _alert_until_ns: int = -(2 ** 62)
-    """Lobs are looked for until then: a ray surprised the track (``off_sigma``)."""
+    _surprises: dict[str, int] = field(default_factory=dict)
+    """Each robot's last ray that surprised the track (``off_sigma``): its stamp."""
 
     @property
     def flying(self) -> bool:
@@ -98,9 +98,9 @@ class FlightFollower:
         return self._kink is not None
 
     def afresh(self) -> FlightFollower:
-        """A follower for a new track: no flight, the rays kept."""
+        """A follower for a new track: no flight, the rays (and their surprises) kept."""
         return replace(self, _rays=list(self._rays), _offered=list(self._offered), _kink=None,
-                       _landing_ns=None, _prior=None, _alert_until_ns=-(2 ** 62))
+                       _landing_ns=None, _prior=None, _surprises=dict(self._surprises))
 
     def offer_all(self, rays: Sequence[BallRay]) -> None:
         """Rays of images the 3-D track was not given (the ground tracker refused a ball
@@ -116,12 +116,15 @@ class FlightFollower:
         self._offered = []
         self._rays = [(t, r) for t, r in self._rays if t >= stamp_ns - _KEEP_NS]
         self._rays += [(stamp_ns, r) for r in rays]
-        if self._kink is None and self._surprised(stamp_ns, rays):
-            self._alert_until_ns = stamp_ns + round(self.window_s * NS_PER_S)
+        window_ns = round(self.window_s * NS_PER_S)
+        surprised = self._surprised(stamp_ns, rays)
+        for robot in surprised:
+            self._surprises[robot] = stamp_ns
         self._prior = None if tracker.x is None else (
             stamp_ns, tracker.x.copy(), tracker.airborne)
-        if self._kink is None and stamp_ns > self._alert_until_ns:
-            return False  # every ray as the track foresaw it: no lob to look for
+        if self._kink is None and (not surprised or sum(
+                1 for t in self._surprises.values() if t > stamp_ns - window_ns) < 2):
+            return False  # the rays as the track foresaw them: no lob to look for
         kink = self._launch(stamp_ns) if self._kink is None else self._follow(stamp_ns, tracker)
         if kink is None:
             return False
@@ -133,18 +136,18 @@ class FlightFollower:
         tracker.reset_to(stamp_ns, x, P)
         return True
 
-    def _surprised(self, stamp_ns: int, rays: Sequence[BallRay]) -> bool:
-        """Whether a ray is more than ``off_sigma`` off the track as it was at the last
-        step, moved on to this one (a rolling ball on, a flying one under gravity too);
-        True without a track."""
+    def _surprised(self, stamp_ns: int, rays: Sequence[BallRay]) -> list[str]:
+        """The robots of the rays more than ``off_sigma`` off the track as it was at the
+        last step, moved on to this one (a rolling ball on, a flying one under gravity
+        too); every ray's without a track."""
         if self._prior is None:
-            return True
+            return [r.robot for r in rays]
         t0, x, flying = self._prior
         dt = (stamp_ns - t0) / NS_PER_S
         p = x[:3] + x[3:] * dt
         if flying:
             p[2] -= 0.5 * G_MPS2 * dt * dt
-        return any(ray_residual(r, p) > self.off_sigma for r in rays)
+        return [r.robot for r in rays if ray_residual(r, p) > self.off_sigma]
 
     def _window(self, stamp_ns: int) -> list[StampedRay]:
         lo = stamp_ns - round(self.window_s * NS_PER_S)

@@ -22,11 +22,11 @@ and those only offered to it, :meth:`FlightFollower.offer_all`) and after each s
 - **in flight, before the landing the track predicts**: one flight through the last
   ``window_s`` of rays since the kick (``check_rays`` or more of two robots) is the check
   of the track's filter: when the track is off it beyond ``agree_chi2`` (3 degrees of
-  freedom, 99.9 %: a flight begun wrong, the filter lagging), or less sure of its position
-  than the fit (a flight that came down unseen from above the lenses, its variance grown
-  on the way), it takes the fit's state. Air drag bends long flights off one parabola:
-  the filter, with its process noise, follows them, and the fit looks back no further
-  than ``window_s``.
+  freedom, 99.9 %: a flight begun wrong, the filter lagging), or, looser than ``loose_m``
+  each way, less sure of its position than the fit (a flight that came down unseen from
+  above the lenses, its variance grown on the way), it takes the fit's state. Air drag
+  bends long flights off one parabola: the filter, with its process noise, follows them,
+  and the fit looks back no further than ``window_s``.
 - **past the landing**: the track's own bounce carries the ball until ``bounce_rays`` rays
   after it; then the contact is fitted between the flight before and the one after
   (within ``retry_ns`` of the landing). A ball leaving it surely slower than
@@ -79,6 +79,7 @@ class FlightFollower:
     margin_chi2: float = 10.0
     check_rays: int = 6
     agree_chi2: float = GATE_CHI2_3DOF_999
+    loose_m: float = 0.05
     bounce_rays: int = 3
     retry_ns: int = 40_000_000
     _rays: list[StampedRay] = field(default_factory=list)
@@ -225,8 +226,9 @@ class FlightFollower:
             return None
         x, P = free.state_at(stamp_ns)
         d = tracker.x[:3] - x[:3]
+        loose = float(np.trace(tracker.P[:3, :3]))
         if float(d @ np.linalg.solve(tracker.P[:3, :3] + P[:3, :3], d)) <= self.agree_chi2 and (
-                np.trace(P[:3, :3]) >= np.trace(tracker.P[:3, :3])):
+                loose <= 3 * self.loose_m ** 2 or np.trace(P[:3, :3]) >= loose):
             return None
         return free
 

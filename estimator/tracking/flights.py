@@ -3,7 +3,9 @@
 Free-running cameras never give two rays of one instant; a flight under gravity is still
 fixed by rays of different instants (:mod:`estimator.tracking.flight_fit`).
 :class:`FlightFollower` keeps the last two seconds of rays (those the 3-D track was given
-and those only offered to it, :meth:`FlightFollower.offer_all`) and after each step:
+and those only offered to it, :meth:`FlightFollower.offer_all`) and after each step of
+one robot's rays (a step of two robots' rays of one instant, cameras in sync, is the
+filter's: they cross, and it takes the point) does this:
 
 - **no flight followed**, at a step with a ray more than ``off_sigma`` off the track (as
   it was at the last step, moved on), another robot's too within ``window_s``: it fits
@@ -117,6 +119,10 @@ class FlightFollower:
         self._offered = []
         self._rays = [(t, r) for t, r in self._rays if t >= stamp_ns - _KEEP_NS]
         self._rays += [(stamp_ns, r) for r in rays]
+        if len({r.robot for r in rays}) >= 2:  # rays of one instant: crossed, the filter's
+            self._prior = None if tracker.x is None else (
+                stamp_ns, tracker.x.copy(), tracker.airborne)
+            return False
         window_ns = round(self.window_s * NS_PER_S)
         surprised = self._surprised(stamp_ns, rays)
         for robot in surprised:

@@ -46,15 +46,22 @@ rays as unsure as the poses (``--pose-uncertainty``). The fused estimate carries
 track's height (z and its 3 x 3 covariance): a lob is given where it flies, not on the
 ground under it.
 
-Three rules give the ground track's position for a step while the 3-D track is kept: a 3-D
-track that refused every estimate of its last step with estimates (the ground tracker took
-a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the ground
-track is the surer); a rolling 3-D track that takes nothing at a step where its velocity is
-``kick_mps`` from the ground track's (it would be moved on with a velocity it has not yet
-found); and a rolling 3-D track whose largest position variance is more than
+Three rules give the ground track's position for a step while the 3-D track is kept: a
+rolling 3-D track that refused every estimate of its last step with estimates (the ground
+tracker took a kick or a jump the 3-D track gates out: until the 3-D track takes one again,
+the ground track is the surer; a flying one's refused ray leaves it in the air, where the
+ground tracker knows nothing); a rolling 3-D track that takes nothing at a step where its
+velocity is ``kick_mps`` from the ground track's (it would be moved on with a velocity it
+has not yet found); and a rolling 3-D track whose largest position variance is more than
 ``loose_ratio`` times the ground track's (begun on one robot's images it knows little along
 their rays, where the ground tracker's motion model does). A flying track is never given up
-for its looseness: the ground tracker knows nothing of a lob. Pure and deterministic.
+for its looseness: the ground tracker knows nothing of a lob.
+
+The estimates the 3-D track does not take still go to its flight fits
+(:mod:`estimator.tracking.flights`, kept through its restarts): a lob's first images are
+refused by the ground tracker. A flight the fits started is the ball's (it need not have
+met the ground track first), and a flying 3-D track that sees nothing at a step (above the
+lenses of cameras at robot height) still vouches for itself. Pure and deterministic.
 """
 
 from __future__ import annotations

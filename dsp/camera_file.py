@@ -23,7 +23,7 @@ So a YAML file and a JSON file with the same content read the same. A ``ball`` g
 relative path is resolved against the camera file's folder.
 
 The top-level ``field`` key is not a robot: it names the field the robots play on
-(:func:`dsp.cameras.field_from_json`: a name of :data:`dsp.field.FIELDS`, ``msl`` for the
+(:func:`dsp.field_file.field_from_json`: a name of :data:`dsp.field.FIELDS`, ``msl`` for the
 current MSL field, or the dimensions), so that a log that names none (a team's own bag) gets
 its poses corrected from the field lines. A file that names the field may describe no camera
 (the log's metadata describes them).
@@ -46,8 +46,8 @@ from dsp.cameras import (
     CameraDescriptionError,
     CameraSet,
     camera_set_from_json,
-    field_from_json,
 )
+from dsp.field_file import field_from_json
 from dsp.jsonio import dumps as strict_json
 from dsp.textfile import read_text_file
 

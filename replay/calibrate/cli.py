@@ -26,11 +26,11 @@ from dsp import contract
 from dsp.atomic import atomic_output, check_distinct, declare_files
 from dsp.ball_file import ball_file_text, shipped_generic
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
-from dsp.cameras import field_from_json
 from dsp.checks import check_number, check_suffix, check_topic_pattern
 from dsp.cli import echo, run_main
 from dsp.errors import InputError, UsageError
 from dsp.field import FIELD_ALIASES, FIELDS
+from dsp.field_file import field_from_json
 from dsp.plotting import FIGURE_SUFFIXES, save
 from dsp.textfile import TEXT_ERRORS
 from estimator.constants import BALL_RADIUS_M

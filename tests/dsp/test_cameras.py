@@ -249,3 +249,4 @@ def test_a_bad_field_is_one_line_naming_the_file_and_key(tmp_path: Path, field: 
     with pytest.raises(CameraDescriptionError) as err:
         read_camera_file(path)
     assert str(err.value).startswith(f"{path}: {message}") and "\n" not in str(err.value)
+    assert err.value.exit_code == 2  # a bad camera entry exits 1

@@ -1,6 +1,6 @@
 """A camera file names the field (``field: 18x12``): a team's own log, which names none,
 gets its poses corrected from the field lines by the default pipeline; without it the
-pipeline says how to name it; a bad field is one line naming the file and key."""
+pipeline says how to name it; a bad field is one line naming the file and key, exit 2."""
 
 from __future__ import annotations
 
@@ -104,6 +104,6 @@ def test_a_bad_field_stops_the_replay_in_one_line(
     code = main([str(team_log), "--cameras", str(cams), "--image-topic", TEAM["image_topic"],
                  "--pose-topic", TEAM["pose_topic"], "--no-progress"])
     err = capsys.readouterr().err
-    assert code == 1 and "Traceback" not in err
+    assert code == 2 and "Traceback" not in err  # a field is a statement, as an option is
     assert err.strip().splitlines() == [f"dsp-replay: error: {cams}: {message}" +
                                         err.strip().split(message, 1)[1]]

@@ -56,10 +56,12 @@ from typing import Any
 import numpy as np
 
 from dsp.ball_file import GENERIC_NAME, shipped_check, shipped_generic
+from dsp.errors import InputError
 from dsp.text import printable
 from estimator.constants import NS_PER_S
 from estimator.detection.chain import Detection, DetectionParams, detect_blobs
-from estimator.errors import EstimatorError
+from estimator.detection.real import BallModel, model_from_dict
+from estimator.errors import BallModelError, EstimatorError
 from replay.cameras import Cameras
 from replay.estimation import Detected, FrameEstimator
 from replay.log import ImageMessage, LogInfo, LogReader, PoseMessage, decode_image
@@ -71,7 +73,7 @@ from replay.sync import History, PoseMatch, interpolate_pose
 
 __all__ = ["AGREE_M", "AGREE_NS", "MAX_CLEAR_BLOBS", "MIN_AREA_PX", "MIN_CIRCULARITY",
            "PROBE_IMAGES", "PROBE_SECONDS", "Choice", "Probe", "choice_for", "choose_detector",
-           "generic_ball_path", "probe"]
+           "generic_ball_path", "inline_ball_model", "probe"]
 
 PROBE_SECONDS = 5.0
 """The probe looks at each robot's images of its first this many seconds."""
@@ -156,7 +158,7 @@ def choose_detector(reader: LogReader, options: ReplayOptions, pipeline: Pipelin
     with no ``--ball`` takes the ball model a camera file names, else the generic one."""
     if options.detector_name == "real" and options.ball is None:
         named = _camera_ball(cameras)
-        ball, why = ((named.ball, named.why) if named is not None and named.ball is not None
+        ball, why = ((named.ball, named.why) if named is not None
                      else (generic_ball_path(), "--detector real with no --ball: the generic "
                            "ball model"))
         return (dataclasses.replace(options, ball=ball),
@@ -165,8 +167,8 @@ def choose_detector(reader: LogReader, options: ReplayOptions, pipeline: Pipelin
         return options, pipeline, {}
     choice = choice_for(reader, options, cameras)
     settled = options
-    if choice.detector == "real":
-        ball = choice.ball or generic_ball_path()
+    if choice.detector == "real":  # a camera file's inline model: no file (the runner's)
+        ball = choice.ball or (None if inline_ball_model(cameras) else generic_ball_path())
         settled = dataclasses.replace(options, detector="real", ball=ball)
     return settled, dataclasses.replace(
         pipeline, detector=choice.detector, detector_choice=choice.why,
@@ -224,16 +226,38 @@ def _warnings(log: str, found: Probe, detector: str) -> dict[str, str]:
 
 
 def _camera_ball(cameras: Cameras) -> Choice | None:
-    """The real detector with the ball model a camera file names, if one does."""
+    """The real detector with the ball model a camera description gives (a file's path,
+    else an inline object: :func:`inline_ball_model`), if one does."""
     models = cameras.ball_models()
     paths = sorted({str(m) for m in models.values() if isinstance(m, str)})
-    if not paths:
-        return None
     robots = ", ".join(printable(r, limit=60) for r in sorted(models))
+    if not paths:
+        inline = sorted(r for r, m in models.items() if not isinstance(m, str))
+        if not inline:
+            return None
+        return Choice("real", f"the camera description gives {printable(inline[0], limit=60)}"
+                      f"'s ball model inline ({robots})")
     why = f"the camera description names the ball model {Path(paths[0]).name} ({robots})"
     if len(paths) > 1:
         why += f"; the others ({', '.join(Path(p).name for p in paths[1:])}) are not used"
     return Choice("real", why, ball=Path(paths[0]))
+
+
+def inline_ball_model(cameras: Cameras) -> BallModel | None:
+    """The ball model a camera description gives as an object (``ball: {...}``, the JSON of
+    a ``ball.json``), read; the first robot's by name where several do, None where none
+    does. A file's path goes before it (:func:`_camera_ball`), as ``--ball`` does. Raises
+    :class:`~dsp.errors.InputError` naming the description and the robot for an object that
+    is no ball model."""
+    inline = {r: m for r, m in cameras.ball_models().items() if not isinstance(m, str)}
+    if not inline:
+        return None
+    robot = sorted(inline)[0]
+    try:
+        return model_from_dict(inline[robot])
+    except BallModelError as err:
+        where = (cameras.sources or {}).get(robot, "the camera description")
+        raise InputError(f"{where}: {robot}.ball: {err}") from None
 
 
 def _recorded_ball(info: LogInfo) -> str | None:

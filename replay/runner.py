@@ -49,7 +49,7 @@ from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay.ahead import Ahead, Decoded, decode_and_detect
 from replay.cameras import cameras_for
 from replay.clock import Clock
-from replay.detector_choice import choose_detector
+from replay.detector_choice import choose_detector, inline_ball_model
 from replay.diagnosis import Diagnosis
 from replay.errors import ImageDecodeError, MissingPosesError, NoFramesError, StrictError
 from replay.estimation import FrameEstimator
@@ -119,8 +119,9 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             camera_robots=tuple(cameras.models), notes=() if field_note is None else
             (field_note,))
         options, pipeline, chosen = choose_detector(reader, options, pipeline, cameras)
-        finder = (None if options.ball is None
-                  else BallFinder(read_ball_file(options.ball), shipped_check()))
+        model = (read_ball_file(options.ball) if options.ball is not None
+                 else inline_ball_model(cameras) if options.detector_name == "real" else None)
+        finder = None if model is None else BallFinder(model, shipped_check())
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
             smooth=options.smooth, hops=options.hops, noise=options.noise, finder=finder,

@@ -242,6 +242,37 @@ def test_a_camera_file_s_ball_model_is_the_real_detector_s(
     assert doc["options"]["ball"] == "venue.json"
 
 
+def test_a_camera_file_s_inline_ball_model_is_used_as_its_file_would_be(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    log = _msl_log(tmp_path)
+    venue = json.loads(dc.generic_ball_path().read_text())
+    venue["threshold"] = min(0.99, venue["threshold"] + 0.3)  # not the generic model's
+    (tmp_path / "venue.json").write_text(json.dumps(venue))
+    by_file, inline = tmp_path / "file.json", tmp_path / "inline.json"
+    by_file.write_text(json.dumps({"default": {**_camera(608, 800), "ball": "venue.json"}}))
+    inline.write_text(json.dumps({"default": {**_camera(608, 800), "ball": venue}}))
+    monkeypatch.setattr(dc, "probe", lambda *_: pytest.fail("probed"))
+    generic = _replay(log, tmp_path / "g.json", detector="real")
+    for k, given in enumerate(({}, {"detector": "real"})):
+        a = _replay(log, tmp_path / f"a{k}.json", cameras=by_file, **given)
+        b = _replay(log, tmp_path / f"b{k}.json", cameras=inline, **given)
+        assert b["pipeline"]["detector"] == "real"  # type: ignore[index]
+        assert "robot1's ball model inline" in b["pipeline"]["detector_choice"]  # type: ignore[index]
+        assert a["frames"] == b["frames"] != generic["frames"]
+
+
+def test_an_inline_ball_model_that_is_none_is_one_line_naming_the_file_and_robot(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = _msl_log(tmp_path)
+    cameras = tmp_path / "cameras.json"
+    cameras.write_text(json.dumps({"default": {**_camera(608, 800), "ball": {"format": "x"}}}))
+    code = main([str(log), "--cameras", str(cameras), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.strip().splitlines() == [
+        f"dsp-replay: error: {cameras}: robot1.ball: not a ball model: 'format' must be "
+        "'dual-sight ball model'"], err
+
+
 def test_a_robot_the_chosen_detector_finds_no_ball_for_is_named(tmp_path: Path) -> None:
     # blind in the probe's first 5 s (20 images at 4 Hz), the ball later: the probe says so
     summary = replay(_msl_log(tmp_path, blind={"robot3": 22}), options_for(progress=False))

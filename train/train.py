@@ -43,6 +43,7 @@ from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from dataset import TRAIN_COUNT, Samples, build_folder, build_items
+from flying import flying
 from generic import events, fit_generic, pick
 
 from dsp.labelled import labelled_folders
@@ -205,12 +206,17 @@ def augment(x: np.ndarray, off: np.ndarray, rng: np.random.Generator, hue: float
 
 
 def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS, hue: float = 0.0,
-          data: tuple[np.ndarray, ...] | None = None) -> CheckNet:
+          data: tuple[np.ndarray, ...] | None = None, fly: float = 0.0) -> CheckNet:
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(seed)
     x, y, off, ctx = select(root, split) if data is None else data
+    if fly > 0:
+        # its own stream of the seed: the shuffles and augments draw as before
+        extra = flying(x, y, off, ctx, fly, np.random.default_rng([seed, 1]))
+        x, y, off, ctx = (np.concatenate([a, b])
+                          for a, b in zip((x, y, off, ctx), extra, strict=True))
     net = CheckNet()
     opt = torch.optim.Adam(net.parameters(), lr=LR, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
@@ -286,6 +292,10 @@ def main() -> None:
     ap.add_argument("--hue", type=float, default=0.0, metavar="SHARE",
                     help="share of the crops turned to a random hue and saturation (default "
                          "0: none; the shipped and held-out checks are made without)")
+    ap.add_argument("--flying", type=float, default=0.0, metavar="SHARE",
+                    help="balls in the air for this share of the positives, and as many "
+                         "look-alikes made over alike (flying.py: shrunk, darkened, "
+                         "motion-blurred, over a crop with little field; default 0: none)")
     ap.add_argument("--held-out", type=Path, metavar="DIR",
                     help="with --groups: also one check per event trained without it "
                     "(DIR/lovo-EVENT.onnx) and the generic model without it "
@@ -299,7 +309,8 @@ def main() -> None:
     if args.groups is None:
         if len(args.roots) != 1 or args.held_out is not None:
             raise SystemExit("several roots and --held-out go with --groups")
-        net = train(args.roots[0], args.split, args.seed, args.epochs, args.hue)
+        net = train(args.roots[0], args.split, args.seed, args.epochs, args.hue,
+                    fly=args.flying)
         data = export(net, args.output)
         x, _, _, ctx = select(args.roots[0], args.split)
         _report(args.output, net, data, x, ctx, t0)
@@ -320,7 +331,8 @@ def main() -> None:
         t0 = time.perf_counter()
         data_xy = select_events(samples, split)
         print(f"{output}: {split}, {len(data_xy[1])} samples", flush=True)
-        net = train(Path(), split, args.seed, args.epochs, args.hue, data=data_xy)
+        net = train(Path(), split, args.seed, args.epochs, args.hue, data=data_xy,
+                    fly=args.flying)
         data = export(net, output)
         _report(output, net, data, data_xy[0], data_xy[3], t0)
 

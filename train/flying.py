@@ -1,4 +1,4 @@
-"""Balls in the air for the learned check's training (``train.py --flying N``).
+"""Balls in the air for the learned check's training (``train.py --flying SHARE``).
 
 A ball in flight is small, dark and smeared by its motion, and seen against the hall's roof,
 its banners or the field's far side rather than on the green. The labelled images hold few
@@ -37,6 +37,8 @@ crop's side from the middle, the log of its size within this of the framing's.""
 NO_FIELD = 0.3
 """Largest field share of a background crop's ring (few crops have none: 170 of 53,000
 negatives under 0.1, 470 under 0.3)."""
+MIN_BACKGROUNDS = 20
+"""Backgrounds at the least: the negatives with the least field when fewer have none."""
 
 
 def motion_kernel(length: float, angle: float) -> np.ndarray:
@@ -44,15 +46,13 @@ def motion_kernel(length: float, angle: float) -> np.ndarray:
     spread over their four nearest taps (so a fractional length blurs partly)."""
     half = int(np.ceil(length / 2)) + 1
     k = np.zeros((2 * half + 1, 2 * half + 1), np.float64)
-    steps = max(2, int(np.ceil(length * 4)))
-    for t in np.linspace(-length / 2, length / 2, steps):
-        px, py = half + t * np.cos(angle), half + t * np.sin(angle)
-        x0, y0 = int(np.floor(px)), int(np.floor(py))
-        fx, fy = px - x0, py - y0
-        k[y0, x0] += (1 - fx) * (1 - fy)
-        k[y0, x0 + 1] += fx * (1 - fy)
-        k[y0 + 1, x0] += (1 - fx) * fy
-        k[y0 + 1, x0 + 1] += fx * fy
+    t = np.linspace(-length / 2, length / 2, max(2, int(np.ceil(length * 4))))
+    px, py = half + t * np.cos(angle), half + t * np.sin(angle)
+    x0, y0 = np.floor(px).astype(int), np.floor(py).astype(int)
+    fx, fy = px - x0, py - y0
+    for dy, dx, w in ((0, 0, (1 - fx) * (1 - fy)), (0, 1, fx * (1 - fy)),
+                      (1, 0, (1 - fx) * fy), (1, 1, fx * fy)):
+        np.add.at(k, (y0 + dy, x0 + dx), w)
     return (k / k.sum()).astype(np.float32)
 
 
@@ -100,10 +100,11 @@ def flying(x: np.ndarray, y: np.ndarray, off: np.ndarray, ctx: np.ndarray, share
     blob, framed as a ball is) made over in the same way and labelled 0, so that a crop
     with no field and a smeared blob does not mean a ball by itself. The extra samples as
     the same four arrays, positives first. Backgrounds: the negatives with at most
-    ``NO_FIELD`` field in their ring (every negative when there is none such)."""
+    ``NO_FIELD`` field in their ring (the ``MIN_BACKGROUNDS`` with the least when fewer)."""
     framed = (np.abs(off[:, :2]).max(axis=1) <= FRAMED[0]) & (np.abs(off[:, 2]) <= FRAMED[1])
     pos, neg = np.flatnonzero((y > 0) & framed), np.flatnonzero(y == 0)
-    bgs = neg[ctx[neg, 2] <= NO_FIELD] if np.any(ctx[neg, 2] <= NO_FIELD) else neg
+    bgs = neg[np.argsort(ctx[neg, 2], kind="stable")[:max(MIN_BACKGROUNDS, int(np.sum(
+        ctx[neg, 2] <= NO_FIELD)))]]
     count = round(share * len(pos))
     chosen = np.concatenate([rng.choice(pos, count, replace=count > len(pos)),
                              rng.choice(neg, count, replace=count > len(neg))])

@@ -169,6 +169,17 @@ def select_events(samples: dict[str, Samples], split: str) -> tuple[np.ndarray, 
                  for f in ("x", "y", "offset", "ctx"))
 
 
+def with_flying(s: Samples, share: float, rng: np.random.Generator) -> Samples:
+    """An event's samples and its balls and look-alikes in the air (``flying.py``, on the
+    event's own crops: a check held out from the event sees none of them)."""
+    x, y, off, ctx = flying(s.x, s.y, s.offset, s.ctx, share, rng)
+    return Samples(np.concatenate([s.x, x]), np.concatenate([s.y, y]),
+                   np.concatenate([s.offset, off]),
+                   np.concatenate([s.image, np.full(len(y), -1, s.image.dtype)]),
+                   np.concatenate([s.label_crop, np.ones(len(y), bool)]),
+                   np.concatenate([s.ctx, ctx]))
+
+
 def _hue_turn(angle: float, sat: float) -> np.ndarray:
     """3 x 3 on (B, G, R): turn the colour about the grey axis by angle, scale its
     saturation by sat (grey stays grey)."""
@@ -316,6 +327,9 @@ def main() -> None:
         _report(args.output, net, data, x, ctx, t0)
         return
     samples = cached_samples(args.roots, args.groups, args.cache)
+    if args.flying > 0:
+        samples = {name: with_flying(s, args.flying, np.random.default_rng([args.seed, 1, k]))
+                   for k, (name, s) in enumerate(samples.items())}
     runs = []
     if args.held_out is not None:
         from dsp.ball_file import ball_file_text
@@ -331,8 +345,7 @@ def main() -> None:
         t0 = time.perf_counter()
         data_xy = select_events(samples, split)
         print(f"{output}: {split}, {len(data_xy[1])} samples", flush=True)
-        net = train(Path(), split, args.seed, args.epochs, args.hue, data=data_xy,
-                    fly=args.flying)
+        net = train(Path(), split, args.seed, args.epochs, args.hue, data=data_xy)
         data = export(net, output)
         _report(output, net, data, data_xy[0], data_xy[3], t0)
 

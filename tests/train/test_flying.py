@@ -1,4 +1,4 @@
-"""train/flying.py (``train.py --flying N``): balls in the air made from positive crops are
+"""train/flying.py (``train.py --flying SHARE``): balls in the air made from positive crops are
 the same crops again from the same generator, smeared along one direction by the motion
 blur, shrunk with their targets, and pasted over a background with no field. NumPy and
 OpenCV only (no torch)."""
@@ -24,6 +24,12 @@ def _module() -> ModuleType:
 
 
 fly = _module()
+
+
+@pytest.fixture(autouse=True)
+def _one_background(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two negatives here: backgrounds only where there is no field."""
+    monkeypatch.setattr(fly, "MIN_BACKGROUNDS", 1)
 
 
 def _samples() -> tuple[np.ndarray, ...]:

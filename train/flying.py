@@ -37,6 +37,9 @@ crop's side from the middle, the log of its size within this of the framing's.""
 NO_FIELD = 0.3
 """Largest field share of a background crop's ring (few crops have none: 170 of 53,000
 negatives under 0.1, 470 under 0.3)."""
+MAX_PER_BALL = 8.0
+"""At most this many look-alikes in the air per ball in the air (``train.py``'s cap on the
+positives' weight)."""
 MIN_BACKGROUNDS = 20
 """Backgrounds at the least: the negatives with the least field when fewer have none."""
 
@@ -94,20 +97,28 @@ def fly_one(ball: np.ndarray, off: np.ndarray, ctx: np.ndarray, background: np.n
 
 
 def flying(x: np.ndarray, y: np.ndarray, off: np.ndarray, ctx: np.ndarray, share: float,
-           rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+           rng: np.random.Generator, per_ball: float | None = None
+           ) -> tuple[np.ndarray, ...]:
     """Balls in the air for ``share`` of the framed positives of (x, y, offset, context) (drawn
-    with replacement above 1), and as many look-alikes in the air: negatives' middles (the
-    blob, framed as a ball is) made over in the same way and labelled 0, so that a crop
-    with no field and a smeared blob does not mean a ball by itself. The extra samples as
+    with replacement above 1), and ``per_ball`` look-alikes in the air for each: negatives'
+    middles (the blob, framed as a ball is) made over in the same way and labelled 0, so
+    that a crop with no field and a smeared blob does not mean a ball by itself. By
+    default ``per_ball`` is the samples' negatives per positive, at most ``MAX_PER_BALL``:
+    ``train.py`` weighs a positive by that ratio, so the look-alikes in the air then weigh
+    as much as the balls (one each let the check call 83-100 % of the held-out events'
+    crops with little field a ball). The extra samples as
     the same four arrays, positives first. Backgrounds: the negatives with at most
     ``NO_FIELD`` field in their ring (the ``MIN_BACKGROUNDS`` with the least when fewer)."""
     framed = (np.abs(off[:, :2]).max(axis=1) <= FRAMED[0]) & (np.abs(off[:, 2]) <= FRAMED[1])
     pos, neg = np.flatnonzero((y > 0) & framed), np.flatnonzero(y == 0)
     bgs = neg[np.argsort(ctx[neg, 2], kind="stable")[:max(MIN_BACKGROUNDS, int(np.sum(
         ctx[neg, 2] <= NO_FIELD)))]]
+    if per_ball is None:
+        per_ball = min(MAX_PER_BALL, len(neg) / max(1, int(np.sum(y > 0))))
     count = round(share * len(pos))
+    alike = round(per_ball * count)
     chosen = np.concatenate([rng.choice(pos, count, replace=count > len(pos)),
-                             rng.choice(neg, count, replace=count > len(neg))])
+                             rng.choice(neg, alike, replace=alike > len(neg))])
     n = len(chosen)
     xs = np.empty((n, *x.shape[1:]), np.float32)
     offs = np.empty((n, 3), np.float32)

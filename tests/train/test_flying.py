@@ -123,3 +123,13 @@ def test_a_ball_the_crop_does_not_frame_is_not_pasted() -> None:
     _, yf, offf, _ = fly.flying(x, y, off, ctx, 3.0, np.random.default_rng(4))
     assert yf.tolist() == [1.0] * 3 + [0.0] * 3
     assert np.all(offf[:3, 2] <= 0.0) and np.all(np.abs(offf[:3, :2]) < 1e-6)
+
+
+def test_the_look_alikes_weigh_as_the_balls() -> None:
+    x, y, off, ctx = _samples()
+    more = np.concatenate([y, np.zeros(4, np.float32)])  # six negatives for two balls
+    xs, offs, ctxs = (np.concatenate([a, a[[2, 3, 2, 3]]]) for a in (x, off, ctx))
+    _, yf, _, _ = fly.flying(xs, more, offs, ctxs, 1.0, np.random.default_rng(5))
+    assert yf.tolist() == [1.0] * 2 + [0.0] * 6
+    _, yf, _, _ = fly.flying(xs, more, offs, ctxs, 1.0, np.random.default_rng(5), per_ball=1.0)
+    assert yf.tolist() == [1.0] * 2 + [0.0] * 2

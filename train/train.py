@@ -306,7 +306,8 @@ def main() -> None:
     ap.add_argument("--flying", type=float, default=0.0, metavar="SHARE",
                     help="balls in the air for this share of the positives, and as many "
                          "look-alikes made over alike (flying.py: shrunk, darkened, "
-                         "motion-blurred, over a crop with little field; default 0: none)")
+                         "motion-blurred, over a crop with little field; default 0: none; "
+                         "not better held out by event, docs/notes/detection.md)")
     ap.add_argument("--held-out", type=Path, metavar="DIR",
                     help="with --groups: also one check per event trained without it "
                     "(DIR/lovo-EVENT.onnx) and the generic model without it "

@@ -43,6 +43,7 @@ from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from dataset import TRAIN_COUNT, Samples, build_folder, build_items
+from flying import flying
 from generic import events, fit_generic, pick
 
 from dsp.labelled import labelled_folders
@@ -168,6 +169,17 @@ def select_events(samples: dict[str, Samples], split: str) -> tuple[np.ndarray, 
                  for f in ("x", "y", "offset", "ctx"))
 
 
+def with_flying(s: Samples, share: float, rng: np.random.Generator) -> Samples:
+    """An event's samples and its balls and look-alikes in the air (``flying.py``, on the
+    event's own crops: a check held out from the event sees none of them)."""
+    x, y, off, ctx = flying(s.x, s.y, s.offset, s.ctx, share, rng)
+    return Samples(np.concatenate([s.x, x]), np.concatenate([s.y, y]),
+                   np.concatenate([s.offset, off]),
+                   np.concatenate([s.image, np.full(len(y), -1, s.image.dtype)]),
+                   np.concatenate([s.label_crop, np.ones(len(y), bool)]),
+                   np.concatenate([s.ctx, ctx]))
+
+
 def _hue_turn(angle: float, sat: float) -> np.ndarray:
     """3 x 3 on (B, G, R): turn the colour about the grey axis by angle, scale its
     saturation by sat (grey stays grey)."""
@@ -205,12 +217,17 @@ def augment(x: np.ndarray, off: np.ndarray, rng: np.random.Generator, hue: float
 
 
 def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS, hue: float = 0.0,
-          data: tuple[np.ndarray, ...] | None = None) -> CheckNet:
+          data: tuple[np.ndarray, ...] | None = None, fly: float = 0.0) -> CheckNet:
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(seed)
     x, y, off, ctx = select(root, split) if data is None else data
+    if fly > 0:
+        # its own stream of the seed: the shuffles and augments draw as before
+        extra = flying(x, y, off, ctx, fly, np.random.default_rng([seed, 1]))
+        x, y, off, ctx = (np.concatenate([a, b])
+                          for a, b in zip((x, y, off, ctx), extra, strict=True))
     net = CheckNet()
     opt = torch.optim.Adam(net.parameters(), lr=LR, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
@@ -286,6 +303,11 @@ def main() -> None:
     ap.add_argument("--hue", type=float, default=0.0, metavar="SHARE",
                     help="share of the crops turned to a random hue and saturation (default "
                          "0: none; the shipped and held-out checks are made without)")
+    ap.add_argument("--flying", type=float, default=0.0, metavar="SHARE",
+                    help="balls in the air for this share of the positives, and as many "
+                         "look-alikes made over alike (flying.py: shrunk, darkened, "
+                         "motion-blurred, over a crop with little field; default 0: none; "
+                         "not better held out by event, docs/notes/detection.md)")
     ap.add_argument("--held-out", type=Path, metavar="DIR",
                     help="with --groups: also one check per event trained without it "
                     "(DIR/lovo-EVENT.onnx) and the generic model without it "
@@ -299,12 +321,16 @@ def main() -> None:
     if args.groups is None:
         if len(args.roots) != 1 or args.held_out is not None:
             raise SystemExit("several roots and --held-out go with --groups")
-        net = train(args.roots[0], args.split, args.seed, args.epochs, args.hue)
+        net = train(args.roots[0], args.split, args.seed, args.epochs, args.hue,
+                    fly=args.flying)
         data = export(net, args.output)
         x, _, _, ctx = select(args.roots[0], args.split)
         _report(args.output, net, data, x, ctx, t0)
         return
     samples = cached_samples(args.roots, args.groups, args.cache)
+    if args.flying > 0:
+        samples = {name: with_flying(s, args.flying, np.random.default_rng([args.seed, 1, k]))
+                   for k, (name, s) in enumerate(samples.items())}
     runs = []
     if args.held_out is not None:
         from dsp.ball_file import ball_file_text

@@ -19,11 +19,15 @@ velocity after; the distances L_i come from the previous solution (three passes,
 from each ray's ground point). :func:`contact_time` scans the instants between the rays'
 stamps for the ``t_c`` that fits best. Rays more than :data:`RAY_GATE_CHI2` off the fit
 (a false blob, a ray of the ball held by a robot) are dropped, the worst first, and the fit
-made again. Pure and deterministic.
+made again. The fits of one scan are solved together (:func:`fit_kinks`: one batch of
+normal equations per pass, a dropped ray weighing nothing), and a rough fit (one pass,
+the worst rays dropped at once) tells cheaply whether a fit is worth making well. Pure and
+deterministic.
 """
 
 from __future__ import annotations
 
+import bisect
 import functools
 import itertools
 import math
@@ -36,7 +40,8 @@ from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Matrix
 from estimator.rays import BallRay
 
-__all__ = ["RAY_GATE_CHI2", "Kink", "StampedRay", "contact_time", "fit_kink"]
+__all__ = ["RAY_GATE_CHI2", "Gap", "Kink", "StampedRay", "best_gap", "contact_time",
+           "fit_kink", "fit_kinks", "refine"]
 
 G_MPS2 = 9.81
 RAY_GATE_CHI2 = 13.82
@@ -45,6 +50,10 @@ RAY_GATE_CHI2 = 13.82
 _MIN_LENGTH_M = 0.1
 _PASSES = 3
 _MAX_DROPPED = 3
+_REFINE_NS = 1_000_000
+_REFINE_STEPS = 32
+"""A gap searched for the contact is tried every :data:`_REFINE_NS` or at this many
+instants and one more, then at half as many about the best of them."""
 
 StampedRay = tuple[int, BallRay]
 """A ray and its image's stamp [ns]."""
@@ -108,31 +117,25 @@ class Kink:
         return self.contact_ns + round(t * NS_PER_S) if t > 1e-3 else None
 
 
-def _model(taus: Matrix, before: str, after: str) -> tuple[Matrix, Matrix]:
-    """Each ray's M (3 x n) and b (3): p(t_i) = M_i theta + b_i. ``before="free"``: no
-    contact, one flight through all the rays, theta = (x, y, z) at ``contact_ns`` and the
-    velocity then."""
-    free = before == "free"
-    nb = {"fly": 3, "roll": 2, "free": 1}[before]
-    na = 3 if after == "fly" else 2
-    n = 2 + nb + na
-    m = len(taus)
-    M = np.zeros((m, 3, n))
-    M[:, 0, 0] = M[:, 1, 1] = 1.0
-    b = np.zeros((m, 3))
-    if free:
-        M[:, 2, 2] = 1.0
+def _columns(taus: Matrix, before: str, after: str) -> tuple[list[tuple[int, Matrix | None]],
+                                                          Matrix]:
+    """The fit's unknowns for rays at ``taus`` (any shape: the rays' instants after each
+    contact tried): p(t_i) = sum over theta's entries k of theta_k f_k(t_i) e_axis(k), + b_i.
+    Each entry's axis and factor (None: 1), and b. ``before="free"``: no contact, one flight
+    through all the rays, theta = (x, y, z) at ``contact_ns`` and the velocity then."""
+    b = np.zeros((*taus.shape, 3))
+    if before == "free":
+        cols: list[tuple[int, Matrix | None]] = [(0, None), (1, None), (2, None)]
+        pieces = [(after, taus)]
     else:
-        b[:, 2] = BALL_RADIUS_M
-    pieces = [(after, 2 + nb, na, np.ones(m, bool))] if free else [
-        (before, 2, nb, taus < 0.0), (after, 2 + nb, na, taus >= 0.0)]
-    for piece, first, k, mask in pieces:
-        t = np.where(mask, taus, 0.0)
-        for j in range(k):
-            M[:, j, first + j] = t
+        cols = [(0, None), (1, None)]
+        b[..., 2] = BALL_RADIUS_M
+        pieces = [(before, np.minimum(taus, 0.0)), (after, np.maximum(taus, 0.0))]
+    for piece, t in pieces:
+        cols += [(j, t) for j in range(3 if piece == "fly" else 2)]
         if piece == "fly":
-            b[:, 2] -= 0.5 * G_MPS2 * t * t
-    return M, b
+            b[..., 2] -= 0.5 * G_MPS2 * t * t
+    return cols, b
 
 
 @functools.lru_cache(maxsize=4096)
@@ -146,98 +149,146 @@ def _ray_rows(ray: BallRay) -> Matrix:
                            [ray.sigma_azimuth_rad, ray.sigma_elevation_rad, length]])
 
 
-def _solve(rays: Sequence[StampedRay], contact_ns: int, before: str, after: str
-           ) -> tuple[Matrix, Matrix, Matrix] | None:
-    """theta, its covariance and each ray's chi-square; None when the rays do not fix it."""
-    taus = np.array([(t - contact_ns) / NS_PER_S for t, _ in rays])
-    M, b = _model(taus, before, after)
-    rows = np.array([_ray_rows(r) for _, r in rays])
+_Solved = tuple[Matrix, Matrix, Matrix, Matrix]
+
+
+def _solve(rows: Matrix, taus: Matrix, keep: Matrix, before: str, after: str,
+           passes: int = _PASSES) -> _Solved:
+    """Many fits at once, one per row of ``taus`` (each ray's instant after that fit's
+    contact) with the rays ``keep`` says (a dropped ray weighs nothing): each fit's theta,
+    its covariance, each ray's chi-square, and whether the rays fix it."""
+    cols, b = _columns(taus, before, after)
+    g, m, n = taus.shape[0], taus.shape[1], len(cols)
     c, d, E = rows[:, 0:3], rows[:, 3:6], rows[:, 6:12].reshape(-1, 2, 3)
-    sig, length = rows[:, 12:14], rows[:, 14]
-    EM = np.einsum("mij,mjn->min", E, M)  # (m, 2, n)
-    Ey = np.einsum("mij,mj->mi", E, c - b)
-    theta = cov = chi = None
-    for k in range(_PASSES):
-        w = 1.0 / (length[:, None] * sig)
-        A = (EM * w[:, :, None]).reshape(-1, M.shape[2])
-        y = (Ey * w).reshape(-1)
-        N = A.T @ A
-        if k == 0 and np.linalg.cond(N) > 1e12:
-            return None
+    sig = rows[:, 12:14]
+    EM = np.empty((g, m, 2, n))  # each ray's two offsets across it, per unknown
+    dM = np.empty((g, m, n))  # and its distance along it
+    for k, (axis, f) in enumerate(cols):
+        EM[..., k] = E[:, :, axis] if f is None else E[:, :, axis] * f[..., None]
+        dM[..., k] = d[:, axis] if f is None else d[:, axis] * f
+    Ey = (E @ c[:, :, None])[None, :, :, 0] - E[None, :, :, 2] * b[..., 2:3]
+    dbc = d[:, 2] * b[..., 2] - (d * c).sum(axis=1)
+    length = np.broadcast_to(rows[:, 14], (g, m))
+    ok = np.ones(g, bool)
+    theta = cov = chi = np.zeros(0)
+    for k in range(passes):
+        w = keep[:, :, None] / (length[:, :, None] * sig)
+        A = (EM * w[..., None]).reshape(g, 2 * m, n)
+        y = (Ey * w).reshape(g, 2 * m, 1)
+        At = A.transpose(0, 2, 1)
+        N = At @ A
+        if k == 0:
+            eig = np.abs(np.linalg.eigvalsh(N))
+            ok = eig.max(axis=1) <= 1e12 * eig.min(axis=1)
+        N[~ok] = np.eye(n)  # not fixed: solved as anything, and dropped
         cov = np.linalg.inv(N)
-        theta = cov @ (A.T @ y)
-        p = np.einsum("mjn,n->mj", M, theta) + b
-        length = np.maximum(np.einsum("mj,mj->m", d, p - c), _MIN_LENGTH_M)
-        chi = (((A @ theta - y).reshape(-1, 2)) ** 2).sum(axis=1)
-    assert theta is not None and cov is not None and chi is not None
-    return theta, 0.5 * (cov + cov.T), chi
+        theta = cov @ (At @ y)
+        length = np.maximum((dM @ theta)[..., 0] + dbc, _MIN_LENGTH_M)
+        chi = ((A @ theta - y).reshape(g, m, 2) ** 2).sum(axis=2)
+    return theta[..., 0], 0.5 * (cov + cov.transpose(0, 2, 1)), chi, ok
+
+
+def fit_kinks(rays: Sequence[StampedRay], contacts: Sequence[int], before: str = "roll",
+              after: str = "fly", rough: bool = False) -> list[Kink | None]:
+    """:func:`fit_kink` at each of ``contacts``, solved together. ``rough``: the distances
+    along the rays those of their ground points, the worst rays beyond the gate dropped all
+    at once (a third of the solves)."""
+    if not contacts or not rays:
+        return [None] * len(contacts)
+    rows = np.array([_ray_rows(r) for _, r in rays])
+    stamps = np.array([t for t, _ in rays], dtype=np.int64)
+    at = np.array(contacts, dtype=np.int64)
+    taus = (stamps[None, :] - at[:, None]) / NS_PER_S
+    keep = np.ones(taus.shape, bool)
+    passes, rounds, at_once = (1, 1, _MAX_DROPPED) if rough else (_PASSES, _MAX_DROPPED, 1)
+    theta, cov, chi, ok = _solve(rows, taus, keep, before, after, passes)
+    live, n = ok.copy(), theta.shape[1]
+    for _ in range(rounds):
+        kept_chi = np.where(keep, chi, -np.inf)
+        worst = np.argsort(-kept_chi, axis=1)[:, :at_once]
+        beyond = (np.take_along_axis(kept_chi, worst, axis=1) > RAY_GATE_CHI2) & (
+            np.arange(worst.shape[1]) < keep.sum(axis=1, keepdims=True) - n)
+        drop = live & beyond[:, 0]
+        if not drop.any():
+            break
+        some = np.flatnonzero(drop)
+        fit, which = np.nonzero(beyond[some])
+        keep[some[fit], worst[some[fit], which]] = False
+        theta[some], cov[some], chi[some], again = _solve(rows, taus[some], keep[some],
+                                                          before, after, passes)
+        ok[some] = again
+        live = drop & ok
+    out: list[Kink | None] = []
+    for i, contact in enumerate(contacts):
+        if not ok[i]:
+            out.append(None)
+            continue
+        robots = len({r.robot for (t, r), k in zip(rays, keep[i], strict=True)
+                      if k and (t >= contact or before == "free")})
+        out.append(Kink(contact, before, after, theta[i], cov[i],
+                        float(chi[i][keep[i]].sum()), int(keep[i].sum()), robots))
+    return out
 
 
 def fit_kink(rays: Sequence[StampedRay], contact_ns: int, before: str = "roll",
-             after: str = "fly") -> Kink | None:
+             after: str = "fly", rough: bool = False) -> Kink | None:
     """The two pieces meeting on the ground at ``contact_ns`` that the rays fit best (the
     worst rays beyond :data:`RAY_GATE_CHI2` dropped, up to three); None when the rays kept
     do not fix them (too few on either side)."""
-    kept = list(rays)
-    solved = _solve(kept, contact_ns, before, after)
-    for _ in range(_MAX_DROPPED):
-        if solved is None:
-            return None
-        worst = int(np.argmax(solved[2]))
-        if solved[2][worst] <= RAY_GATE_CHI2 or len(kept) <= solved[0].size:
-            break
-        del kept[worst]
-        solved = _solve(kept, contact_ns, before, after)
-    if solved is None:
-        return None
-    theta, cov, chi = solved
-    robots = len({r.robot for t, r in kept if t >= contact_ns or before == "free"})
-    return Kink(contact_ns, before, after, theta, cov, float(chi.sum()), len(kept), robots)
+    return fit_kinks(rays, [contact_ns], before, after, rough)[0]
+
+
+Gap = tuple[Kink, int, int]
+"""A contact's fit at the middle of a gap between the rays' stamps, and the gap [ns]."""
+
+
+def best_gap(rays: Sequence[StampedRay], lo_ns: int, hi_ns: int, before: str = "roll",
+             after: str = "fly", min_after: int = 2, min_before: int = 1,
+             rough: bool = False) -> Gap | None:
+    """The gap between two rays' stamps (within ``lo_ns`` and ``hi_ns``, ``min_after``
+    rays after it and ``min_before`` before) whose fit at its middle drops the fewest rays
+    and, among those, has the smallest chi-square; all the gaps' fits solved together."""
+    times = sorted(t for t, _ in rays)
+    spans = []
+    for t0, t1 in itertools.pairwise(sorted(set(times))):
+        a, b = max(t0 + 1, lo_ns), min(t1, hi_ns)
+        if a <= b and len(times) - bisect.bisect_left(times, t1) >= min_after and (
+                bisect.bisect_right(times, t0) >= min_before):
+            spans.append((a, b))
+    fits = fit_kinks(rays, [(a + b) // 2 for a, b in spans], before, after, rough)
+    gaps = [(k, a, b) for k, (a, b) in zip(fits, spans, strict=True) if k is not None]
+    return min(gaps, key=lambda g: _rank(g[0])) if gaps else None
+
+
+def refine(rays: Sequence[StampedRay], gap: Gap) -> Kink:
+    """The best contact in a gap (:func:`best_gap`): between two rays' stamps the
+    chi-square is smooth in the contact's instant, so the gap is tried at up to
+    :data:`_REFINE_STEPS` instants a millisecond or more apart, then at half as many
+    about the best of them (each time all together)."""
+    best, a, b = gap
+    steps = min(_REFINE_STEPS, max(1, -(-(b - a) // _REFINE_NS)))
+    for _ in range(2):
+        at = [a + (b - a) * i // steps for i in range(steps + 1)]
+        found = [k for k in fit_kinks(rays, at, best.before, best.after) if k is not None]
+        best = min([best, *found], key=_rank)
+        step = (b - a) // steps
+        a, b = max(a, best.contact_ns - step), min(b, best.contact_ns + step)
+        steps = _REFINE_STEPS // 2
+    return best
 
 
 def contact_time(rays: Sequence[StampedRay], lo_ns: int, hi_ns: int, before: str = "roll",
                  after: str = "fly", min_after: int = 2, min_before: int = 1) -> Kink | None:
     """The contact between ``lo_ns`` and ``hi_ns`` whose fit drops the fewest rays and,
     among those, has the smallest chi-square; None when no instant leaves ``min_after``
-    rays after it and a fit. Between two rays' stamps the chi-square is smooth in the
-    contact's instant: each gap is tried at its middle, and the best one searched
-    through (golden section, to a millisecond)."""
-    stamps = sorted({t for t, _ in rays})
-    gaps: list[tuple[Kink, int, int]] = []
-    for t0, t1 in itertools.pairwise(stamps):
-        a, b = max(t0 + 1, lo_ns), min(t1, hi_ns)
-        if a > b or sum(1 for t, _ in rays if t >= t1) < min_after or sum(
-                1 for t, _ in rays if t <= t0) < min_before:
-            continue
-        kink = fit_kink(rays, (a + b) // 2, before, after)
-        if kink is not None:
-            gaps.append((kink, a, b))
-    gaps.sort(key=lambda g: _rank(g[0]))
-    found = [_refine(rays, kink, a, b) for kink, a, b in gaps[:1]]
-    return min(found, key=_rank) if found else None
+    rays after it and a fit: the best gap (:func:`best_gap`) searched through
+    (:func:`refine`)."""
+    gap = best_gap(rays, lo_ns, hi_ns, before, after, min_after, min_before)
+    return None if gap is None else refine(rays, gap)
 
 
 def _rank(kink: Kink) -> tuple[int, float]:
     return -kink.rays, kink.chi2
-
-
-def _refine(rays: Sequence[StampedRay], kink: Kink, a: int, b: int) -> Kink:
-    """The best contact in [a, b] (golden section on the chi-square, to 1 ms)."""
-    best = kink
-    r = (math.sqrt(5.0) - 1.0) / 2.0
-    while b - a > 1_000_000:
-        m1, m2 = round(b - r * (b - a)), round(a + r * (b - a))
-        k1 = fit_kink(rays, m1, kink.before, kink.after)
-        k2 = fit_kink(rays, m2, kink.before, kink.after)
-        if k1 is None or k2 is None:
-            break
-        if _rank(k1) <= _rank(k2):
-            b = m2
-            best = min(best, k1, key=_rank)
-        else:
-            a = m1
-            best = min(best, k2, key=_rank)
-    return best
 
 
 def height_at(kink: Kink, stamp_ns: int) -> float:

@@ -55,10 +55,12 @@ from estimator.tracking.flight_fit import (
     RAY_GATE_CHI2,
     Kink,
     StampedRay,
+    best_gap,
     contact_time,
     fit_kink,
     height_at,
     per_dof,
+    refine,
 )
 from estimator.tracking.ray_pairs import ray_residual
 
@@ -80,6 +82,7 @@ class FlightFollower:
     fit_per_dof: float = 3.0
     margin_chi2: float = 10.0
     check_rays: int = 6
+    near: float = 0.5
     agree_chi2: float = GATE_CHI2_3DOF_999
     loose_m: float = 0.05
     bounce_rays: int = 3
@@ -161,17 +164,23 @@ class FlightFollower:
         return [(t, r) for t, r in self._rays if t >= lo]
 
     def _launch(self, stamp_ns: int) -> Kink | None:
-        """A lob in the window, if its rays say so (module docstring)."""
+        """A lob in the window, if its rays say so (module docstring). Rough fits first
+        (each gap at its middle, the distances along the rays those of their ground
+        points): when none comes near a lob (``near``), the search ends there."""
         window = self._window(stamp_ns)
         if len(window) < 5:
             return None
         lo, n = window[0][0], len(window)
-        kicks = [contact_time(window, lo, stamp_ns, before, "fly", min_before=2)
+        rough = [best_gap(window, lo, stamp_ns, before, "fly", min_before=2, rough=True)
                  for before in ("roll", "fly")]
-        kicks.append(fit_kink(window, stamp_ns, "free", "fly"))
-        found = [k for k in kicks if k is not None]
-        if not found:
-            return None
+        middles = [g[0] for g in rough if g is not None]
+        middles += filter(None, [fit_kink(window, stamp_ns, "free", "fly", rough=True)])
+        if not any(self._lob(k, window, stamp_ns, self.near) for k in middles):
+            return None  # no fit comes near a lob, however placed in its gap
+        gaps = [best_gap(window, lo, stamp_ns, before, "fly", min_before=2)
+                for before in ("roll", "fly")]
+        found = [refine(window, g) for g in gaps if g is not None]
+        found += filter(None, [fit_kink(window, stamp_ns, "free", "fly")])
         fly = min(found, key=lambda k: _score(k, n))
         if not self._lob(fly, window, stamp_ns):
             return None
@@ -181,14 +190,18 @@ class FlightFollower:
         self._kink, self._landing_ns = fly, fly.landing_ns()
         return fly
 
-    def _lob(self, kink: Kink, window: Sequence[StampedRay], stamp_ns: int) -> bool:
+    def _lob(self, kink: Kink, window: Sequence[StampedRay], stamp_ns: int,
+             slack: float = 1.0) -> bool:
+        """Whether ``kink`` is a lob (module docstring); with ``slack`` below 1, whether it
+        comes near one (its height, rise and fit looser by that factor)."""
         free = kink.before == "free"
         after = sum(1 for t, _ in window if t >= kink.contact_ns or free)
         vz = float(kink.velocity_after[2])
-        rising = -self.top_mps <= vz if free else self.launch_mps <= vz
+        top = self.top_mps / slack
+        rising = -top <= vz if free else self.launch_mps * slack <= vz
         return kink.robots >= 2 and after >= (self.check_rays if free else 2) and (
-            height_at(kink, stamp_ns) - BALL_RADIUS_M >= self.launch_m) and (
-            rising and vz <= self.top_mps and per_dof(kink) <= self.fit_per_dof)
+            height_at(kink, stamp_ns) - BALL_RADIUS_M >= self.launch_m * slack) and (
+            rising and vz <= top and per_dof(kink) <= self.fit_per_dof / slack)
 
     def _follow(self, stamp_ns: int, tracker: BallisticTracker) -> Kink | None:
         """The flight checked, or its bounce fitted (module docstring)."""

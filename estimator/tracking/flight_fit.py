@@ -40,8 +40,9 @@ from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.estimates import Matrix
 from estimator.rays import BallRay
 
-__all__ = ["RAY_GATE_CHI2", "Gap", "Kink", "StampedRay", "best_gap", "contact_time",
-           "fit_kink", "fit_kinks", "refine"]
+__all__ = ["RAY_GATE_CHI2", "Gap", "Job", "Kink", "StampedRay", "best_gap", "best_of",
+           "contact_time", "fit_jobs", "fit_kink", "fit_kinks", "gap_spans", "middles",
+           "ray_rows", "refine"]
 
 G_MPS2 = 9.81
 RAY_GATE_CHI2 = 13.82
@@ -139,9 +140,10 @@ def _columns(taus: Matrix, before: str, after: str) -> tuple[list[tuple[int, Mat
 
 
 @functools.lru_cache(maxsize=4096)
-def _ray_rows(ray: BallRay) -> Matrix:
-    """A ray as the fits use it, one row: camera (3), direction (3), the two unit vectors
-    across it (6), its two sigmas, the distance to its ground point (made once a ray)."""
+def ray_rows(ray: BallRay) -> Matrix:
+    """A ray as the fits (and the follower's surprise) use it, one row: camera (3),
+    direction (3), the two unit vectors across it (6), its two sigmas, the distance to its
+    ground point (made once a ray)."""
     c = np.array(ray.origin)
     e_az, e_el = ray.across()
     length = max(float(np.linalg.norm(np.array(ray.ground_point) - c)), _MIN_LENGTH_M)
@@ -150,37 +152,51 @@ def _ray_rows(ray: BallRay) -> Matrix:
 
 
 _Solved = tuple[Matrix, Matrix, Matrix, Matrix]
+_Design = tuple[Matrix, Matrix, Matrix, Matrix, Matrix]
+"""Per fit and ray: its two offsets across the ray per unknown (g, m, 2, w), its distance
+along it per unknown (g, m, w), the offsets and the distance of the rest (g, m, 2 and g, m),
+and which of the w unknowns the fit has not (1, else 0; g, w)."""
+Job = tuple[Sequence[int], str, str]
+"""Contacts to fit at, and the pieces before and after them (:func:`fit_kink`)."""
 
 
-def _solve(rows: Matrix, taus: Matrix, keep: Matrix, before: str, after: str,
-           passes: int = _PASSES) -> _Solved:
-    """Many fits at once, one per row of ``taus`` (each ray's instant after that fit's
-    contact) with the rays ``keep`` says (a dropped ray weighs nothing): each fit's theta,
-    its covariance, each ray's chi-square, and whether the rays fix it."""
+def _design(rows: Matrix, taus: Matrix, before: str, after: str, width: int) -> _Design:
     cols, b = _columns(taus, before, after)
-    g, m, n = taus.shape[0], taus.shape[1], len(cols)
+    g, m = taus.shape
     c, d, E = rows[:, 0:3], rows[:, 3:6], rows[:, 6:12].reshape(-1, 2, 3)
-    sig = rows[:, 12:14]
-    EM = np.empty((g, m, 2, n))  # each ray's two offsets across it, per unknown
-    dM = np.empty((g, m, n))  # and its distance along it
+    EM = np.zeros((g, m, 2, width))
+    dM = np.zeros((g, m, width))
     for k, (axis, f) in enumerate(cols):
         EM[..., k] = E[:, :, axis] if f is None else E[:, :, axis] * f[..., None]
         dM[..., k] = d[:, axis] if f is None else d[:, axis] * f
     Ey = (E @ c[:, :, None])[None, :, :, 0] - E[None, :, :, 2] * b[..., 2:3]
     dbc = d[:, 2] * b[..., 2] - (d * c).sum(axis=1)
-    length = np.broadcast_to(rows[:, 14], (g, m))
+    pad = np.broadcast_to((np.arange(width) >= len(cols)).astype(np.float64), (g, width))
+    return EM, dM, Ey, dbc, pad
+
+
+def _solve(rows: Matrix, design: _Design, keep: Matrix, passes: int) -> _Solved:
+    """Many fits at once, one per row of ``design``, with the rays ``keep`` says (a dropped
+    ray weighs nothing; an unknown a fit has not, nothing either): each fit's theta, its
+    covariance, each ray's chi-square, and whether the rays fix it."""
+    EM, dM, Ey, dbc, pad = design
+    g, m, _, width = EM.shape
+    sig, length = rows[:, 12:14], np.broadcast_to(rows[:, 14], (g, m))
+    diagonal = (slice(None), np.arange(width), np.arange(width))
     ok = np.ones(g, bool)
     theta = cov = chi = np.zeros(0)
     for k in range(passes):
         w = keep[:, :, None] / (length[:, :, None] * sig)
-        A = (EM * w[..., None]).reshape(g, 2 * m, n)
+        A = (EM * w[..., None]).reshape(g, 2 * m, width)
         y = (Ey * w).reshape(g, 2 * m, 1)
         At = A.transpose(0, 2, 1)
         N = At @ A
+        fill = N[diagonal].sum(axis=1) / np.maximum(width - pad.sum(axis=1), 1.0)
+        N[diagonal] += pad * fill[:, None]  # between its least and largest eigenvalues
         if k == 0:
             eig = np.abs(np.linalg.eigvalsh(N))
             ok = eig.max(axis=1) <= 1e12 * eig.min(axis=1)
-        N[~ok] = np.eye(n)  # not fixed: solved as anything, and dropped
+        N[~ok] = np.eye(width)  # not fixed: solved as anything, and dropped
         cov = np.linalg.inv(N)
         theta = cov @ (At @ y)
         length = np.maximum((dM @ theta)[..., 0] + dbc, _MIN_LENGTH_M)
@@ -188,46 +204,67 @@ def _solve(rows: Matrix, taus: Matrix, keep: Matrix, before: str, after: str,
     return theta[..., 0], 0.5 * (cov + cov.transpose(0, 2, 1)), chi, ok
 
 
-def fit_kinks(rays: Sequence[StampedRay], contacts: Sequence[int], before: str = "roll",
-              after: str = "fly", rough: bool = False) -> list[Kink | None]:
-    """:func:`fit_kink` at each of ``contacts``, solved together. ``rough``: the distances
-    along the rays those of their ground points, the worst rays beyond the gate dropped all
-    at once (a third of the solves)."""
-    if not contacts or not rays:
-        return [None] * len(contacts)
-    rows = np.array([_ray_rows(r) for _, r in rays])
+def fit_jobs(rays: Sequence[StampedRay], jobs: Sequence[Job], rough: bool = False
+             ) -> list[list[Kink | None]]:
+    """:func:`fit_kink` at each job's contacts, all solved together. ``rough``: the
+    distances along the rays those of their ground points, the worst rays beyond the gate
+    dropped all at once (a third of the solves)."""
+    if not rays or not any(contacts for contacts, _, _ in jobs):
+        return [[None] * len(contacts) for contacts, _, _ in jobs]
+    rows = np.array([ray_rows(r) for _, r in rays])
     stamps = np.array([t for t, _ in rays], dtype=np.int64)
-    at = np.array(contacts, dtype=np.int64)
+    at = np.array([t for contacts, _, _ in jobs for t in contacts], dtype=np.int64)
     taus = (stamps[None, :] - at[:, None]) / NS_PER_S
+    sizes = [len(_columns(taus[:1], before, after)[0]) for _, before, after in jobs]
+    parts, first = [], 0
+    for (contacts, before, after) in jobs:
+        parts.append(_design(rows, taus[first:first + len(contacts)], before, after,
+                             max(sizes)))
+        first += len(contacts)
+    EM, dM, Ey, dbc, pad = (np.concatenate(arrays) for arrays in zip(*parts, strict=True))
+    design = (EM, dM, Ey, dbc, pad)
+    n = np.repeat(sizes, [len(contacts) for contacts, _, _ in jobs])
     keep = np.ones(taus.shape, bool)
     passes, rounds, at_once = (1, 1, _MAX_DROPPED) if rough else (_PASSES, _MAX_DROPPED, 1)
-    theta, cov, chi, ok = _solve(rows, taus, keep, before, after, passes)
-    live, n = ok.copy(), theta.shape[1]
+    theta, cov, chi, ok = _solve(rows, design, keep, passes)
+    live = ok.copy()
     for _ in range(rounds):
         kept_chi = np.where(keep, chi, -np.inf)
         worst = np.argsort(-kept_chi, axis=1)[:, :at_once]
         beyond = (np.take_along_axis(kept_chi, worst, axis=1) > RAY_GATE_CHI2) & (
-            np.arange(worst.shape[1]) < keep.sum(axis=1, keepdims=True) - n)
+            np.arange(worst.shape[1]) < (keep.sum(axis=1) - n)[:, None])
         drop = live & beyond[:, 0]
         if not drop.any():
             break
         some = np.flatnonzero(drop)
         fit, which = np.nonzero(beyond[some])
         keep[some[fit], worst[some[fit], which]] = False
-        theta[some], cov[some], chi[some], again = _solve(rows, taus[some], keep[some],
-                                                          before, after, passes)
+        part = (EM[some], dM[some], Ey[some], dbc[some], pad[some])
+        theta[some], cov[some], chi[some], again = _solve(rows, part, keep[some], passes)
         ok[some] = again
         live = drop & ok
-    out: list[Kink | None] = []
-    for i, contact in enumerate(contacts):
-        if not ok[i]:
-            out.append(None)
-            continue
-        robots = len({r.robot for (t, r), k in zip(rays, keep[i], strict=True)
-                      if k and (t >= contact or before == "free")})
-        out.append(Kink(contact, before, after, theta[i], cov[i],
-                        float(chi[i][keep[i]].sum()), int(keep[i].sum()), robots))
+    names = sorted({r.robot for _, r in rays})
+    seen = np.array([[r.robot == name for name in names] for _, r in rays])  # (m, robots)
+    after = keep & ((stamps[None, :] >= at[:, None]) | np.repeat(
+        [before == "free" for _, before, _ in jobs], [len(c) for c, _, _ in jobs])[:, None])
+    robots = ((after.astype(np.int64) @ seen) > 0).sum(axis=1)
+    total, kept = np.where(keep, chi, 0.0).sum(axis=1), keep.sum(axis=1)
+    out: list[list[Kink | None]] = []
+    i = 0
+    for (contacts, before, after_), size in zip(jobs, sizes, strict=True):
+        out.append([])
+        for contact in contacts:
+            out[-1].append(None if not ok[i] else Kink(
+                contact, before, after_, theta[i, :size], cov[i, :size, :size],
+                float(total[i]), int(kept[i]), int(robots[i])))
+            i += 1
     return out
+
+
+def fit_kinks(rays: Sequence[StampedRay], contacts: Sequence[int], before: str = "roll",
+              after: str = "fly", rough: bool = False) -> list[Kink | None]:
+    """:func:`fit_kink` at each of ``contacts``, solved together (:func:`fit_jobs`)."""
+    return fit_jobs(rays, [(contacts, before, after)], rough)[0]
 
 
 def fit_kink(rays: Sequence[StampedRay], contact_ns: int, before: str = "roll",
@@ -242,12 +279,10 @@ Gap = tuple[Kink, int, int]
 """A contact's fit at the middle of a gap between the rays' stamps, and the gap [ns]."""
 
 
-def best_gap(rays: Sequence[StampedRay], lo_ns: int, hi_ns: int, before: str = "roll",
-             after: str = "fly", min_after: int = 2, min_before: int = 1,
-             rough: bool = False) -> Gap | None:
-    """The gap between two rays' stamps (within ``lo_ns`` and ``hi_ns``, ``min_after``
-    rays after it and ``min_before`` before) whose fit at its middle drops the fewest rays
-    and, among those, has the smallest chi-square; all the gaps' fits solved together."""
+def gap_spans(rays: Sequence[StampedRay], lo_ns: int, hi_ns: int, min_after: int = 2,
+              min_before: int = 1) -> list[tuple[int, int]]:
+    """The gaps between two rays' stamps (within ``lo_ns`` and ``hi_ns``) with
+    ``min_after`` rays after them and ``min_before`` before [ns]."""
     times = sorted(t for t, _ in rays)
     spans = []
     for t0, t1 in itertools.pairwise(sorted(set(times))):
@@ -255,9 +290,27 @@ def best_gap(rays: Sequence[StampedRay], lo_ns: int, hi_ns: int, before: str = "
         if a <= b and len(times) - bisect.bisect_left(times, t1) >= min_after and (
                 bisect.bisect_right(times, t0) >= min_before):
             spans.append((a, b))
-    fits = fit_kinks(rays, [(a + b) // 2 for a, b in spans], before, after, rough)
+    return spans
+
+
+def middles(spans: Sequence[tuple[int, int]]) -> list[int]:
+    """Each gap's middle [ns]."""
+    return [(a + b) // 2 for a, b in spans]
+
+
+def best_of(fits: Sequence[Kink | None], spans: Sequence[tuple[int, int]]) -> Gap | None:
+    """The gap whose fit at its middle (``fits``, of :func:`middles`) drops the fewest rays
+    and, among those, has the smallest chi-square."""
     gaps = [(k, a, b) for k, (a, b) in zip(fits, spans, strict=True) if k is not None]
     return min(gaps, key=lambda g: _rank(g[0])) if gaps else None
+
+
+def best_gap(rays: Sequence[StampedRay], lo_ns: int, hi_ns: int, before: str = "roll",
+             after: str = "fly", min_after: int = 2, min_before: int = 1) -> Gap | None:
+    """Of the gaps of :func:`gap_spans`, :func:`best_of`; all the gaps' fits solved
+    together."""
+    spans = gap_spans(rays, lo_ns, hi_ns, min_after, min_before)
+    return best_of(fit_kinks(rays, middles(spans), before, after), spans)
 
 
 def refine(rays: Sequence[StampedRay], gap: Gap) -> Kink:

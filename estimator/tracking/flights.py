@@ -53,16 +53,20 @@ from estimator.rays import BallRay
 from estimator.tracking.ballistic import G_MPS2, GATE_CHI2_3DOF_999, BallisticTracker
 from estimator.tracking.flight_fit import (
     RAY_GATE_CHI2,
+    Job,
     Kink,
     StampedRay,
-    best_gap,
+    best_of,
     contact_time,
+    fit_jobs,
     fit_kink,
+    gap_spans,
     height_at,
+    middles,
     per_dof,
+    ray_rows,
     refine,
 )
-from estimator.tracking.ray_pairs import ray_residual
 
 __all__ = ["FlightFollower"]
 
@@ -120,7 +124,10 @@ class FlightFollower:
         if not rays:
             return False
         self._offered = []
-        self._rays = [(t, r) for t, r in self._rays if t >= stamp_ns - _KEEP_NS]
+        old = 0  # the rays come in order of their stamps: the old ones first
+        while old < len(self._rays) and self._rays[old][0] < stamp_ns - _KEEP_NS:
+            old += 1
+        del self._rays[:old]
         self._rays += [(stamp_ns, r) for r in rays]
         if len({r.robot for r in rays}) >= 2:  # rays of one instant: crossed, the filter's
             self._prior = None if tracker.x is None else (
@@ -157,7 +164,7 @@ class FlightFollower:
         p = x[:3] + x[3:] * dt
         if flying:
             p[2] -= 0.5 * G_MPS2 * dt * dt
-        return [r.robot for r in rays if ray_residual(r, p) > self.off_sigma]
+        return [r.robot for r in rays if _residual(r, p) > self.off_sigma]
 
     def _window(self, stamp_ns: int) -> list[StampedRay]:
         lo = stamp_ns - round(self.window_s * NS_PER_S)
@@ -171,16 +178,15 @@ class FlightFollower:
         if len(window) < 5:
             return None
         lo, n = window[0][0], len(window)
-        rough = [best_gap(window, lo, stamp_ns, before, "fly", min_before=2, rough=True)
-                 for before in ("roll", "fly")]
-        middles = [g[0] for g in rough if g is not None]
-        middles += filter(None, [fit_kink(window, stamp_ns, "free", "fly", rough=True)])
-        if not any(self._lob(k, window, stamp_ns, self.near) for k in middles):
+        spans = gap_spans(window, lo, stamp_ns, min_before=2)
+        jobs = [(middles(spans), "roll", "fly"), (middles(spans), "fly", "fly"),
+                ([stamp_ns], "free", "fly")]
+        if not any(self._lob(k, window, stamp_ns, self.near) for k in _kicks(
+                window, spans, jobs, rough=True)):
             return None  # no fit comes near a lob, however placed in its gap
-        gaps = [best_gap(window, lo, stamp_ns, before, "fly", min_before=2)
-                for before in ("roll", "fly")]
-        found = [refine(window, g) for g in gaps if g is not None]
-        found += filter(None, [fit_kink(window, stamp_ns, "free", "fly")])
+        found = _kicks(window, spans, jobs, rough=False)
+        if not found:
+            return None
         fly = min(found, key=lambda k: _score(k, n))
         if not self._lob(fly, window, stamp_ns):
             return None
@@ -250,6 +256,25 @@ class FlightFollower:
                 loose <= 3 * self.loose_m ** 2 or np.trace(P[:3, :3]) >= loose):
             return None
         return free
+
+
+def _residual(ray: BallRay, point: Matrix) -> float:
+    """:func:`~estimator.tracking.ray_pairs.ray_residual`, from the ray's row of the fits."""
+    row = ray_rows(ray)
+    v = point - row[0:3]
+    length = max(float(row[3:6] @ v), 1e-6)
+    return math.hypot(float(row[6:9] @ v) / (length * row[12]),
+                      float(row[9:12] @ v) / (length * row[13]))
+
+
+def _kicks(window: Sequence[StampedRay], spans: Sequence[tuple[int, int]],
+           jobs: Sequence[Job], rough: bool) -> list[Kink]:
+    """A kick up from the ground in the best gap, from a fall in the best gap, and one flight
+    through the window, as far as each fits (``rough``: at the gaps' middles)."""
+    roll, fall, (free,) = fit_jobs(window, jobs, rough)
+    gaps = [best_of(roll, spans), best_of(fall, spans)]
+    kicks = [g[0] if rough else refine(window, g) for g in gaps if g is not None]
+    return kicks + ([] if free is None else [free])
 
 
 def _score(kink: Kink, rays: int) -> float:

@@ -86,7 +86,7 @@ class FlightFollower:
     fit_per_dof: float = 3.0
     margin_chi2: float = 10.0
     check_rays: int = 6
-    near: float = 0.5
+    near: float = 0.4
     agree_chi2: float = GATE_CHI2_3DOF_999
     loose_m: float = 0.05
     bounce_rays: int = 3

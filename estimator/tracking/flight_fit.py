@@ -142,13 +142,18 @@ def _columns(taus: Matrix, before: str, after: str) -> tuple[list[tuple[int, Mat
 @functools.lru_cache(maxsize=4096)
 def ray_rows(ray: BallRay) -> Matrix:
     """A ray as the fits (and the follower's surprise) use it, one row: camera (3),
-    direction (3), the two unit vectors across it (6), its two sigmas, the distance to its
-    ground point (made once a ray)."""
-    c = np.array(ray.origin)
-    e_az, e_el = ray.across()
-    length = max(float(np.linalg.norm(np.array(ray.ground_point) - c)), _MIN_LENGTH_M)
-    return np.concatenate([c, ray.direction, e_az, e_el,
-                           [ray.sigma_azimuth_rad, ray.sigma_elevation_rad, length]])
+    direction (3), the two unit vectors across it (6: :meth:`~estimator.rays.BallRay.across`),
+    its two sigmas, the distance to its ground point (made once a ray, in plain floats: a
+    ray's numpy arrays cost more than its arithmetic)."""
+    (ox, oy, oz), (ux, uy, uz) = ray.origin, ray.direction
+    h = math.hypot(ux, uy)
+    ax, ay = (-uy / h, ux / h) if h > 1e-12 else (0.0, 1.0)
+    ex, ey, ez = -uz * ay, uz * ax, ux * ay - uy * ax  # u x e_az (e_az level)
+    norm = math.sqrt(ex * ex + ey * ey + ez * ez)
+    t = (oz - BALL_RADIUS_M) / -uz if uz != 0.0 else math.inf
+    length = max(math.sqrt((t * ux) ** 2 + (t * uy) ** 2 + (t * uz) ** 2), _MIN_LENGTH_M)
+    return np.array([ox, oy, oz, ux, uy, uz, ax, ay, 0.0, ex / norm, ey / norm, ez / norm,
+                     ray.sigma_azimuth_rad, ray.sigma_elevation_rad, length])
 
 
 _Solved = tuple[Matrix, Matrix, Matrix, Matrix]

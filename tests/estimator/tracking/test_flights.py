@@ -3,13 +3,26 @@ a synthetic ball, three robots' rays at their own stamps (free-running cameras).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pytest
 
 from estimator.constants import BALL_RADIUS_M, NS_PER_S
 from estimator.rays import BallRay
+from estimator.tracking import flights
 from estimator.tracking.ballistic import G_MPS2, BallisticTracker
-from estimator.tracking.flight_fit import contact_time, fit_kink, per_dof
+from estimator.tracking.flight_fit import (
+    Job,
+    Kink,
+    StampedRay,
+    contact_time,
+    fit_jobs,
+    fit_kink,
+    fit_kinks,
+    per_dof,
+    ray_rows,
+)
 from estimator.tracking.flights import FlightFollower
 
 CAMERAS = {"robot1": (0.0, 0.0, 0.8), "robot2": (6.0, 4.0, 0.8), "robot3": (-3.0, 5.0, 0.8)}
@@ -174,3 +187,55 @@ def test_one_robot_s_rays_fix_a_flight_s_height_over_enough_of_it() -> None:
     long_errors = [fitted(0.85, seed)[0] for seed in range(5)]
     assert max(long_errors) < 0.1, long_errors
     assert min(fitted(0.3, seed)[1] for seed in range(5)) > 0.1
+
+
+def test_fits_solved_together_are_the_fits_made_one_by_one() -> None:
+    """Kinds of different sizes in one batch (padded to the largest), a false blob's ray
+    dropped: each fit is the one made alone, to rounding."""
+    shots = images(0.45)
+    rays = [(t, r) for t, r, _ in shots]
+    t, good = rays[20]
+    rays[20] = (t, ray(good.robot, shots[20][2] + np.array([1.0, -0.5, 0.0]),
+                       np.random.default_rng(5)))
+    contacts = [round(s * NS_PER_S) for s in (0.2, 0.3, 0.35)]
+    jobs = [(contacts, "roll", "fly"), (contacts[:2], "fly", "fly"),
+            ([shots[-1][0]], "free", "fly"), (contacts[1:], "roll", "roll")]
+    for (at, before, after), fits in zip(jobs, fit_jobs(rays, jobs), strict=True):
+        for contact, together in zip(at, fits, strict=True):
+            alone = fit_kinks(rays, [contact], before, after)[0]
+            assert together is not None and alone is not None
+            assert together.theta.size == alone.theta.size
+            assert np.allclose(together.theta, alone.theta, atol=1e-9)
+            assert np.allclose(together.cov, alone.cov, rtol=1e-6, atol=1e-12)
+            assert (together.rays, together.robots) == (alone.rays, alone.robots)
+            assert together.chi2 == pytest.approx(alone.chi2, rel=1e-9)
+
+
+def test_a_ray_s_row_is_its_camera_direction_and_the_vectors_across_it() -> None:
+    """The fits' row of a ray (made in floats) agrees with BallRay's own geometry."""
+    for _, r, _ in images(0.2, seed=3):
+        row = ray_rows(r)
+        e_az, e_el = r.across()
+        ground = np.linalg.norm(np.array(r.ground_point) - np.array(r.origin))
+        assert np.allclose(row[:6], [*r.origin, *r.direction])
+        assert np.allclose(row[6:12], [*e_az, *e_el], atol=1e-12)
+        assert row[14] == pytest.approx(ground, rel=1e-12)
+
+
+def test_a_kick_along_the_ground_ends_the_search_at_its_rough_fits(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ball kicked along the ground sets off launch searches, but no rough fit comes near
+    a lob, so none asks for the full fits; a lob's search does, and starts the flight."""
+    asked: list[bool] = []
+
+    def counted(rays: Sequence[StampedRay], jobs: Sequence[Job], rough: bool = False
+                ) -> list[list[Kink | None]]:
+        asked.append(rough)
+        return fit_jobs(rays, jobs, rough)
+
+    monkeypatch.setattr(flights, "fit_jobs", counted)
+    _, steps = _follow(images(0.6, up=np.array([4.0, -1.0, 0.0])))
+    assert asked and all(asked) and not any(airborne for _, airborne, _ in steps)
+    asked.clear()
+    _, steps = _follow(images(0.5))
+    assert not all(asked) and any(airborne for _, airborne, _ in steps)

@@ -20,7 +20,10 @@ filter's: they cross, and it takes the point) does this:
   either way), fits to ``fit_per_dof`` per degree of freedom, and beats a kick along the
   ground (rolling after it) by ``margin_chi2``. The 3-D track takes the fitted state at
   the step, with its covariance: a flight from the first rays a ball on the ground does
-  not explain, with no simultaneous pair.
+  not explain, with no simultaneous pair. The kicks and hops of a ground match set this
+  search off often, so it begins with rough fits (each gap at its middle, one pass:
+  :func:`~estimator.tracking.flight_fit.fit_jobs`) and ends there unless one of them
+  passes the test above loosened by ``near`` (heights, rises and fits that far off).
 - **in flight, before the landing the track predicts**: one flight through the last
   ``window_s`` of rays since the kick (``check_rays`` or more of two robots) is the check
   of the track's filter: when the track is off it beyond ``agree_chi2`` (3 degrees of

@@ -125,7 +125,7 @@ def bench_eval(tmp: Path, count: int, workers: int, repeat: int, ray_address: st
 def bench_replay(tmp: Path, logs: Path, workers: int, repeat: int,
                  ray_address: str | None) -> tuple[dict[str, list[float]], str]:
     """A dsp-replay batch of ``logs`` in each mode."""
-    return _bench(tmp, "replay", "dsp-replay batch", ["replay.cli", str(logs), "--out-mcap"],
+    return _bench(tmp, "replay", "dsp-replay batch", ["replay.cli", str(logs), "--estimates"],
                   workers, repeat, ray_address)
 
 

@@ -28,9 +28,9 @@ from dsp.ball_file import ball_file_text, shipped_generic
 from dsp.camera_file import CAMERA_FILE_SUFFIXES
 from dsp.checks import check_number, check_suffix, check_topic_pattern
 from dsp.cli import echo, run_main
-from dsp.errors import InputError, UsageError
+from dsp.errors import UsageError
 from dsp.field import FIELD_ALIASES, FIELDS
-from dsp.field_file import field_from_json
+from dsp.field_file import FieldDescriptionError, field_from_json
 from dsp.plotting import FIGURE_SUFFIXES, save
 from dsp.textfile import TEXT_ERRORS
 from estimator.constants import BALL_RADIUS_M
@@ -162,7 +162,7 @@ def _measure(args: argparse.Namespace) -> MeasuredRun:
     if args.field is not None:
         try:
             field_from_json(args.field, "--field")
-        except InputError:
+        except FieldDescriptionError:
             known = ", ".join([*FIELDS, *FIELD_ALIASES])
             raise UsageError(f"--field {args.field!r} is not a field's name (known: {known}); "
                              "a field of other dimensions goes in the camera file's field key "

@@ -47,10 +47,12 @@ track's height (z and its 3 x 3 covariance): a lob is given where it flies, not 
 ground under it.
 
 Three rules give the ground track's position for a step while the 3-D track is kept: a
-rolling 3-D track that refused every estimate of its last step with estimates (the ground
-tracker took a kick or a jump the 3-D track gates out: until the 3-D track takes one again,
-the ground track is the surer; a flying one's refused ray leaves it in the air, where the
-ground tracker knows nothing); a rolling 3-D track that takes nothing at a step where its
+3-D track that refused every estimate of its last step with estimates (the ground tracker
+took a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the
+ground track is the surer), unless it is surely up (a flight its fits follow, or two sigmas
+more than ``lob_m`` up: a refused ray leaves a lob in the air, where the ground tracker
+knows nothing; a track that rose a few centimetres by itself is mostly a missed kick); a
+rolling 3-D track that takes nothing at a step where its
 velocity is ``kick_mps`` from the ground track's (it would be moved on with a velocity it
 has not yet found); and a rolling 3-D track whose largest position variance is more than
 ``loose_ratio`` times the ground track's (begun on one robot's images it knows little along
@@ -210,12 +212,24 @@ class HopFollower:
         if taken:
             self._loose = not tracker.airborne and self._looser(
                 fused.covariance, track.position_covariance)
-        if (self._refusing and not tracker.airborne) or self._loose or (
+        if (self._refusing and not self._surely_up()) or self._loose or (
                 kick and not taken and not tracker.airborne):
             return None  # the ground track's position, the 3-D track kept
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
                              z_m=fused.z_m, covariance_3d=fused.covariance_3d,
                              triangulated=fused.triangulated)
+
+    def _surely_up(self) -> bool:
+        """Whether the 3-D track flies a flight its fits follow, or flies more than two
+        sigmas above ``lob_m`` (a track that went up by itself and refuses what the ground
+        tracker takes is mostly a kick it missed, a few centimetres off the ground)."""
+        tracker = self._flight.tracker
+        if not tracker.airborne or tracker.x is None:
+            return False
+        if self._flight.flights.flying:
+            return True
+        sigma = math.sqrt(max(float(tracker.P[2, 2]), 0.0))
+        return float(tracker.x[2]) - BALL_RADIUS_M - self.lob_m > 2.0 * sigma
 
     def _looser(self, flight: Covariance, ground: Covariance) -> bool:
         """Whether the 3-D track's position variance (its largest) exceeds ``loose_ratio``

@@ -7,37 +7,41 @@ and those only offered to it, :meth:`FlightFollower.offer_all`) and after each s
 one robot's rays (a step of two robots' rays of one instant, cameras in sync, is the
 filter's: they cross, and it takes the point) does this:
 
-- **no flight followed**, at a step with a ray more than ``off_sigma`` off the track (as
-  it was at the last step, moved on), another robot's too within ``window_s``: it fits
-  the last ``window_s`` of rays as a kick up from the ground at some instant, the ball
-  rolling before it, or falling before it (kicked, or bouncing, as it landed; two rays
-  at least before the kick: :func:`~estimator.tracking.flight_fit.contact_time`), and as
-  one flight through them all (a ball already in the air, or coming down from above the
-  lens). The best fit, each ray it dropped counted at the gate, is a flight when its rays
-  after the kick are two or more of two robots or more (``check_rays`` through one
-  flight; one robot's rays over 0.3 s fix a flight's height to decimetres only), it is
-  ``launch_m`` up by now, rising at ``launch_mps`` to ``top_mps`` (one flight: no faster
-  either way), fits to ``fit_per_dof`` per degree of freedom, and beats a kick along the
-  ground (rolling after it) by ``margin_chi2``. The 3-D track takes the fitted state at
-  the step, with its covariance: a flight from the first rays a ball on the ground does
-  not explain, with no simultaneous pair. The kicks and hops of a ground match set this
-  search off often, so it begins with rough fits (each gap at its middle, one pass:
-  :func:`~estimator.tracking.flight_fit.fit_jobs`) and ends there unless one of them
-  passes the test above loosened by ``near`` (heights, rises and fits that far off).
+- **no flight followed**, at a step with a ray more than ``off_sigma`` off the track (as it
+  was at the last step, moved on), another robot's too within ``window_s``: it fits the last
+  ``window_s`` of rays as a kick up from the ground at some instant, the ball rolling before
+  it, or falling before it (kicked, or bouncing, as it landed; two rays at least before the
+  kick: :func:`~estimator.tracking.flight_fit.contact_time`), and as one flight through them
+  all (a ball already in the air, or coming down from above the lens). The best fit, each
+  ray it dropped counted at the gate and each value it fitted at Akaike's 2 (a kink's two
+  pieces fit a few rays of one flight closer than the flight does), none faster up or down
+  than ``top_mps``, is a flight when its rays after the kick are two or more of two robots
+  or more (``free_rays`` through one flight: five rays fix its six values; one robot's rays
+  over 0.3 s fix a flight's height to decimetres only), it is ``launch_m`` up by now, rising
+  at ``launch_mps`` to ``top_mps`` (one flight: no faster either way), fits to
+  ``fit_per_dof`` per degree of freedom, and beats a kick along the ground (rolling after
+  it) by ``margin_chi2``. The 3-D track takes the fitted state at the step, with its
+  covariance: a flight from the first rays a ball on the ground does not explain, with no
+  simultaneous pair. The kicks and hops of a ground match set this search off often, so it
+  begins with rough fits (each gap at its middle, one pass:
+  :func:`~estimator.tracking.flight_fit.fit_jobs`) and ends there unless one of them passes
+  the test above loosened by ``near`` (heights, rises and fits that far off).
 - **in flight, before the landing the track predicts**: one flight through the last
-  ``window_s`` of rays since the kick (``check_rays`` or more of two robots) is the check
-  of the track's filter: when the track is off it beyond ``agree_chi2`` (3 degrees of
-  freedom, 99.9 %: a flight begun wrong, the filter lagging), or, looser than ``loose_m``
-  each way, less sure of its position than the fit (a flight that came down unseen from
-  above the lenses, its variance grown on the way), it takes the fit's state. Air drag
-  bends long flights off one parabola: the filter, with its process noise, follows them,
-  and the fit looks back no further than ``window_s``.
+  ``window_s`` of rays since the kick (``check_rays`` or more of two robots) is the check of
+  the track's filter (fewer than that, the kick fitted again with the rays since, a lob by
+  the test above: a flight begun from the kick's first two rays is put right at the third):
+  when the track is off it beyond ``agree_chi2`` (3 degrees of freedom, 99.9 %: a flight
+  begun wrong, the filter lagging), or, looser than ``loose_m`` each way, less sure of its
+  position than the fit (a flight that came down unseen from above the lenses, its variance
+  grown on the way), it takes the fit's state. Air drag bends long flights off one parabola:
+  the filter, with its process noise, follows them, and the fit looks back no further than
+  ``window_s``.
 - **past the landing**: the track's own bounce carries the ball until ``bounce_rays`` rays
-  after it; then the contact is fitted between the flight before and the one after
-  (within ``retry_ns`` of the landing). A ball leaving it surely slower than
-  ``launch_mps`` upwards (two sigmas) is handed back to the ground (rolling at the fitted
-  level velocity), a surely faster one flies on from the contact; an unsure one waits for
-  more rays, up to ``window_s``.
+  after it (two: a ball kicked on as it lands is flown again at the second); then the
+  contact is fitted between the flight before and the one after (within ``retry_ns`` of the
+  landing). A ball leaving it surely slower than ``launch_mps`` upwards (two sigmas) is
+  handed back to the ground (rolling at the fitted level velocity), a surely faster one
+  flies on from the contact; an unsure one waits for more rays, up to ``window_s``.
 
 Pure and deterministic.
 """
@@ -89,10 +93,11 @@ class FlightFollower:
     fit_per_dof: float = 3.0
     margin_chi2: float = 10.0
     check_rays: int = 6
+    free_rays: int = 5
     near: float = 0.4
     agree_chi2: float = GATE_CHI2_3DOF_999
     loose_m: float = 0.05
-    bounce_rays: int = 3
+    bounce_rays: int = 2
     retry_ns: int = 40_000_000
     _rays: list[StampedRay] = field(default_factory=list)
     _offered: list[BallRay] = field(default_factory=list)
@@ -187,17 +192,21 @@ class FlightFollower:
         if not any(self._lob(k, window, stamp_ns, self.near) for k in _kicks(
                 window, spans, jobs, rough=True)):
             return None  # no fit comes near a lob, however placed in its gap
-        found = _kicks(window, spans, jobs, rough=False)
-        if not found:
-            return None
-        fly = min(found, key=lambda k: _score(k, n))
-        if not self._lob(fly, window, stamp_ns):
+        fly = self._best(_kicks(window, spans, jobs, rough=False), n)
+        if fly is None or not self._lob(fly, window, stamp_ns):
             return None
         roll = contact_time(window, lo, stamp_ns, "roll", "roll", min_before=2)
         if roll is not None and _score(roll, n) < _score(fly, n) + self.margin_chi2:
             return None
         self._kink, self._landing_ns = fly, fly.landing_ns()
         return fly
+
+    def _best(self, found: Sequence[Kink], rays: int) -> Kink | None:
+        """The fit of ``rays`` rays with the best score, its parameters counted against it
+        (Akaike's 2 each: a kink's two pieces fit five rays of one flight closer than the
+        flight does), of those no faster up or down than ``top_mps``."""
+        found = [k for k in found if abs(float(k.velocity_after[2])) <= self.top_mps]
+        return min(found, key=lambda k: _score(k, rays) + _penalty(k), default=None)
 
     def _lob(self, kink: Kink, window: Sequence[StampedRay], stamp_ns: int,
              slack: float = 1.0) -> bool:
@@ -208,7 +217,7 @@ class FlightFollower:
         vz = float(kink.velocity_after[2])
         top = self.top_mps / slack
         rising = -top <= vz if free else self.launch_mps * slack <= vz
-        return kink.robots >= 2 and after >= (self.check_rays if free else 2) and (
+        return kink.robots >= 2 and after >= (self.free_rays if free else 2) and (
             height_at(kink, stamp_ns) - BALL_RADIUS_M >= self.launch_m * slack) and (
             rising and vz <= top and per_dof(kink) <= self.fit_per_dof / slack)
 
@@ -246,10 +255,18 @@ class FlightFollower:
         is off it (module docstring)."""
         kink = self._kink
         assert kink is not None and tracker.x is not None
-        rays = [(t, r) for t, r in self._window(stamp_ns) if t >= kink.contact_ns]
-        if len(rays) < self.check_rays:
+        window = self._window(stamp_ns)
+        rays = [(t, r) for t, r in window if t >= kink.contact_ns]
+        if len(rays) >= self.check_rays:
+            free = fit_kink(rays, stamp_ns, "free", "fly")
+        elif kink.before != "free" and len(rays) > 2:  # the kick again, with the rays since
+            free = contact_time(window, kink.contact_ns - self.retry_ns,
+                                kink.contact_ns + self.retry_ns, kink.before, "fly",
+                                min_before=2)
+            if free is not None and not self._lob(free, window, stamp_ns):
+                return None
+        else:
             return None
-        free = fit_kink(rays, stamp_ns, "free", "fly")
         if free is None or free.robots < 2 or per_dof(free) > self.fit_per_dof:
             return None
         x, P = free.state_at(stamp_ns)
@@ -258,6 +275,8 @@ class FlightFollower:
         if float(d @ np.linalg.solve(tracker.P[:3, :3] + P[:3, :3], d)) <= self.agree_chi2 and (
                 loose <= 3 * self.loose_m ** 2 or np.trace(P[:3, :3]) >= loose):
             return None
+        if free.before != "free":
+            self._kink = free  # the kick refitted: its rays since are counted from it
         return free
 
 
@@ -278,6 +297,11 @@ def _kicks(window: Sequence[StampedRay], spans: Sequence[tuple[int, int]],
     gaps = [best_of(roll, spans), best_of(fall, spans)]
     kicks = [g[0] if rough else refine(window, g) for g in gaps if g is not None]
     return kicks + ([] if free is None else [free])
+
+
+def _penalty(kink: Kink) -> float:
+    """Akaike's penalty of a fit: 2 a value fitted, a kink's contact time one of them."""
+    return 2.0 * (kink.theta.size + (kink.before != "free"))
 
 
 def _score(kink: Kink, rays: int) -> float:

@@ -153,18 +153,21 @@ def test_a_reset_state_is_the_track_s() -> None:
 def test_a_ball_coming_down_from_above_the_lens_is_flown_with_no_track_before() -> None:
     """Cameras at robot height lose a lob above their lens: its first rays are of a ball
     already falling, and there is no track (every ray went to the fits alone). One flight
-    through six rays of three robots starts the track, 6 cm off two images on; one made
-    afresh (for a new track) keeps the rays seen."""
+    through five rays of three robots starts the track, 6 cm off three rays on (each taken
+    by the flying track); one made afresh (for a new track) keeps the rays seen."""
     shots = [s for s in images(KICK_S + 2 * LOB[2] / G_MPS2 - 0.05)
              if s[0] >= (KICK_S + 0.6) * NS_PER_S]
     tracker, follower = BallisticTracker(), FlightFollower()
     for k, (stamp, r, _) in enumerate(shots[:8]):
+        if tracker.airborne:
+            assert tracker.update_ray(stamp, r)
+            follower.step(stamp, [r], tracker)
+            continue
         follower.offer_all([r])
         taken = follower.step(stamp, [], tracker)
-        assert taken == (k == 5), k  # the sixth ray: a flight, coming down
-        if k == 4:
+        assert taken == (k == 4), k  # the fifth ray: a flight, coming down
+        if k == 3:
             follower = follower.afresh()
-    tracker.predict(shots[7][0])
     assert tracker.x is not None and tracker.airborne and tracker.x[5] < -2.0
     assert np.linalg.norm(tracker.x[:3] - shots[7][2]) < 0.06
 
@@ -239,3 +242,63 @@ def test_a_kick_along_the_ground_ends_the_search_at_its_rough_fits(
     asked.clear()
     _, steps = _follow(images(0.5))
     assert not all(asked) and any(airborne for _, airborne, _ in steps)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_a_ball_rising_at_a_log_s_first_rays_is_flown_from_the_fifth(seed: int) -> None:
+    """A log that begins with the ball already rising (kicked before its first image): the
+    fifth ray of three robots starts one flight through them all (five rays of two robots
+    or more fix a flight's six values), its speed up within 0.5 m/s of the ball's."""
+    shots = [s for s in images(KICK_S + 0.25, seed=seed) if s[0] >= (KICK_S + 0.1) * NS_PER_S]
+    tracker, follower = BallisticTracker(), FlightFollower()
+    for k, (stamp, r, _) in enumerate(shots[:5]):
+        follower.offer_all([r])
+        assert follower.step(stamp, [], tracker) == (k == 4), k
+    t_last = shots[4][0] / NS_PER_S - KICK_S
+    assert tracker.x is not None
+    assert abs(tracker.x[5] - (LOB[2] - G_MPS2 * t_last)) < 0.5
+    assert np.linalg.norm(tracker.x[:3] - shots[4][2]) < 0.15
+
+
+def _kink(before: str, vz: float, chi2: float) -> Kink:
+    """A fit of five rays: one flight (``free``) or a fall and a flight on (``fly``)."""
+    head = {"free": [1.0, 1.0, 0.5], "fly": [1.0, 1.0, 0.0, 0.0, -2.0]}[before]
+    theta = np.array([*head, 3.0, 1.0, vz])
+    return Kink(0, before, "fly", theta, np.eye(theta.size) * 1e-4, chi2, 5, 3)
+
+
+def test_the_flight_chosen_pays_for_its_parameters_and_flies_no_faster_than_a_ball() -> None:
+    """Five rays fit a kink (eight values and its instant) closer than one flight (six):
+    the closer fit is chosen only when it is closer by more than Akaike's two a value;
+    a fit rising faster than any ball (``top_mps``) is never chosen."""
+    follower = FlightFollower()
+    free, kink = _kink("free", 5.6, 5.0), _kink("fly", 11.5, 0.7)
+    assert follower._best([kink, free], 5) is free
+    assert follower._best([kink, _kink("free", 5.6, 15.0)], 5) is kink
+    assert follower._best([_kink("fly", 40.0, 0.0), free], 5) is free
+    assert follower._best([_kink("fly", 40.0, 0.0)], 5) is None
+
+
+def test_a_flight_begun_wrong_is_refitted_from_its_kick_before_six_rays_follow() -> None:
+    """A flight started from the kick's first two rays with the level speed wrong (here:
+    none) and sure of it: the third ray after the kick, refused by the filter, refits the
+    kick with it; the track takes that fit and is within 3 cm of the ball a ray later, long
+    before the six rays a flight of its own needs."""
+    shots = images(KICK_S + 0.2)
+    after = [k for k, s in enumerate(shots) if s[0] > KICK_S * NS_PER_S]
+    tracker, follower = BallisticTracker(), FlightFollower()
+    for stamp, r, _ in shots[:after[1] + 1]:
+        follower._rays.append((stamp, r))
+    lo = round((KICK_S - 0.04) * NS_PER_S)
+    kink = contact_time(follower._rays, lo, shots[after[1]][0], "roll", "fly")
+    assert kink is not None
+    x, P = kink.state_at(shots[after[1]][0])
+    x[3:5] = 0.0  # begun wrong, and sure of it: the filter refuses the rays after
+    tracker.reset_to(shots[after[1]][0], x, P * 0.01)
+    follower._kink = kink
+    taken = []
+    for stamp, r, _ in shots[after[2]:after[4]]:
+        tracker.update_ray(stamp, r)
+        taken.append(follower.step(stamp, [r], tracker))
+    assert taken[0] and tracker.x is not None
+    assert np.linalg.norm(tracker.x[:3] - shots[after[4] - 1][2]) < 0.03

@@ -10,10 +10,9 @@
   ``robust`` fusion, at z = R and a covariance saying the height is unknown, otherwise.
 - ``track``: the ball tracker (:mod:`estimator.tracking`), a Kalman filter over position and
   velocity; as a one-shot :class:`Fusion` it gates the estimates against each other.
-- ``ballistic``: the ``triangulate`` point of each step fed to the ballistic tracker
-  (:mod:`estimator.tracking.ballistic`): the ball in 3-D with its velocity through flight,
-  bounces and rolling, and where it will land; a step of one image (free-running cameras)
-  gives its ray to a flying track at its own stamp (:mod:`estimator.tracking.ray_pairs`).
+- ``ballistic``: each step's ``triangulate`` point, or one image's ray at its own stamp, fed
+  to the ballistic tracker (:mod:`estimator.tracking.ballistic`): the ball in 3-D with its
+  velocity through flight, bounces and rolling, and where it will land.
 
 Each method takes its per-estimate covariances from a noise model (:mod:`estimator.noise`).
 All methods are deterministic: no randomness, ties broken by input order (``nearest``'s
@@ -42,6 +41,7 @@ from estimator.estimates import (
 from estimator.noise import CalibratedNoise, Noise, NoiseModel
 from estimator.rays import BallRay, Point3, aloft, height_unknown_covariance, ray_of, triangulate
 from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
+from estimator.tracking.flights import FlightFollower
 from estimator.tracking.ray_pairs import RayPairs, ray_residual
 from estimator.tracking.tracker import TrackFusion
 
@@ -312,9 +312,8 @@ class TriangulateFusion:
 
 @dataclass(frozen=True)
 class BallisticStep:
-    """The ballistic track at one step: the fused estimate (x, y, z and the 3 x 3
-    covariance of the track's position), the velocity (vx, vy, vz) with the level part's
-    2 x 2 covariance, and the predicted landing when the ball flies."""
+    """The ballistic track at one step: the fused estimate (x, y, z, their 3 x 3 covariance),
+    the velocity (vx, vy, vz, the level part's 2 x 2 covariance), the landing if it flies."""
 
     fused: FusedEstimate
     velocity: tuple[float, float, float]
@@ -333,17 +332,18 @@ class BallisticFusion:
     The fused estimate's ``robots`` are the point's when the track took it (none when it
     coasts or refused it); ``triangulated``: this step's point came from crossed rays.
 
-    A step of one robot's image (free-running cameras: each image at its own stamp) has no
-    ray to cross it with: a flying track takes the ray itself
-    (:meth:`~estimator.tracking.ballistic.BallisticTracker.update_ray`); one that rolls,
-    or has no height, the point the ray crosses another robot's recent ray at
-    (:class:`~estimator.tracking.ray_pairs.RayPairs`), else the image's ground estimate."""
+    One robot's image (free-running cameras) has no ray to cross: a flying track takes the
+    ray (:meth:`~estimator.tracking.ballistic.BallisticTracker.update_ray`), a rolling one
+    the point it crosses another robot's recent ray at (:mod:`~estimator.tracking.ray_pairs`),
+    else the ground estimate; every ray since the kick is fitted to one flight
+    (:mod:`~estimator.tracking.flights`), which starts, checks and bounces the track."""
 
     def __init__(self, noise: Noise | None = None, params: BallisticParams | None = None,
                  coast_s: float = 1.0) -> None:
         self.triangulate = TriangulateFusion(noise or CalibratedNoise())
         self.tracker = BallisticTracker(params)
         self.pairs = RayPairs()
+        self.flights = FlightFollower()
         self.coast_ns = round(coast_s * NS_PER_S)
 
     @property
@@ -369,6 +369,7 @@ class BallisticFusion:
                                        np.array(point.covariance_3d, dtype=np.float64))
             else:
                 tracker.predict(stamp_ns)
+        self.flights.step(stamp_ns, rays, tracker)
         for ray in rays:
             self.pairs.remember(stamp_ns, ray)
         last = tracker.last_accepted_ns
@@ -382,13 +383,15 @@ class BallisticFusion:
                              0.5 * (P[3:5, 3:5] + P[3:5, 3:5].T), tracker.landing())
 
     def crossing(self, stamp_ns: int, estimate: BallEstimate) -> Point3 | None:
-        """Where ``estimate``'s ray (an image at ``stamp_ns``) crosses another robot's
-        recent ray that this track took, moved with the track
-        (:meth:`~estimator.tracking.ray_pairs.RayPairs.point`); None without a track,
-        such a ray or a crossing."""
+        """Where ``estimate``'s ray (an image at ``stamp_ns``) crosses another robot's recent
+        ray that this track took, moved with the track (:meth:`~estimator.tracking.ray_pairs.
+        RayPairs.point`); None without a track, such a ray or a crossing."""
         rays = self._rays([estimate])
         crossed = None if not rays else self.pairs.point(stamp_ns, rays[0], self.tracker)
         return None if crossed is None else crossed[0]
+
+    def offer(self, estimate: BallEstimate) -> None:  # not for the track: the fits' only
+        self.flights.offer_all(self._rays([estimate]))
 
     def _rays(self, estimates: Sequence[BallEstimate]) -> list[BallRay]:
         rays = []

@@ -46,15 +46,24 @@ rays as unsure as the poses (``--pose-uncertainty``). The fused estimate carries
 track's height (z and its 3 x 3 covariance): a lob is given where it flies, not on the
 ground under it.
 
-Three rules give the ground track's position for a step while the 3-D track is kept: a 3-D
-track that refused every estimate of its last step with estimates (the ground tracker took
-a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the ground
-track is the surer); a rolling 3-D track that takes nothing at a step where its velocity is
-``kick_mps`` from the ground track's (it would be moved on with a velocity it has not yet
-found); and a rolling 3-D track whose largest position variance is more than
+Three rules give the ground track's position for a step while the 3-D track is kept: a
+3-D track that refused every estimate of its last step with estimates (the ground tracker
+took a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the
+ground track is the surer), unless it is surely up (a flight its fits follow, or two sigmas
+more than ``lob_m`` up: a refused ray leaves a lob in the air, where the ground tracker
+knows nothing; a track that rose a few centimetres by itself is mostly a missed kick); a
+rolling 3-D track that takes nothing at a step where its
+velocity is ``kick_mps`` from the ground track's (it would be moved on with a velocity it
+has not yet found); and a rolling 3-D track whose largest position variance is more than
 ``loose_ratio`` times the ground track's (begun on one robot's images it knows little along
 their rays, where the ground tracker's motion model does). A flying track is never given up
-for its looseness: the ground tracker knows nothing of a lob. Pure and deterministic.
+for its looseness: the ground tracker knows nothing of a lob.
+
+The estimates the 3-D track does not take still go to its flight fits
+(:mod:`estimator.tracking.flights`, kept through its restarts): a lob's first images are
+refused by the ground tracker. A flight the fits started is the ball's (it need not have
+met the ground track first), and a flying 3-D track that sees nothing at a step (above the
+lenses of cameras at robot height) still vouches for itself. Pure and deterministic.
 """
 
 from __future__ import annotations
@@ -154,6 +163,8 @@ class HopFollower:
             own = self._lob(crossed) and (
                 math.hypot(crossed[0] - estimate.x_m, crossed[1] - estimate.y_m) < self.near_m)
         self._own |= own
+        if not own:  # a lob's first rays: the ground tracker refuses a ball kicked up
+            self._flight.offer(estimate)
         return own
 
     def step(self, stamp_ns: int, taken: Sequence[BallEstimate],
@@ -180,28 +191,45 @@ class HopFollower:
         flight = self._flight.step(stamp_ns, taken)
         if taken:
             self._refusing = tracker.last_accepted_ns != stamp_ns
-        if (self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns:
-            self._vouched_ns = stamp_ns
+        if ((self._own or tracker.airborne) and tracker.last_accepted_ns == stamp_ns) or (
+                tracker.airborne and not taken and self._vouched_ns is not None):
+            self._vouched_ns = stamp_ns  # an unseen flight (above the lens) vouches on
         self._own = False
         if flight is None or track is None:
             return None
         fused = flight.fused
-        if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m:
-            self._joined = True
+        if math.hypot(fused.x_m - track.x_m, fused.y_m - track.y_m) <= self.guard_m or (
+                self._flight.flights.flying and tracker.airborne):
+            self._joined = True  # (a flight fitted to rays of several images is the ball's)
         else:
             vouched = self._vouched_ns
             if not self._joined or vouched is None or stamp_ns - vouched > self.keep_ns:
-                self._flight, self._joined = BallisticFusion(self.noise), False
+                fresh = BallisticFusion(self.noise)
+                fresh.flights = self._flight.flights.afresh()  # the rays seen stay seen
+                self._flight, self._joined = fresh, False
                 self._vouched_ns = None
                 return None
         if taken:
             self._loose = not tracker.airborne and self._looser(
                 fused.covariance, track.position_covariance)
-        if self._refusing or self._loose or (kick and not taken and not tracker.airborne):
+        if (self._refusing and not self._surely_up()) or self._loose or (
+                kick and not taken and not tracker.airborne):
             return None  # the ground track's position, the 3-D track kept
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
                              z_m=fused.z_m, covariance_3d=fused.covariance_3d,
                              triangulated=fused.triangulated)
+
+    def _surely_up(self) -> bool:
+        """Whether the 3-D track flies a flight its fits follow, or flies more than two
+        sigmas above ``lob_m`` (a track that went up by itself and refuses what the ground
+        tracker takes is mostly a kick it missed, a few centimetres off the ground)."""
+        tracker = self._flight.tracker
+        if not tracker.airborne or tracker.x is None:
+            return False
+        if self._flight.flights.flying:
+            return True
+        sigma = math.sqrt(max(float(tracker.P[2, 2]), 0.0))
+        return float(tracker.x[2]) - BALL_RADIUS_M - self.lob_m > 2.0 * sigma
 
     def _looser(self, flight: Covariance, ground: Covariance) -> bool:
         """Whether the 3-D track's position variance (its largest) exceeds ``loose_ratio``

@@ -278,6 +278,15 @@ class BallisticTracker:
         self._remember(stamp_ns)
         return True
 
+    def reset_to(self, stamp_ns: int, x: Matrix, P: Matrix) -> None:
+        """Take a state fitted to many rays (:mod:`estimator.tracking.flights`) at ``stamp_ns``."""
+        self.x, self.P = np.array(x, np.float64), 0.5 * (P + P.T)
+        self.stamp_ns = stamp_ns
+        self.misses = 0
+        self._refused = self._restart = None
+        self._ray_misses.clear()
+        self._remember(stamp_ns)
+
     def kicked(self, sigma_mps: float) -> None:
         """An impulse of unknown size: the level velocity's variance grows by
         ``sigma_mps``^2 each way."""

@@ -5,8 +5,8 @@
     dsp-eval --suite match --count 20 [--workers N | --ray]
     dsp-eval --suite match --camera mirror --realism field --localise lines
     dsp-eval --suite images DIR [DIR ...] --train-count 10 --out-dir OUT
-    dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, in 3-D
-    dsp-eval --suite lobs --camera-phase random    # the same, free-running cameras
+    dsp-eval --suite lobs --count 3 --seed 100     # balls in the air, free-running cameras
+    dsp-eval --suite lobs --camera-phase sync      # the same in sync, triangulated
     dsp-eval --suite foreign [--foreign-set report|tune|check]   # logs drawn without the recorder
 
 Prints Table 1 (the paper's beside ours) or the random-scene statistics, and writes them
@@ -52,7 +52,14 @@ from replay.evaluate.foreign_suite import (
     run_foreign_from_args,
 )
 from replay.evaluate.images import images_csv, images_markdown, run_images_suite
-from replay.evaluate.lobs import CAMERA_PHASES, LobsOptions, lobs_markdown, run_lobs_suite
+from replay.evaluate.lobs import (
+    CAMERA_PHASES,
+    LobsOptions,
+    lobs_rates,
+    lobs_sets_doc,
+    lobs_sets_markdown,
+    run_lobs_suite,
+)
 from replay.evaluate.match import (
     MatchLogScore,
     MatchOptions,
@@ -126,15 +133,15 @@ def _add_match_arguments(p: argparse.ArgumentParser) -> None:
                    help="sim seconds per match (default 10) or lobs scene (default 4)")
     g.add_argument("--rate", type=float, metavar="HZ",
                    help="camera frames per second per robot (default: the scenario's, 20; "
-                   "lobs: 10)")
+                   "lobs: a set of logs at 20 and one at 40 free-running, 10 in sync)")
     g.add_argument("--face-px", type=int, metavar="PX",
                    help="render resolution (default: the recorder's, 1024)")
     g.add_argument("--camera-phase", choices=CAMERA_PHASES, default=None,
-                   help="lobs: record the scenes with the cameras in sync (default: rays of "
-                   "one instant, triangulated) or free-running (random: each robot's at its "
-                   "own seeded phase, as in a match; the ballistic fusion is scored at the "
-                   "steps two robots saw within 0.1 s). The match suite records both "
-                   "(--sync-count)")
+                   help="lobs: record the scenes free-running (random, the default: each "
+                   "robot's camera at its own seeded phase, as in a match; the ballistic "
+                   "fusion is scored at the steps two robots saw within 0.1 s) or with the "
+                   "cameras in sync (rays of one instant, triangulated). The match suite "
+                   "records both (--sync-count)")
     g.add_argument("--distractors", type=int, default=3, metavar="N",
                    help="orange boxes beside the field per match (default %(default)s)")
     p.add_argument("--realism", choices=REALISM, default="none",
@@ -281,13 +288,13 @@ def _run_suite(args: argparse.Namespace,
     if args.suite == "foreign":
         return run_foreign_from_args(args, workers, progress=progress_enabled(args))
     if args.suite == "lobs":
-        options = LobsOptions(camera=args.camera, duration_s=args.duration,
-                              rate_hz=10.0 if args.rate is None else args.rate,
-                              renderer=args.renderer, calibration=args.calibration,
-                              camera_phase=args.camera_phase or "sync",
-                              width_range=args.width_range)
-        lobs = run_lobs_suite(args.out_dir, options, count=args.count, seed=args.seed)
-        return _stem(args), lobs_markdown(lobs), lobs.to_dict()
+        phase = args.camera_phase or "random"
+        sets = [run_lobs_suite(args.out_dir, LobsOptions(
+            camera=args.camera, duration_s=args.duration, rate_hz=rate,
+            renderer=args.renderer, calibration=args.calibration, camera_phase=phase,
+            width_range=args.width_range), count=args.count, seed=args.seed)
+            for rate in lobs_rates(phase, args.rate)]
+        return _stem(args), lobs_sets_markdown(sets), lobs_sets_doc(sets)
     record = SimRecorder(args.camera, args.renderer, args.realism)
     stem = _stem(args)
     _log_dir(args).mkdir(parents=True, exist_ok=True)
@@ -322,8 +329,9 @@ def _stem(args: argparse.Namespace) -> str:
         stem += "-hops"
     if args.width_range:
         stem += "-width"
-    if args.camera_phase not in (None, "sync"):
-        stem += f"-{args.camera_phase}"
+    phase = args.camera_phase or ("random" if args.suite == "lobs" else None)
+    if phase not in (None, "sync"):
+        stem += f"-{phase}"
     return stem if args.suite == "paper" else f"{stem}-{args.count}-seed{args.seed}"
 
 

@@ -16,9 +16,11 @@ fused step against the 3-D truth at its stamp:
   (expected: metres in flight);
 - per robot: the RMSE of its own ground-plane estimates in flight.
 
-With ``camera_phase="random"`` (free-running cameras, as in a match) the scenes are recorded
-so and only the ``ballistic`` fusion is replayed and scored, by the rule of
-:mod:`replay.evaluate.lobs_free` (the table and JSON say which rule and why).
+With ``camera_phase="random"`` (free-running cameras, as in a match: ``dsp-eval``'s default)
+the scenes are recorded so and only the ``ballistic`` fusion is replayed and scored, by the
+rule of :mod:`replay.evaluate.lobs_free` (the table and JSON say which rule and why); with
+no rate asked, one set of logs at each of :data:`FREE_RUNNING_RATES_HZ`
+(:func:`lobs_rates`, :func:`lobs_sets_doc`, :func:`lobs_sets_markdown`).
 """
 
 from __future__ import annotations
@@ -43,12 +45,17 @@ from replay.sinks import ResultsCollector
 __all__ = [
     "CAMERA_PHASES",
     "FLIGHT_ABOVE_M",
+    "FREE_RUNNING_RATES_HZ",
     "GROUND_WITHIN_M",
+    "SYNC_RATE_HZ",
     "LobsOptions",
     "LobsScore",
     "LobsSuite",
     "lobs_log_name",
     "lobs_markdown",
+    "lobs_rates",
+    "lobs_sets_doc",
+    "lobs_sets_markdown",
     "run_lobs_suite",
     "score_lobs",
 ]
@@ -58,14 +65,19 @@ FLIGHT_ABOVE_M = 0.3
 GROUND_WITHIN_M = 0.01
 """A step is on the ground when the true height is within this of the ball's radius [m]."""
 CAMERA_PHASES = ("sync", "random")
-"""The recorder's ``--camera-phase``: in sync (the default here) or free-running."""
+"""The recorder's ``--camera-phase``: in sync or free-running (``dsp-eval``'s default)."""
+SYNC_RATE_HZ = 10.0
+"""The camera rate of a synchronised suite when none is asked [Hz]."""
+FREE_RUNNING_RATES_HZ = (20.0, 40.0)
+"""A free-running suite with no rate asked records a set of logs at each: a match's camera
+rate, and twice it [Hz]."""
 
 
 @dataclass(frozen=True)
 class LobsOptions:
     camera: str = "ideal"
     duration_s: float = 4.0
-    rate_hz: float = 10.0
+    rate_hz: float = SYNC_RATE_HZ
     renderer: str = "auto"
     calibration: Path | None = None
     camera_phase: str = "sync"
@@ -262,6 +274,28 @@ def run_lobs_suite(out_dir: Path, options: LobsOptions, *, count: int, seed: int
         suite.per_seed[s] = score_lobs_log(log, options.calibration, options.camera_phase,
                                            width_range=options.width_range)
     return suite
+
+
+def lobs_rates(camera_phase: str, rate_hz: float | None) -> tuple[float, ...]:
+    """The camera rates of the sets of logs: the one asked, else :data:`SYNC_RATE_HZ` in
+    sync and :data:`FREE_RUNNING_RATES_HZ` free-running."""
+    if rate_hz is not None:
+        return (rate_hz,)
+    return (SYNC_RATE_HZ,) if camera_phase == "sync" else FREE_RUNNING_RATES_HZ
+
+
+def lobs_sets_doc(suites: Sequence[LobsSuite]) -> dict[str, Json]:
+    """One set's document as it is; several sets' in a list, by rate."""
+    if len(suites) == 1:
+        return suites[0].to_dict()
+    return {"suite": "lobs", "sets": [s.to_dict() for s in suites]}
+
+
+def lobs_sets_markdown(suites: Sequence[LobsSuite]) -> str:
+    """One set's tables as they are; several sets' each under its rate."""
+    if len(suites) == 1:
+        return lobs_markdown(suites[0])
+    return "\n".join(f"### {s.options.rate_hz:g} Hz\n\n{lobs_markdown(s)}" for s in suites)
 
 
 _WIDTH_NOTE = "; every replay with `--width-range` (a ball in the air by its blob's width)"

@@ -437,3 +437,27 @@ def test_a_rolling_3d_track_that_takes_nothing_while_the_ground_track_is_kicked_
         cov = ((1e-2, 0.0), (0.0, 1e-2))
         kicked = TrackState(200 * MS, -1.0 + 0.02 * v, 0.0, v, 0.0, cov, cov, True)
         assert (hops.step(200 * MS, [], kicked) is not None) is given
+
+
+@pytest.mark.parametrize(("height_m", "sigma_m", "kept"), [
+    (0.06, 0.02, False),  # a kick the 3-D track missed, a hop a few centimetres up
+    (0.14, 0.17, False),  # above lob_m, but not surely (two sigmas)
+    (0.44, 0.11, True),  # surely up: a lob's first images, before its flight is fitted
+])
+def test_a_flying_3d_track_that_refuses_gives_way_unless_it_is_surely_up(
+        height_m: float, sigma_m: float, kept: bool) -> None:
+    """The 3-D track flies (by itself: no flight fitted to its rays) and refused the ground
+    tracker's estimate: its position is given only when it is surely more than lob_m up."""
+    hops = HopFollower(CalibratedNoise())
+    _joined(hops)
+    tracker = hops._flight.tracker
+    assert tracker.x is not None and not hops._flight.flights.flying
+    tracker.x[2], tracker.x[5] = BALL_RADIUS_M + height_m, 1.5
+    tracker.P[2, 2] = sigma_m ** 2
+    assert tracker.airborne
+    jumped = _sees("near", ROBOTS["near"], (0.2, 0.0, BALL_RADIUS_M))  # 1.2 m on
+    track = _track(200 * MS, 0.2, 0.0)
+    assert hops.takes(jumped, True, track, 200 * MS)
+    flight = hops.step(200 * MS, [jumped], track)
+    assert hops._flight.tracker.last_accepted_ns != 200 * MS  # refused
+    assert (flight is not None) == kept

@@ -1,6 +1,7 @@
-"""dsp-eval --suite lobs --camera-phase: the phase reaches the recorder, and free-running
-lobs are scored by their own rule (the ballistic fusion's steps that two or more robots saw
-within 0.1 s), said in the tables."""
+"""dsp-eval --suite lobs --camera-phase: the phase reaches the recorder (free-running by
+default, a set of logs at 20 Hz and one at 40 Hz), and free-running lobs are scored by
+their own rule (the ballistic fusion's steps that two or more robots saw within 0.1 s),
+said in the tables."""
 
 from __future__ import annotations
 
@@ -72,7 +73,7 @@ def _run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, *extra: str) -> _Stand
 
 def test_camera_phase_random_reaches_the_recorder_and_names_its_rule(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    stand_in = _run(tmp_path, monkeypatch, "--camera-phase", "random")
+    stand_in = _run(tmp_path, monkeypatch, "--camera-phase", "random", "--rate", "10")
     [(name, seed, options)] = stand_in.calls
     assert options.camera_phase == "random" and seed == 5
     assert name == "lobs-5-random-ideal-4s-r10.mcap"
@@ -89,9 +90,26 @@ def test_camera_phase_random_reaches_the_recorder_and_names_its_rule(
     assert "No `triangulate` rows" in table and "crossed" not in table
 
 
-def test_the_default_phase_records_in_sync_and_keeps_its_tables(
+def test_the_default_is_free_running_at_20_and_40_hz(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """No phase nor rate asked: free-running cameras, a set of logs at each rate, each
+    scored by the free-running rule under its rate."""
     stand_in = _run(tmp_path, monkeypatch)
+    assert [(name, o.camera_phase, o.rate_hz) for name, _, o in stand_in.calls] == [
+        ("lobs-5-random-ideal-4s-r20.mcap", "random", 20.0),
+        ("lobs-5-random-ideal-4s-r40.mcap", "random", 40.0)]
+    doc = json.loads((tmp_path / "lobs-ideal-random-1-seed5.json").read_text())
+    assert [(s["rate_hz"], s["camera_phase"]) for s in doc["sets"]] == [
+        (20.0, "random"), (40.0, "random")]
+    assert all("seen_by_two" in s["pooled"]["flight"] for s in doc["sets"])
+    table = (tmp_path / "lobs-ideal-random-1-seed5.md").read_text()
+    assert table.index("### 20 Hz") < table.index("### 40 Hz")
+    assert table.count("free-running cameras (`--camera-phase random`") == 2
+
+
+def test_the_sync_phase_records_in_sync_and_keeps_its_tables(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    stand_in = _run(tmp_path, monkeypatch, "--camera-phase", "sync")
     [(name, _, options)] = stand_in.calls
     assert options.camera_phase == "sync" and name == "lobs-5-sync-ideal-4s-r10.mcap"
     doc = json.loads((tmp_path / "lobs-ideal-1-seed5.json").read_text())
@@ -119,7 +137,7 @@ def test_width_range_reaches_every_replay_and_names_the_tables(
         return real_replay(log, options, **kwargs)
 
     monkeypatch.setattr(lobs, "replay", spy)
-    stand_in = _run(tmp_path, monkeypatch, "--width-range")
+    stand_in = _run(tmp_path, monkeypatch, "--width-range", "--camera-phase", "sync")
     [(name, _, options)] = stand_in.calls
     assert name == "lobs-5-sync-ideal-4s-r10.mcap" and options.width_range
     assert sorted(asked) == [("ballistic", True), ("robust", True), ("triangulate", True)]

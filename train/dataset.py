@@ -20,7 +20,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from edge import edge_negatives
+from edge import NO_EDGE, EdgeSpec, edge_negatives
 
 from dsp.labelled import Labelled, find_labelled
 from estimator.detection.real.candidates import find_coarse
@@ -113,31 +113,29 @@ def _image_samples(image: np.ndarray, balls: list[Box], model, tables: ColourTab
 
 
 def _edge_rows(image: np.ndarray, balls: list[Box], sources: list, seen: set,
-               sizes: list[float], edge: tuple[int, float], rng: np.random.Generator
+               sizes: list[float], edge: EdgeSpec, rng: np.random.Generator
                ) -> list[tuple]:
-    """Up to ``edge[0]`` negatives ``edge[1]`` sizes beyond the field's far edge
-    (``edge.py``), as rows."""
+    """The negatives beyond the field's far edge ``edge`` asks for (``edge.py``), as rows."""
     return [(square, 0.0, (0.0, 0.0, 0.0), False, image, box, sources[k][0])
-            for square, box, k in edge_negatives(image, balls, sources, seen, sizes, edge[0],
-                                                 rng, edge[1])]
+            for square, box, k in edge_negatives(image, balls, sources, seen, sizes, edge,
+                                                 rng)]
 
 
 def build_folder(folder: Path, seed: int = 0, ball_class: int = 0,
-                 edge: tuple[int, float] = (0, 1.0)) -> Samples:
+                 edge: EdgeSpec = NO_EDGE) -> Samples:
     """Every sample of one folder of labelled images."""
     return build_items(find_labelled(folder), seed, ball_class, edge=edge)
 
 
 def build_items(labelled: Sequence[Labelled], seed: int = 0, ball_class: int = 0,
-                generic: BallModel | None = None, edge: tuple[int, float] = (0, 1.0)
-                ) -> Samples:
+                generic: BallModel | None = None, edge: EdgeSpec = NO_EDGE) -> Samples:
     """Every sample of one venue's labelled images (a folder's, or an event's of several
     folders, in the order given): the venue model fitted on the first ``TRAIN_COUNT``; with
     ``generic`` (a model that never saw the venue), its candidates too (up to
     ``GENERIC_CANDIDATES`` an image, those the venue model found already left out), so the
-    check also learns the look-alikes a venue with no labelled frame meets. With ``edge``
-    (count, sides), each image also gives up to count negatives beyond the field's far edge
-    (``edge.py``: the venue's and the generic model's candidates there, then random
+    check also learns the look-alikes a venue with no labelled frame meets. With
+    ``edge.count``, each image also gives up to that many negatives beyond the field's far
+    edge (``edge.py``: the venue's and the generic model's candidates there, then random
     squares; drawn from a generator of their own, so the other samples stay the same)."""
     cv2.setNumThreads(1)
     items = [it.read(ball_class) for it in labelled]
@@ -152,7 +150,7 @@ def build_items(labelled: Sequence[Labelled], seed: int = 0, ball_class: int = 0
     for index, (image, balls) in enumerate(items):
         seen: set[tuple[int, int, int]] = set()
         rows = _image_samples(image, balls, model, tables, rng, gen, seen)
-        if edge[0] > 0:
+        if edge.count > 0:
             rows += _edge_rows(image, balls, sources, seen, sizes or [SPEC.min_side_px],
                                edge, edge_rng)
         for square, y, off, from_label, img, box, m in rows:

@@ -9,20 +9,21 @@ of its images also gives up to ``count`` negatives beyond the field: first the c
 the finder proposes there (the venue model's, then the generic model's, up to ``POOL`` of
 each, most ball-coloured first, none already among the image's samples), then, for the
 rest, squares at random places there, at the sizes of the image's labelled balls (the
-event's when it has none). Beyond the field is the detector's own rule
-(:data:`estimator.detection.real.field.OFF_FIELD`, the field found with the venue model's
-tables): the blob's lowest point more than its own size above the far edge (``sides`` 1;
-with ``--edge-sides 0``, above it at all: the boards and tables standing at the edge too);
-an image with no field found gives none. Each lies away from every labelled ball: its
-centre at least half its crop's side and ``SAFE_RADII`` ball radii from the ball's centre,
-so no crop shows a labelled ball. Seeded (its own generator, so the other samples stay as
-they were); an event's negatives come from its own images only, so a check held out from
-it sees none.
+event's when it has none; ``--edge-candidates-only``: none). Beyond the field is the
+detector's own rule (:data:`estimator.detection.real.field.OFF_FIELD`, the field found with
+the venue model's tables): the blob's lowest point more than its own size above the far
+edge (``sides`` 1; with ``--edge-sides 0``, above it at all: the boards and tables standing
+at the edge too); an image with no field found gives none. Each lies away from every
+labelled ball: its centre at least half its crop's side and ``SAFE_RADII`` ball radii from
+the ball's centre, so no crop shows a labelled ball. Seeded (its own generator, so the
+other samples stay as they were); an event's negatives come from its own images only, so a
+check held out from it sees none.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,6 +43,26 @@ Box = tuple[float, float, float, float]
 Source = tuple[BallModel, ColourTables]
 Edge = tuple[tuple[float, float, float], Box, int]
 """A negative: its square (cx, cy, side), its blob's box (x0, y0, x1, y1), its source's index."""
+
+
+@dataclass(frozen=True)
+class EdgeSpec:
+    """What ``train.py --edge-negatives N --edge-sides S [--edge-candidates-only]`` asks."""
+
+    count: int = 0
+    """Negatives an image, at most (0: none)."""
+    sides: float = OFF_FIELD.sides
+    """How far beyond the edge (:func:`is_beyond`)."""
+    random: bool = True
+    """Random squares where the candidates there are fewer than ``count``."""
+
+    def key(self) -> tuple[float, float, float]:
+        """What a sample cache records of it."""
+        return (float(self.count), self.sides, float(self.random)) if self.count else (0, 0, 0)
+
+
+NO_EDGE = EdgeSpec()
+"""No negatives beyond the edge (the default)."""
 
 
 def away(cx: float, cy: float, side: float, balls: Sequence[Box]) -> bool:
@@ -109,18 +130,20 @@ def random_beyond(shape: tuple[int, ...], found: Field, balls: Sequence[Box],
 
 
 def edge_negatives(image: np.ndarray, balls: Sequence[Box], sources: Sequence[Source],
-                   seen: set[tuple[int, int, int]], diameters: Sequence[float], count: int,
-                   rng: np.random.Generator, sides: float = OFF_FIELD.sides) -> list[Edge]:
-    """Up to ``count`` negatives beyond the field of one image (the module docstring):
+                   seen: set[tuple[int, int, int]], diameters: Sequence[float], spec: EdgeSpec,
+                   rng: np.random.Generator) -> list[Edge]:
+    """Up to ``spec.count`` negatives beyond the field of one image (the module docstring):
     the candidates of ``sources`` there first (the first source's tables find the field),
-    random squares at the image's ball sizes (``diameters`` when it has no ball) after;
-    beyond the field by ``sides`` (:func:`is_beyond`)."""
-    if count <= 0 or not sources:
+    with ``spec.random`` random squares at the image's ball sizes (``diameters`` when it has
+    no ball) after; beyond the field by ``spec.sides`` (:func:`is_beyond`)."""
+    if spec.count <= 0 or not sources:
         return []
     found = find_field(image, sources[0][1])
     if len(found.top) == 0:
         return []
-    out = candidates_beyond(image, found, balls, sources, seen, count, sides)
+    out = candidates_beyond(image, found, balls, sources, seen, spec.count, spec.sides)
+    if not spec.random:
+        return out
     own = [float(max(x1 - x0, y1 - y0)) for x0, y0, x1, y1 in balls]
     return out + random_beyond(image.shape, found, balls, own or list(diameters),
-                               count - len(out), rng, sides)
+                               spec.count - len(out), rng, spec.sides)

@@ -43,6 +43,7 @@ from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from dataset import TRAIN_COUNT, Samples, build_folder, build_items
+from edge import NO_EDGE, EdgeSpec
 from flying import flying
 from generic import events, fit_generic, pick
 
@@ -92,8 +93,7 @@ def venue_of(folder: str) -> str:
     return folder.split("/")[0]
 
 
-def select(root: Path, split: str, edge: tuple[int, float] = (0, 1.0)
-           ) -> tuple[np.ndarray, ...]:
+def select(root: Path, split: str, edge: EdgeSpec = NO_EDGE) -> tuple[np.ndarray, ...]:
     """x, y, offset, context of the samples of the folders under root the split allows."""
     kind, _, name = split.partition(":")
     if kind not in ("all", "lovo", "infolder", "invenue", "venues"):
@@ -125,37 +125,35 @@ def select(root: Path, split: str, edge: tuple[int, float] = (0, 1.0)
 
 
 def cached_samples(roots: list[Path], groups: str, cache: Path | None,
-                   edge: tuple[int, float] = (0, 1.0)) -> dict[str, Samples]:
+                   edge: EdgeSpec = NO_EDGE) -> dict[str, Samples]:
     """:func:`event_samples`, kept in ``cache`` (an .npz of plain arrays, read without
     pickle) so that several checks train from one build; a cache is the build's bytes, so
     a check trained from it is the check trained without it. A cache records its
-    ``--edge-negatives`` and ``--edge-sides`` (none: 0) and is refused for others."""
-    want = (edge[0], edge[1] if edge[0] else 1.0)
+    ``--edge-*`` options (:meth:`EdgeSpec.key`) and is refused for others."""
     if cache is not None and cache.is_file():
         with np.load(cache, allow_pickle=False) as z:
-            got = [float(v) for v in np.atleast_1d(z["edge"])] if "edge" in z.files else [0]
-            made = (int(got[0]), got[1] if len(got) > 1 else 1.0)
-            if made != want:
-                raise SystemExit(f"--cache {cache}: made with --edge-negatives {made[0]} "
-                                 f"--edge-sides {made[1]:g}, not {want[0]} {want[1]:g}")
+            made = tuple(float(v) for v in z["edge"]) if "edge" in z.files else (0, 0, 0)
+            if made != edge.key():
+                raise SystemExit(f"--cache {cache}: made with other --edge-* options "
+                                 f"(count, sides, random: {made}, not {edge.key()})")
             names = [str(n) for n in z["events"]]
             return {n: Samples(*(z[f"{n}/{f}"] for f in SAMPLE_FIELDS)) for n in names}
     samples = event_samples(roots, groups, edge=edge)
     if cache is not None:
         arrays = {f"{n}/{f}": getattr(s, f) for n, s in samples.items() for f in SAMPLE_FIELDS}
-        extra = {"edge": np.asarray(want, np.float64)} if edge[0] else {}
+        extra = {"edge": np.asarray(edge.key(), np.float64)} if edge.count else {}
         np.savez(cache, events=np.asarray(list(samples)), **extra, **arrays)
     return samples
 
 
 def event_samples(roots: list[Path], groups: str, generic: bool = True,
-                  edge: tuple[int, float] = (0, 1.0)) -> dict[str, Samples]:
+                  edge: EdgeSpec = NO_EDGE) -> dict[str, Samples]:
     """Each event's samples (``--groups``): its venue model fitted on the event's first
     ``TRAIN_COUNT`` labelled images (by name, then folder, as ``dsp-eval --group-by``
     orders them); with ``generic``, also the candidates of the generic model fitted
     without the event (``generic.py --without EVENT``: what that event meets with no
-    labelled frame); with ``edge`` (count, sides), up to count negatives an image beyond
-    the field's far edge, from the event's own images (``edge.py``)."""
+    labelled frame); with ``edge.count``, up to that many negatives an image beyond the
+    field's far edge, from the event's own images (``edge.py``)."""
     found = events(roots, groups)
     out = {}
     for name, items in found.items():
@@ -228,7 +226,7 @@ def augment(x: np.ndarray, off: np.ndarray, rng: np.random.Generator, hue: float
 
 def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS, hue: float = 0.0,
           data: tuple[np.ndarray, ...] | None = None, fly: float = 0.0,
-          edge: tuple[int, float] = (0, 1.0)) -> CheckNet:
+          edge: EdgeSpec = NO_EDGE) -> CheckNet:
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
@@ -328,6 +326,9 @@ def main() -> None:
                     help="with --edge-negatives: how far beyond the edge, the blob's lowest "
                     "point over S times its size above it (default 1: the detector's rule "
                     "for a candidate beyond the field; 0: above the edge at all)")
+    ap.add_argument("--edge-candidates-only", action="store_true",
+                    help="with --edge-negatives: no random squares, only the candidate "
+                    "finder's blobs beyond the edge")
     ap.add_argument("--held-out", type=Path, metavar="DIR",
                     help="with --groups: also one check per event trained without it "
                     "(DIR/lovo-EVENT.onnx) and the generic model without it "
@@ -340,7 +341,7 @@ def main() -> None:
     if args.edge_negatives < 0 or not args.edge_sides >= 0:
         raise SystemExit(f"--edge-negatives {args.edge_negatives} --edge-sides "
                          f"{args.edge_sides}: use 0 or more")
-    edge = (args.edge_negatives, args.edge_sides)
+    edge = EdgeSpec(args.edge_negatives, args.edge_sides, not args.edge_candidates_only)
     t0 = time.perf_counter()
     if args.groups is None:
         if len(args.roots) != 1 or args.held_out is not None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import sys
 from importlib.resources import files
 from pathlib import Path
 from types import ModuleType
@@ -36,6 +37,7 @@ def _module() -> ModuleType:
     spec = importlib.util.spec_from_file_location("train_edge", ROOT / "train" / "edge.py")
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclass looks its module up there
     spec.loader.exec_module(mod)
     return mod
 
@@ -64,7 +66,8 @@ def _hall() -> np.ndarray:
 def _cut(source: Source, seed: int, count: int = 12,
          seen: set[tuple[int, int, int]] | None = None) -> list[Any]:
     return list(edge.edge_negatives(_hall(), BALLS, [source], set() if seen is None else seen,
-                                    [30.0], count, np.random.default_rng(seed)))
+                                    [30.0], edge.EdgeSpec(count),
+                                    np.random.default_rng(seed)))
 
 
 def test_they_lie_beyond_the_field_and_clear_of_the_balls(source: Source) -> None:
@@ -105,15 +108,22 @@ def test_a_candidate_already_sampled_is_not_cut_again(source: Source) -> None:
 def test_no_field_no_negatives(source: Source) -> None:
     grey = np.full((800, 608, 3), 128, np.uint8)
     cv2.circle(grey, LOOK_ALIKE, 12, BALL_BGR, -1)
-    assert edge.edge_negatives(grey, [], [source], set(), [30.0], 8,
+    assert edge.edge_negatives(grey, [], [source], set(), [30.0], edge.EdgeSpec(8),
                                np.random.default_rng(0)) == []
 
 
 def test_with_sides_0_a_look_alike_at_the_edge_is_cut_too(source: Source) -> None:
     at_edge = NOT_BEYOND[1]
-    cut = edge.edge_negatives(_hall(), BALLS, [source], set(), [30.0], 2,
-                              np.random.default_rng(0), 0.0)
+    cut = edge.edge_negatives(_hall(), BALLS, [source], set(), [30.0],
+                              edge.EdgeSpec(2, sides=0.0), np.random.default_rng(0))
     assert [np.hypot(cx - at_edge[0], cy - at_edge[1]) < 4 for (cx, cy, _), _, _ in cut
             ].count(True) == 1
     for _, (_, _, _, y1), _ in cut:
         assert y1 < FIELD_TOP + 8  # its lowest point above the edge
+
+
+def test_candidates_only_gives_no_random_square(source: Source) -> None:
+    cut = edge.edge_negatives(_hall(), BALLS, [source], set(), [30.0],
+                              edge.EdgeSpec(12, random=False), np.random.default_rng(0))
+    assert len(cut) == 1 and np.hypot(cut[0][0][0] - LOOK_ALIKE[0],
+                                      cut[0][0][1] - LOOK_ALIKE[1]) < 4

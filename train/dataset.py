@@ -20,6 +20,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from edge import NO_EDGE, EdgeSpec, edge_negatives
 
 from dsp.labelled import Labelled, find_labelled
 from estimator.detection.real.candidates import find_coarse
@@ -79,16 +80,20 @@ def _label_squares(balls: Sequence[Box], rng: np.random.Generator) -> list[tuple
 
 
 def _image_samples(image: np.ndarray, balls: list[Box], model, tables: ColourTables,
-                   rng: np.random.Generator, generic=None) -> list[tuple]:
+                   rng: np.random.Generator, generic=None,
+                   seen: set[tuple[int, int, int]] | None = None) -> list[tuple]:
+    """The image's candidate and label-box rows; ``seen`` gets the candidates' keys."""
     rows = []
     sources = [(model, tables, MAX_CANDIDATES)]
     if generic is not None:
         sources.append((generic[0], generic[1], GENERIC_CANDIDATES))
-    seen: set[tuple[int, int, int]] = set()
+    seen = set() if seen is None else seen
+    taken = set()
     for k, (m, t, count) in enumerate(sources):
         for c in find_coarse(image, t, m, max_count=count):
             cx, cy, side = SPEC.square(*c.centre())
             key = (round(cx), round(cy), round(side))
+            taken.add(key)
             if k == 0:
                 seen.add(key)
             elif key in seen:
@@ -103,31 +108,52 @@ def _image_samples(image: np.ndarray, balls: list[Box], model, tables: ColourTab
         lit = np.clip(image.astype(np.float32) * gain + bias, 0, 255).astype(np.uint8) \
             if abs(gain - 1) > 0.02 else image
         rows.append(((cx, cy, side), 1.0, _target(box, cx, cy, side), True, lit, box, model))
+    seen |= taken
     return rows
 
 
-def build_folder(folder: Path, seed: int = 0, ball_class: int = 0) -> Samples:
+def _edge_rows(image: np.ndarray, balls: list[Box], sources: list, seen: set,
+               sizes: list[float], edge: EdgeSpec, rng: np.random.Generator
+               ) -> list[tuple]:
+    """The negatives beyond the field's far edge ``edge`` asks for (``edge.py``), as rows."""
+    return [(square, 0.0, (0.0, 0.0, 0.0), False, image, box, sources[k][0])
+            for square, box, k in edge_negatives(image, balls, sources, seen, sizes, edge,
+                                                 rng)]
+
+
+def build_folder(folder: Path, seed: int = 0, ball_class: int = 0,
+                 edge: EdgeSpec = NO_EDGE) -> Samples:
     """Every sample of one folder of labelled images."""
-    return build_items(find_labelled(folder), seed, ball_class)
+    return build_items(find_labelled(folder), seed, ball_class, edge=edge)
 
 
 def build_items(labelled: Sequence[Labelled], seed: int = 0, ball_class: int = 0,
-                generic: BallModel | None = None) -> Samples:
+                generic: BallModel | None = None, edge: EdgeSpec = NO_EDGE) -> Samples:
     """Every sample of one venue's labelled images (a folder's, or an event's of several
     folders, in the order given): the venue model fitted on the first ``TRAIN_COUNT``; with
     ``generic`` (a model that never saw the venue), its candidates too (up to
     ``GENERIC_CANDIDATES`` an image, those the venue model found already left out), so the
-    check also learns the look-alikes a venue with no labelled frame meets."""
+    check also learns the look-alikes a venue with no labelled frame meets. With
+    ``edge.count``, each image also gives up to that many negatives beyond the field's far
+    edge (``edge.py``: the venue's and the generic model's candidates there, then random
+    squares; drawn from a generator of their own, so the other samples stay the same)."""
     cv2.setNumThreads(1)
     items = [it.read(ball_class) for it in labelled]
     model = fit_ball_model(items[:TRAIN_COUNT], info={"images": TRAIN_COUNT})
     tables = ColourTables.of(model)
     gen = None if generic is None else (generic, ColourTables.of(generic))
     rng = np.random.default_rng(seed)
+    edge_rng = np.random.default_rng([seed, 2])
+    sources = [(model, tables)] + ([] if gen is None else [gen])
+    sizes = [float(max(b[2] - b[0], b[3] - b[1])) for _, balls in items for b in balls]
     xs, ys, offs, idx, lab, ctx = [], [], [], [], [], []
     for index, (image, balls) in enumerate(items):
-        for square, y, off, from_label, img, box, m in _image_samples(image, balls, model,
-                                                                      tables, rng, gen):
+        seen: set[tuple[int, int, int]] = set()
+        rows = _image_samples(image, balls, model, tables, rng, gen, seen)
+        if edge.count > 0:
+            rows += _edge_rows(image, balls, sources, seen, sizes or [SPEC.min_side_px],
+                               edge, edge_rng)
+        for square, y, off, from_label, img, box, m in rows:
             t = tables if m is model else gen[1]
             x = crop_input(img, [square], t).crops
             xs.append(x[0])

@@ -43,6 +43,7 @@ from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from dataset import TRAIN_COUNT, Samples, build_folder, build_items
+from edge import NO_EDGE, EdgeSpec
 from flying import flying
 from generic import events, fit_generic, pick
 
@@ -92,7 +93,7 @@ def venue_of(folder: str) -> str:
     return folder.split("/")[0]
 
 
-def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
+def select(root: Path, split: str, edge: EdgeSpec = NO_EDGE) -> tuple[np.ndarray, ...]:
     """x, y, offset, context of the samples of the folders under root the split allows."""
     kind, _, name = split.partition(":")
     if kind not in ("all", "lovo", "infolder", "invenue", "venues"):
@@ -101,7 +102,7 @@ def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
     xs, ys, offs, ctxs = [], [], [], []
     for path in labelled_folders(root):
         folder = path.relative_to(root).as_posix()
-        s = build_folder(path)
+        s = build_folder(path, edge=edge)
         if kind == "all":
             keep = np.ones(len(s.y), bool)
         elif kind == "lovo":
@@ -123,35 +124,42 @@ def select(root: Path, split: str) -> tuple[np.ndarray, ...]:
             np.concatenate(ctxs))
 
 
-def cached_samples(roots: list[Path], groups: str, cache: Path | None
-                   ) -> dict[str, Samples]:
+def cached_samples(roots: list[Path], groups: str, cache: Path | None,
+                   edge: EdgeSpec = NO_EDGE) -> dict[str, Samples]:
     """:func:`event_samples`, kept in ``cache`` (an .npz of plain arrays, read without
     pickle) so that several checks train from one build; a cache is the build's bytes, so
-    a check trained from it is the check trained without it."""
+    a check trained from it is the check trained without it. A cache records its
+    ``--edge-*`` options (:meth:`EdgeSpec.key`) and is refused for others."""
     if cache is not None and cache.is_file():
         with np.load(cache, allow_pickle=False) as z:
+            made = tuple(float(v) for v in z["edge"]) if "edge" in z.files else (0, 0, 0)
+            if made != edge.key():
+                raise SystemExit(f"--cache {cache}: made with other --edge-* options "
+                                 f"(count, sides, random: {made}, not {edge.key()})")
             names = [str(n) for n in z["events"]]
             return {n: Samples(*(z[f"{n}/{f}"] for f in SAMPLE_FIELDS)) for n in names}
-    samples = event_samples(roots, groups)
+    samples = event_samples(roots, groups, edge=edge)
     if cache is not None:
         arrays = {f"{n}/{f}": getattr(s, f) for n, s in samples.items() for f in SAMPLE_FIELDS}
-        np.savez(cache, events=np.asarray(list(samples)), **arrays)
+        extra = {"edge": np.asarray(edge.key(), np.float64)} if edge.count else {}
+        np.savez(cache, events=np.asarray(list(samples)), **extra, **arrays)
     return samples
 
 
-def event_samples(roots: list[Path], groups: str, generic: bool = True
-                  ) -> dict[str, Samples]:
+def event_samples(roots: list[Path], groups: str, generic: bool = True,
+                  edge: EdgeSpec = NO_EDGE) -> dict[str, Samples]:
     """Each event's samples (``--groups``): its venue model fitted on the event's first
     ``TRAIN_COUNT`` labelled images (by name, then folder, as ``dsp-eval --group-by``
     orders them); with ``generic``, also the candidates of the generic model fitted
     without the event (``generic.py --without EVENT``: what that event meets with no
-    labelled frame)."""
+    labelled frame); with ``edge.count``, up to that many negatives an image beyond the
+    field's far edge, from the event's own images (``edge.py``)."""
     found = events(roots, groups)
     out = {}
     for name, items in found.items():
         gen = fit_generic({n: pick(v) for n, v in found.items() if n != name}
                           ) if generic else None
-        out[name] = build_items(items, generic=gen)
+        out[name] = build_items(items, generic=gen, edge=edge)
         print(f"  {name}: {len(items)} images, {len(out[name].y)} samples "
               f"({int(out[name].y.sum())} balls)", flush=True)
     return out
@@ -217,12 +225,13 @@ def augment(x: np.ndarray, off: np.ndarray, rng: np.random.Generator, hue: float
 
 
 def train(root: Path, split: str, seed: int = 0, epochs: int = EPOCHS, hue: float = 0.0,
-          data: tuple[np.ndarray, ...] | None = None, fly: float = 0.0) -> CheckNet:
+          data: tuple[np.ndarray, ...] | None = None, fly: float = 0.0,
+          edge: EdgeSpec = NO_EDGE) -> CheckNet:
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(seed)
-    x, y, off, ctx = select(root, split) if data is None else data
+    x, y, off, ctx = select(root, split, edge) if data is None else data
     if fly > 0:
         # its own stream of the seed: the shuffles and augments draw as before
         extra = flying(x, y, off, ctx, fly, np.random.default_rng([seed, 1]))
@@ -308,6 +317,18 @@ def main() -> None:
                          "look-alikes made over alike (flying.py: shrunk, darkened, "
                          "motion-blurred, over a crop with little field; default 0: none; "
                          "not better held out by event, docs/notes/detection.md)")
+    ap.add_argument("--edge-negatives", type=int, default=0, metavar="N",
+                    help="up to N more negatives an image beyond the field's far edge, "
+                    "cut while the samples are built (edge.py: the candidate finder's "
+                    "blobs there, then random squares at the image's ball sizes; "
+                    "default 0: none)")
+    ap.add_argument("--edge-sides", type=float, default=1.0, metavar="S",
+                    help="with --edge-negatives: how far beyond the edge, the blob's lowest "
+                    "point over S times its size above it (default 1: the detector's rule "
+                    "for a candidate beyond the field; 0: above the edge at all)")
+    ap.add_argument("--edge-candidates-only", action="store_true",
+                    help="with --edge-negatives: no random squares, only the candidate "
+                    "finder's blobs beyond the edge")
     ap.add_argument("--held-out", type=Path, metavar="DIR",
                     help="with --groups: also one check per event trained without it "
                     "(DIR/lovo-EVENT.onnx) and the generic model without it "
@@ -317,17 +338,21 @@ def main() -> None:
                     "read when there) to train several checks from one build")
     ap.add_argument("-o", "--output", required=True)
     args = ap.parse_args()
+    if args.edge_negatives < 0 or not args.edge_sides >= 0:
+        raise SystemExit(f"--edge-negatives {args.edge_negatives} --edge-sides "
+                         f"{args.edge_sides}: use 0 or more")
+    edge = EdgeSpec(args.edge_negatives, args.edge_sides, not args.edge_candidates_only)
     t0 = time.perf_counter()
     if args.groups is None:
         if len(args.roots) != 1 or args.held_out is not None:
             raise SystemExit("several roots and --held-out go with --groups")
         net = train(args.roots[0], args.split, args.seed, args.epochs, args.hue,
-                    fly=args.flying)
+                    fly=args.flying, edge=edge)
         data = export(net, args.output)
-        x, _, _, ctx = select(args.roots[0], args.split)
+        x, _, _, ctx = select(args.roots[0], args.split, edge)
         _report(args.output, net, data, x, ctx, t0)
         return
-    samples = cached_samples(args.roots, args.groups, args.cache)
+    samples = cached_samples(args.roots, args.groups, args.cache, edge)
     if args.flying > 0:
         samples = {name: with_flying(s, args.flying, np.random.default_rng([args.seed, 1, k]))
                    for k, (name, s) in enumerate(samples.items())}

@@ -49,9 +49,10 @@ ground under it.
 Three rules give the ground track's position for a step while the 3-D track is kept: a
 3-D track that refused every estimate of its last step with estimates (the ground tracker
 took a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the
-ground track is the surer), unless it is surely up (a flight its fits follow, or two sigmas
-more than ``lob_m`` up: a refused ray leaves a lob in the air, where the ground tracker
-knows nothing; a track that rose a few centimetres by itself is mostly a missed kick); a
+ground track is the surer), unless it is surely up (a flight its fits follow, or followed
+until less than ``keep_ns`` ago, as at a bounce, or two sigmas more than ``lob_m`` up: a
+refused ray leaves a lob in the air, where the ground tracker knows nothing; a track that
+rose a few centimetres by itself is mostly a missed kick); a
 rolling 3-D track that takes nothing at a step where its
 velocity is ``kick_mps`` from the ground track's (it would be moved on with a velocity it
 has not yet found); and a rolling 3-D track whose largest position variance is more than
@@ -120,6 +121,8 @@ class HopFollower:
         """At the last step with estimates it refused them all."""
         self._loose = False
         """At the last step with estimates, rolling, it was looser than the ground track."""
+        self._flew_ns: int | None = None
+        """The last step at which the 3-D track flew a flight its fits follow."""
 
     @property
     def airborne(self) -> bool:
@@ -207,23 +210,29 @@ class HopFollower:
                 fresh = BallisticFusion(self.noise)
                 fresh.flights = self._flight.flights.afresh()  # the rays seen stay seen
                 self._flight, self._joined = fresh, False
-                self._vouched_ns = None
+                self._vouched_ns = self._flew_ns = None
                 return None
         if taken:
             self._loose = not tracker.airborne and self._looser(
                 fused.covariance, track.position_covariance)
-        if (self._refusing and not self._surely_up()) or self._loose or (
+        if tracker.airborne and self._flight.flights.flying:
+            self._flew_ns = stamp_ns
+        if (self._refusing and not self._surely_up(stamp_ns)) or self._loose or (
                 kick and not taken and not tracker.airborne):
             return None  # the ground track's position, the 3-D track kept
         return FusedEstimate(fused.x_m, fused.y_m, fused.covariance, fused.robots,
                              z_m=fused.z_m, covariance_3d=fused.covariance_3d,
                              triangulated=fused.triangulated)
 
-    def _surely_up(self) -> bool:
-        """Whether the 3-D track flies a flight its fits follow, or flies more than two
-        sigmas above ``lob_m`` (a track that went up by itself and refuses what the ground
-        tracker takes is mostly a kick it missed, a few centimetres off the ground)."""
+    def _surely_up(self, stamp_ns: int) -> bool:
+        """Whether the 3-D track flies a flight its fits follow (or flew one until less than
+        ``keep_ns`` ago: a bounce, where the ground tracker knows nothing of the flight
+        before), or flies more than two sigmas above ``lob_m`` (a track that went up by
+        itself and refuses what the ground tracker takes is mostly a kick it missed, a few
+        centimetres off the ground)."""
         tracker = self._flight.tracker
+        if self._flew_ns is not None and stamp_ns - self._flew_ns <= self.keep_ns:
+            return True
         if not tracker.airborne or tracker.x is None:
             return False
         if self._flight.flights.flying:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from estimator.constants import BALL_RADIUS_M
@@ -12,6 +13,7 @@ from estimator.estimates import BallEstimate, FusedEstimate, covariance_rows
 from estimator.hops import HopFollower
 from estimator.noise import CalibratedNoise
 from estimator.tracking import BallTracker, Measurement, TrackState
+from estimator.tracking.flight_fit import Kink
 from estimator.tracking.ray_pairs import RayPairs
 
 MS = 1_000_000
@@ -460,4 +462,31 @@ def test_a_flying_3d_track_that_refuses_gives_way_unless_it_is_surely_up(
     assert hops.takes(jumped, True, track, 200 * MS)
     flight = hops.step(200 * MS, [jumped], track)
     assert hops._flight.tracker.last_accepted_ns != 200 * MS  # refused
+    assert (flight is not None) == kept
+
+
+@pytest.mark.parametrize(("since_ms", "kept"), [(60, True), (140, False)])
+def test_a_3d_track_just_down_from_a_fitted_flight_keeps_its_position(
+        since_ms: int, kept: bool) -> None:
+    """The 3-D track flew a flight its fits followed, landed by itself (the ball coming
+    down, no longer airborne) and refuses the next estimate (the ball bouncing up): within
+    keep_ns of the flight its position is given, not the ground track's, which knew nothing
+    of the flight; later the ground track's is."""
+    hops = HopFollower(CalibratedNoise())
+    _joined(hops)
+    tracker = hops._flight.tracker
+    assert tracker.x is not None
+    tracker.x[2], tracker.x[5] = BALL_RADIUS_M + 0.5, 2.0
+    theta = np.array([-1.0, 0.0, 0.5, 0.0, 0.0, 2.0])
+    hops._flight.flights._kink = Kink(0, "free", "fly", theta, np.eye(6) * 1e-4, 0.0, 6, 3)
+    assert tracker.airborne and hops._flight.flights.flying
+    hops.step(190 * MS, [], _track(190 * MS, -1.0, 0.0))  # flying, at a tick
+    tracker.x[2], tracker.x[5] = BALL_RADIUS_M, 0.0  # down
+    assert not tracker.airborne
+    t_ns = (190 + since_ms) * MS
+    jumped = _sees("near", ROBOTS["near"], (0.2, 0.0, BALL_RADIUS_M))  # 1.2 m on
+    track = _track(t_ns, 0.2, 0.0)
+    assert hops.takes(jumped, True, track, t_ns)
+    flight = hops.step(t_ns, [jumped], track)
+    assert hops._flight.tracker.last_accepted_ns != t_ns  # refused
     assert (flight is not None) == kept

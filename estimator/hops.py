@@ -46,19 +46,18 @@ rays as unsure as the poses (``--pose-uncertainty``). The fused estimate carries
 track's height (z and its 3 x 3 covariance): a lob is given where it flies, not on the
 ground under it.
 
-Three rules give the ground track's position for a step while the 3-D track is kept: a
-3-D track that refused every estimate of its last step with estimates (the ground tracker
-took a kick or a jump the 3-D track gates out: until the 3-D track takes one again, the
-ground track is the surer), unless it is surely up (a flight its fits follow, or followed
-until less than ``keep_ns`` ago, as at a bounce, or two sigmas more than ``lob_m`` up: a
-refused ray leaves a lob in the air, where the ground tracker knows nothing; a track that
-rose a few centimetres by itself is mostly a missed kick); a
-rolling 3-D track that takes nothing at a step where its
-velocity is ``kick_mps`` from the ground track's (it would be moved on with a velocity it
-has not yet found); and a rolling 3-D track whose largest position variance is more than
-``loose_ratio`` times the ground track's (begun on one robot's images it knows little along
-their rays, where the ground tracker's motion model does). A flying track is never given up
-for its looseness: the ground tracker knows nothing of a lob.
+Three rules give the ground track's position for a step while the 3-D track is kept: a 3-D
+track that refused every estimate of its last step with estimates (the ground tracker took a
+kick or a jump the 3-D track gates out: until the 3-D track takes one again, the ground
+track is the surer), unless it is surely up (a flight its fits follow, or followed until
+less than ``keep_ns`` ago, as at a bounce, or two sigmas more than ``lob_m`` up: a refused
+ray leaves a lob in the air, where the ground tracker knows nothing; a track that rose a few
+centimetres by itself is mostly a missed kick); a rolling 3-D track that takes nothing at a
+step where its velocity is ``kick_mps`` from the ground track's (it would be moved on with a
+velocity it has not yet found); and a rolling 3-D track whose largest position variance is
+more than ``loose_ratio`` times the ground track's (begun on one robot's images it knows
+little along their rays, where the ground tracker's motion model does). A flying track is
+never given up for its looseness: the ground tracker knows nothing of a lob.
 
 The estimates the 3-D track does not take still go to its flight fits
 (:mod:`estimator.tracking.flights`, kept through its restarts): a lob's first images are
@@ -225,18 +224,16 @@ class HopFollower:
                              triangulated=fused.triangulated)
 
     def _surely_up(self, stamp_ns: int) -> bool:
-        """Whether the 3-D track flies a flight its fits follow (or flew one until less than
-        ``keep_ns`` ago: a bounce, where the ground tracker knows nothing of the flight
-        before), or flies more than two sigmas above ``lob_m`` (a track that went up by
-        itself and refuses what the ground tracker takes is mostly a kick it missed, a few
-        centimetres off the ground)."""
-        tracker = self._flight.tracker
+        """Whether the 3-D track flew a flight its fits follow at most ``keep_ns`` ago (now,
+        or just before a bounce, where the ground tracker knows nothing of the flight), or
+        flies more than two sigmas above ``lob_m`` (a track that went up by itself and
+        refuses what the ground tracker takes is mostly a kick it missed, a few centimetres
+        off the ground)."""
         if self._flew_ns is not None and stamp_ns - self._flew_ns <= self.keep_ns:
-            return True
+            return True  # (step sets _flew_ns to this step's stamp while the fits follow)
+        tracker = self._flight.tracker
         if not tracker.airborne or tracker.x is None:
             return False
-        if self._flight.flights.flying:
-            return True
         sigma = math.sqrt(max(float(tracker.P[2, 2]), 0.0))
         return float(tracker.x[2]) - BALL_RADIUS_M - self.lob_m > 2.0 * sigma
 

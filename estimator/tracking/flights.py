@@ -258,26 +258,26 @@ class FlightFollower:
         window = self._window(stamp_ns)
         rays = [(t, r) for t, r in window if t >= kink.contact_ns]
         if len(rays) >= self.check_rays:
-            free = fit_kink(rays, stamp_ns, "free", "fly")
+            fit = fit_kink(rays, stamp_ns, "free", "fly")
         elif kink.before != "free" and len(rays) > 2:  # the kick again, with the rays since
-            free = contact_time(window, kink.contact_ns - self.retry_ns,
-                                kink.contact_ns + self.retry_ns, kink.before, "fly",
-                                min_before=2)
-            if free is not None and not self._lob(free, window, stamp_ns):
+            fit = contact_time(window, kink.contact_ns - self.retry_ns,
+                               kink.contact_ns + self.retry_ns, kink.before, "fly",
+                               min_before=2)
+            if fit is not None and not self._lob(fit, window, stamp_ns):
                 return None
         else:
             return None
-        if free is None or free.robots < 2 or per_dof(free) > self.fit_per_dof:
+        if fit is None or fit.robots < 2 or per_dof(fit) > self.fit_per_dof:
             return None
-        x, P = free.state_at(stamp_ns)
+        x, P = fit.state_at(stamp_ns)
         d = tracker.x[:3] - x[:3]
         loose = float(np.trace(tracker.P[:3, :3]))
         if float(d @ np.linalg.solve(tracker.P[:3, :3] + P[:3, :3], d)) <= self.agree_chi2 and (
                 loose <= 3 * self.loose_m ** 2 or np.trace(P[:3, :3]) >= loose):
             return None
-        if free.before != "free":
-            self._kink = free  # the kick refitted: its rays since are counted from it
-        return free
+        if fit.before != "free":
+            self._kink = fit  # the kick refitted: its rays since are counted from it
+        return fit
 
 
 def _residual(ray: BallRay, point: Matrix) -> float:

@@ -2,7 +2,8 @@
 
 ::
 
-    python scripts/foreign_switches.py OUT_DIR [--set report|tune] [--workers 2]
+    python scripts/foreign_switches.py OUT_DIR [--set report|tune|check] [--workers 2]
+                                       [--default-only]
 
 Draws the suite's ten logs of a seed set into ``OUT_DIR/foreign`` (where ``dsp-eval --suite
 foreign --out-dir OUT_DIR`` draws them, so a run of either reuses the other's logs), replays
@@ -10,12 +11,14 @@ each with no switches and with each of :data:`VARIANTS`, and prints, per log, ea
 variant's RMSE while the ball is on the ground (the suite's own: its centre below
 ``GROUND_Z_M``), its ratio to the best of them, and the fused velocity's median error. The
 ``tune`` set is what defaults may be chosen on; the ``report`` set is what they are
-reported on.
+reported on. ``--default-only``: the default alone, its RMSE over every step, with the ball
+on the ground and in the air (pooled over the set's steps too).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -71,12 +74,50 @@ def _run(job: tuple[ForeignTask, str]) -> tuple[str, str, float | None, float | 
         "velocity_median_m_s"]
 
 
+def _errors(task: ForeignTask) -> tuple[str, list[float], list[float]]:
+    """The default's step errors on one log, the ball on the ground and in the air."""
+    from replay.profiles import options_for
+    from replay.runner import replay
+    from replay.sinks import ResultsCollector
+
+    collected = ResultsCollector()
+    replay(task.log, options_for(cameras=task.cameras, image_topic=IMAGE_TOPIC,
+                                 pose_topic=pose_topic(task.options), truth_topic=TRUTH_TOPIC,
+                                 progress=False, quiet=True, threads=1), sinks=[collected])
+    steps = [f for f in collected.fused if not f.get("tick") and f.get("error_m") is not None]
+    ground = [f["error_m"] for f in steps if (f.get("truth_z_m") or 0.0) < GROUND_Z_M]
+    air = [f["error_m"] for f in steps if (f.get("truth_z_m") or 0.0) >= GROUND_Z_M]
+    return task.label, ground, air
+
+
+def _rms(v: list[float]) -> str:
+    return f"{math.sqrt(sum(x * x for x in v) / len(v)):.4f}" if v else "-"
+
+
+def _default_only(tasks: list[ForeignTask], workers: int, name: str) -> int:
+    with ProcessPoolExecutor(workers) as pool:
+        results = list(pool.map(_errors, tasks))
+    print(f"Foreign logs, the `{name}` set: the default's RMSE [m] over every step, with the "
+          "ball on the ground and in the air (steps)\n")
+    print("| log | all | ground | air |\n|---|---|---|---|")
+    everything: tuple[list[float], list[float]] = ([], [])
+    for label, ground, air in results:
+        everything[0].extend(ground)
+        everything[1].extend(air)
+        print(f"| {label} | {_rms(ground + air)} | {_rms(ground)} | {_rms(air)} ({len(air)}) |")
+    g, a = everything
+    print(f"| pooled | {_rms(g + a)} | {_rms(g)} | {_rms(a)} ({len(a)}) |")
+    return 0
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("out_dir", type=Path)
     p.add_argument("--set", choices=tuple(FOREIGN_SETS), default="report")
     p.add_argument("--duration", type=float, default=10.0)
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--default-only", action="store_true",
+                   help="the default alone: RMSE over every step, on the ground, in the air")
     args = p.parse_args()
     folder = args.out_dir / "foreign"
     folder.mkdir(parents=True, exist_ok=True)
@@ -85,6 +126,8 @@ def main() -> int:
         if not (t.log.exists() and t.cameras.exists()):
             write_camera_file(t.cameras, t.options, force=True)
             write_foreign_log(t.log, t.options, force=True)
+    if args.default_only:
+        return _default_only(tasks, args.workers, args.set)
     jobs = [(t, v) for t in tasks for v in VARIANTS]
     with ProcessPoolExecutor(args.workers) as pool:
         results = list(pool.map(_run, jobs))

@@ -178,10 +178,12 @@ def _add_track_arguments(p: argparse._ActionsContainer) -> None:
                    help="--fusion track: the position from a 3-D track beside the tracker, "
                    "so a hop or a lob is placed where it is (the profile's: on with two or "
                    "more robots, off for --profile paper)")
-    p.add_argument("--width-range", action="store_true",
+    p.add_argument("--width-range", action=argparse.BooleanOptionalAction, default=None,
                    help="also range each blob by its width across the bearing, which a ball "
                    "in the air does not change: a blob wider than a ball on the ground at its "
-                   "range is a ball in the air, placed under itself; the corrected method")
+                   "range is a ball in the air, placed under itself; the corrected method "
+                   "(default: the blobs of robots whose camera has no model, a range table "
+                   "alone; --no-width-range: none)")
     p.add_argument("--clock", type=float, metavar="HZ", dest="clock_hz",
                    help="also a step at every tick of a HZ clock, with no image: the "
                    "tracker's estimate then (as a robot's control loop reads it), scored "
@@ -360,7 +362,7 @@ def format_summary(s: ReplaySummary) -> str:
     for robot, b in (s.beliefs or {}).items():
         lines.append(f"learnt {robot}: " + describe_belief(b))
     if s.lifted is not None:
-        lines.append(f"balls in the air by their width (--width-range): {s.lifted} of "
+        lines.append(f"balls in the air by their blob's width: {s.lifted} of "
                      f"{sum(r.estimates for r in s.per_robot.values())} estimates")
     if s.skipped:
         lines.append("skipped frames: " + ", ".join(f"{k} {v}" for k, v in s.skipped.items()))

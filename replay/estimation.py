@@ -60,6 +60,7 @@ from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
 from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay import plugins
+from replay.aloft import StillFilter, blob_range_m, ground_xy
 from replay.beliefs import beliefs
 from replay.cameras import DEFAULT_CENTRE_PX, Cameras
 from replay.locators import CorrectedLocator, Locator, PaperLocator
@@ -136,7 +137,8 @@ class FrameEstimator:
                  finder: BallFinder | None = None,
                  detector: Detector | None = None,
                  pose_covariance: np.ndarray | None = None, hops: bool = False,
-                 bias: BiasEstimator | None = None, width_range: bool = False,
+                 bias: BiasEstimator | None = None,
+                 width_robots: frozenset[str] = frozenset(), width_checked: bool = False,
                  pose_noise: PoseNoiseEstimator | None = None) -> None:
         self.cameras = cameras
         self.bias = bias
@@ -162,7 +164,9 @@ class FrameEstimator:
         self.noise: Noise = calibrated_noise
         self.locator: Locator = (
             PaperLocator(self.cameras) if method == "paper"
-            else CorrectedLocator(self.cameras, calibrated_noise if width_range else None))
+            else CorrectedLocator(self.cameras, calibrated_noise if width_robots else None,
+                                  width_robots))
+        self.still, self.checked = StillFilter(), width_robots if width_checked else frozenset()
         self.tracker: BallTracker | None = None
         self.hops: HopFollower | None = None
         """``--hops``: the 3-D track beside the tracker, whose position it gives."""
@@ -192,15 +196,20 @@ class FrameEstimator:
     def estimate(self, robot: str, image: np.ndarray | None,
                  pose_at: Callable[[], PoseMatch | None], *,
                  detected: Detected | None = None,
-                 localisation: Localisation | None = None) -> FrameOutcome:
+                 localisation: Localisation | None = None, stamp_ns: int = 0) -> FrameOutcome:
         """One image through detection, pose pairing and location. ``pose_at`` looks up the
         robot's pose at the image's stamp (None: none within the tolerance); ``detected``
         is :func:`detect` of the image when it ran already (e.g. ahead, in a thread);
         ``localisation``, the pose corrected from the image's field lines, is the pose the
-        ball is located from when given (the believed one stays the outcome's ``pose``)."""
+        ball is located from when given (the believed one stays the outcome's ``pose``);
+        ``stamp_ns``, the image's, tells a still lifted blob (:mod:`replay.aloft`)."""
         if detected is None:
             detected = detect(image, self.finder, self.detector)
         outcome = self._locate(robot, detected, pose_at, localisation)
+        if outcome.estimate is not None and outcome.detection and robot in self.checked:
+            width = blob_range_m(outcome.detection, self.centre(robot))
+            outcome = replace(outcome, estimate=self.still.placed(robot, stamp_ns,
+                                                                  outcome.estimate, width))
         return replace(outcome, candidates=detected.candidates) if detected.candidates \
             else outcome
 
@@ -346,19 +355,23 @@ class FrameEstimator:
         for f in frames:
             if f.estimate is None:
                 continue
-            prior = self._bias_prior(tracker, f)
-            if self.pose_noise is not None:
+            ground = ground_xy(f.estimate)  # a ball in the air: no pose is learnt from it
+            prior = self._bias_prior(tracker, f) if ground is None else None
+            if self.pose_noise is not None and ground is None:
                 self._learn_pose_noise(tracker, f)
             ball_estimate = _ball(f.estimate, f.r_px)
             sigma = self.noise.covariance(ball_estimate)
             shared = (None if f.estimate.pose_covariance is None
                       else covariance_rows(localisation_covariance(ball_estimate)))
             accepted = tracker.update(Measurement(f.stamp_ns, f.robot, f.estimate.x_m,
-                                                  f.estimate.y_m, covariance_rows(sigma), shared))
+                                                  f.estimate.y_m, covariance_rows(sigma), shared,
+                                                  ground))
             if prior is not None and accepted:
                 self._learn_bias(f, prior)
             if accepted:
                 self._accepted_ns[f.robot] = f.stamp_ns
+                if ground is not None:  # the ball flies: no residual tells a pose meanwhile
+                    self._flying_until_ns = f.stamp_ns + FLIGHT_HOLD_NS
             ball = _ball(f.estimate, f.r_px, self._heights.get(f.robot))
             if hops is not None and hops.takes(ball, accepted, tracker.state_at(f.stamp_ns),
                                                f.stamp_ns):

@@ -47,11 +47,13 @@ class PaperLocator:
 @dataclass(frozen=True)
 class CorrectedLocator:
     """The corrected estimator: calibration on the range, yaw from the full quaternion;
-    with ``noise`` (``--width-range``) a blob whose width shows a ball in the air is placed
-    under it, its ray kept (:mod:`estimator.width`)."""
+    with ``noise``, a blob of one of ``width_robots`` (None: every robot) whose width shows
+    a ball in the air is placed under it, its ray kept (:mod:`estimator.width`,
+    :mod:`replay.aloft`)."""
 
     cameras: Cameras
     noise: CalibratedNoise | None = None
+    width_robots: frozenset[str] | None = None
 
     def locate(self, robot: str, det: Detection, pose: RobotPose) -> RobotEstimate:
         centre = self.cameras.centres[robot]
@@ -62,7 +64,8 @@ class CorrectedLocator:
         estimate = RobotEstimate(robot, e.x_m, e.y_m, e.range_m, e.bearing_rad, pose.x_m,
                                  pose.y_m, pose.yaw_rad,
                                  self.cameras.visibility(robot, det, e.range_m))
-        if self.noise is None or e.r_px is None:
+        if self.noise is None or e.r_px is None or (
+                self.width_robots is not None and robot not in self.width_robots):
             return estimate
         width = width_range(det.outline_px, centre, (float(det.cx_px), float(det.cy_px)))
         if width is None:

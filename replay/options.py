@@ -151,9 +151,10 @@ class ReplayOptions:
     hops: bool = False
     """The tracker's position from a 3-D track beside it while the ball hops
     (:mod:`estimator.hops`; ``track`` fusion only, not with ``smooth``)."""
-    width_range: bool = False
+    width_range: bool | None = None
     """Each blob's range also from its width across the bearing, which a ball in the air
-    does not change (:mod:`estimator.width`; the corrected method only)."""
+    does not change (:mod:`estimator.width`; the corrected method only): True every robot's,
+    None those of robots whose camera has no model, False none (:mod:`replay.aloft`)."""
     clock_hz: float | None = None
     """Also a step at every tick k / clock_hz s of a clock (no image in it): the fused
     estimate the fusion gives then (the tracker's prediction from the estimates so far; none
@@ -377,7 +378,7 @@ class ReplayOptions:
                if self.detector is not None and self.detector not in DETECTORS else {}),
             **({"smooth": True} if self.smooth else {}),
             **({"hops": True} if self.hops else {}),
-            **({"width_range": True} if self.width_range else {}),
+            **({"width_range": self.width_range} if self.width_range is not None else {}),
             **({"clock_hz": self.clock_hz} if self.clock_hz is not None else {}),
             **({"truth_topic": self.truth_topic} if self.truth_topic is not None else {}),
             **({"start_absolute": True} if self.start_absolute else {}),
@@ -432,7 +433,7 @@ class ReplayOptions:
             d.pop("pose_uncertainty")
         if not self.hops:
             d.pop("hops")
-        if not self.width_range:
+        if self.width_range is None:
             d.pop("width_range")
         if self.pose_sigma_used:
             d["pose_sigma_m"], d["pose_sigma_deg"] = self.pose_sigma

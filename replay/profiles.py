@@ -133,12 +133,16 @@ class Pipeline:
     detector_choice_recorded: bool = True
     """Whether the header records ``detector_choice`` (not for a dsp-record log's orange
     ball, whose results stay as they were)."""
+    width: tuple[str, ...] = ()
+    """The robots whose blobs the width places in the air (:mod:`replay.aloft`)."""
 
     def to_dict(self) -> dict[str, Json]:
         d: dict[str, Json] = {k: v for k, v in dataclasses.asdict(self).items()
                               if k not in ("notes", "detector_choice",
-                                           "detector_choice_recorded")}
+                                           "detector_choice_recorded", "width")}
         d["notes"] = list(self.notes)
+        if self.width:  # recorded where it applies: other results stay as they were
+            d["width"] = list(self.width)
         if self.detector_choice is not None and self.detector_choice_recorded:
             d["detector_choice"] = self.detector_choice
         return d
@@ -150,6 +154,9 @@ class Pipeline:
                  "believed": "the believed poses"}[self.poses]
         chosen = "" if self.detector_choice is None else f" (chosen: {self.detector_choice})"
         parts = [f"{self.detector} detector{chosen}", f"{self.method} ranges", poses]
+        if self.width:
+            parts.insert(2, "balls in the air by their blob's width (" + ", ".join(
+                self.width) + ")")
         if self.pose_uncertainty:
             parts.append("pose uncertainty")
         parts.append(f"{self.fusion} fusion" + (" with hops and flight" if self.hops else ""))

@@ -47,6 +47,7 @@ from estimator.localisation import PoseCorrection
 from estimator.tracking.bias import BiasEstimator, BiasParams
 from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay.ahead import Ahead, Decoded, decode_and_detect
+from replay.aloft import width_robots
 from replay.cameras import cameras_for
 from replay.clock import Clock
 from replay.detector_choice import choose_detector, inline_ball_model
@@ -119,13 +120,15 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             camera_robots=tuple(cameras.models), notes=() if field_note is None else
             (field_note,))
         options, pipeline, chosen = choose_detector(reader, options, pipeline, cameras)
+        width = width_robots(options, info.robots, cameras.models)
+        pipeline = dataclasses.replace(pipeline, width=tuple(sorted(width)))
         model = (read_ball_file(options.ball) if options.ball is not None
                  else inline_ball_model(cameras) if options.detector_name == "real" else None)
         finder = None if model is None else BallFinder(model, shipped_check())
         estimator = FrameEstimator(
             method=options.method, fusion_method=options.fusion_method, cameras=cameras,
             smooth=options.smooth, hops=options.hops, noise=options.noise, finder=finder,
-            width_range=options.width_range,
+            width_robots=width, width_checked=options.width_range is None,
             detector=options.detector_part(),
             pose_covariance=prior_covariance(*options.pose_sigma)
             if options.pose_uncertainty and options.pose_sigma_given else None,
@@ -133,7 +136,7 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             if options.pose_uncertainty and not options.pose_sigma_given else None,
             bias=_bias(options) if options.localise == "ball" else None)
         localiser = _localiser(options, field, estimator, path)
-        stats = ReplayStats(info.robots, width_range=options.width_range)
+        stats = ReplayStats(info.robots, width_range=bool(width))
         diagnosis = Diagnosis(path, info.robots, cameras, detector=options.detector_name,
                               ball=options.ball, early=chosen)
         with contextlib.ExitStack() as stack:
@@ -381,7 +384,7 @@ class _Stream:
         if decoded.problem is not None:
             self.bad_images[decoded.problem] = self.bad_images.get(decoded.problem, 0) + 1
         t_start = time.perf_counter()
-        outcome = self.estimator.estimate(img.robot, image, pose_at,
+        outcome = self.estimator.estimate(img.robot, image, pose_at, stamp_ns=img.stamp_ns,
                                           detected=decoded.detected, localisation=loc)
         elapsed = decoded.seconds + time.perf_counter() - t_start
         # the truth goes with every frame, so a missed ball can be told from an absent one

@@ -25,6 +25,14 @@ class Measurement:
     """The part of R that this robot's estimates share (its pose's: a bias drifts over
     seconds), None when unknown: two of its estimates moved apart by more than the rest of
     R says, as the bias is in both."""
+    ground_xy: tuple[float, float] | None = None
+    """Where the blob's ray meets the ground [m] when the estimate is placed elsewhere (a
+    ball its width shows in the air): where a still object's estimates keep falling."""
+
+    @property
+    def still_xy(self) -> tuple[float, float]:
+        """Where the tracker's clutter map counts the estimate."""
+        return self.ground_xy if self.ground_xy is not None else (self.x_m, self.y_m)
 
 
 @dataclass(frozen=True)

@@ -175,7 +175,7 @@ class BallTracker:
         self._confirm(track, e)
         self._prune(track, m.stamp_ns)
         if not e.accepted:
-            self._clutter.add(m.stamp_ns, m.x_m, m.y_m)
+            self._clutter.add(m.stamp_ns, *m.still_xy)
         return e.accepted
 
     def _initial(self, e: _Entry) -> Gaussian:
@@ -248,7 +248,7 @@ class BallTracker:
         j = next((j for j in range(i - 1, -1, -1) if track.entries[j].accepted), -1)
         if j < 0 or e.m.stamp_ns - track.entries[j].m.stamp_ns > prm.lone_kick_ns:
             return
-        if self._clutter.covers(e.m.stamp_ns, e.m.x_m, e.m.y_m):
+        if self._clutter.covers(e.m.stamp_ns, *e.m.still_xy):
             return
         last = track.entries[j]
         assert last.state is not None
@@ -297,7 +297,7 @@ class BallTracker:
         assert before is not None
         speed = math.hypot(before[0][2], before[0][3])
         if (speed >= STILL_M_S or track.travelled) and self._clutter.covers(
-                e.m.stamp_ns, e.m.x_m, e.m.y_m):
+                e.m.stamp_ns, *e.m.still_xy):
             return  # a still false blob that robots keep reporting never displaces the ball
         first = reacquire_from(
             [_candidate(x) for x in track.entries[:i + 1]],
@@ -327,7 +327,7 @@ class BallTracker:
         elif track.travelled and spans:
             last = {x.m.robot: x for x in track.entries if x.m.robot not in track.robots}
             track.confirmed = all(not x.accepted and self._clutter.covers(
-                x.m.stamp_ns, x.m.x_m, x.m.y_m) for x in last.values())
+                x.m.stamp_ns, *x.m.still_xy) for x in last.values())
 
     def _note_travel(self, track: _Track, e: _Entry) -> None:
         """Mark a track that an accepted estimate puts far from its first estimate

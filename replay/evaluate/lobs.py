@@ -197,7 +197,8 @@ def _replay(log: Path, fusion: str, calibration: Path | None,
             width_range: bool) -> ResultsCollector:
     collected = ResultsCollector()
     replay(log, ReplayOptions(method="corrected", fusion=fusion, calibration=calibration,
-                              width_range=width_range, progress=False), sinks=[collected])
+                              width_range=width_range or None, progress=False),
+           sinks=[collected])
     return collected
 
 

@@ -61,7 +61,7 @@ def _located(ball: tuple[float, float, float], width: bool):
     det = detect_ball(_image(ball))
     assert det is not None
     est = FrameEstimator(method="corrected", fusion_method="track", cameras=_cameras(),
-                         width_range=width)
+                         width_robots=frozenset({"robot1"} if width else ()))
     return est.locator.locate("robot1", det, ROBOT)
 
 
@@ -87,8 +87,8 @@ def test_one_robot_alone_gives_the_ball_s_height_from_its_width() -> None:
     within its sigma, with the width."""
     heights = {}
     for width in (False, True):
-        est = FrameEstimator(method="corrected", fusion_method="ballistic",
-                             cameras=_cameras(), width_range=width)
+        est = FrameEstimator(method="corrected", fusion_method="ballistic", cameras=_cameras(),
+                             width_robots=frozenset({"robot1"} if width else ()))
         e = _located(BALL, width)
         frame = FrameResult(0, "robot1", NS_PER_S, FrameStatus.OK, estimate=e)
         step = est.step(0, NS_PER_S, (frame,), (BALL[0], BALL[1]), truth_z=BALL[2])
@@ -112,7 +112,7 @@ def test_a_golden_ball_on_the_ground_gives_the_same_estimates(tmp_path: Path) ->
     runs = {}
     for width in (False, True):
         out = tmp_path / f"{width}.json"
-        replay(GOLDEN / "scenario2.mcap", ReplayOptions(out=out, width_range=width,
+        replay(GOLDEN / "scenario2.mcap", ReplayOptions(out=out, width_range=width or None,
                                                         progress=False))
         runs[width] = json.loads(out.read_text())
     assert runs[True]["options"].pop("width_range") is True

@@ -187,6 +187,10 @@ def _default_pipeline(cat: Catalogue, robots: list[str], camera_robots: list[str
     else:
         lines.append("pose covariance: not in the log (learnt from it as it replays, from how "
                      "each robot's ball disagrees with the others')")
+    no_model = [r for r in robots if r not in camera_robots]
+    if no_model:  # replay.aloft: their rays cannot cross, their blobs' widths can tell
+        lines.append(f"balls in the air: placed by the blob's width for {', '.join(no_model)} "
+                     "(no camera model), once their blobs agree with the calibration")
     return lines
 
 

@@ -177,7 +177,9 @@ def test_dsp_info_says_what_a_bag_lacks_for_the_default_pipeline(
     assert main([str(bag), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert [line.split(":")[0] for line in doc["default_pipeline"]] == [
-        "line fit", "3-D track", "poses", "pose covariance"]
+        "line fit", "3-D track", "poses", "pose covariance", "balls in the air"]
+    assert doc["default_pipeline"][-1].startswith(
+        "balls in the air: placed by the blob's width for keeper (no camera model)")
     pair = tmp_path / "pair.mcap"  # two robots: each one's bias from how their balls differ
     write_log(pair, robots={"keeper": (-8.0, 0.0, 0.0), "back": (-4.0, 1.0, 0.0)},
               duration_s=0.2, cameras=None, metadata=False, **TEAM)

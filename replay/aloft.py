@@ -88,11 +88,13 @@ def ground_xy(e: RobotEstimate) -> tuple[float, float] | None:
 
 @dataclass
 class StillFilter:
-    """Per robot, the ground points of its lifted estimates; a still one is put back down."""
+    """Per robot, whether its blob widths are trusted and where its lifted estimates' rays
+    met the ground: an untrusted or still one is put back down."""
 
     _still: dict[str, ClutterMap] = field(default_factory=dict)
-
+    """Robot -> the ground points of its lifted estimates."""
     _ratios: dict[str, list[float]] = field(default_factory=dict)
+    """Robot -> width range / calibrated range of its last measured blobs."""
 
     def trusted(self, robot: str) -> bool:
         """Whether the robot's blob widths agree with its calibration: of the width's range

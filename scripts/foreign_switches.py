@@ -56,38 +56,37 @@ VARIANTS: dict[str, dict[str, Any]] = {
 3-D track, whose steps carry the ball's true height that tells the ground."""
 
 
-def _run(job: tuple[ForeignTask, str]) -> tuple[str, str, float | None, float | None]:
+def _steps(task: ForeignTask, variant: str) -> list[dict[str, Any]]:
+    """The steps (no clock ticks) of one log replayed with one of :data:`VARIANTS`."""
     from replay.profiles import options_for
     from replay.runner import replay
     from replay.sinks import ResultsCollector
 
-    task, variant = job
     collected = ResultsCollector()
     replay(task.log, options_for(cameras=task.cameras, image_topic=IMAGE_TOPIC,
                                  pose_topic=pose_topic(task.options), truth_topic=TRUTH_TOPIC,
                                  progress=False, quiet=True, threads=1, **VARIANTS[variant]),
            sinks=[collected])
-    steps = [f for f in collected.fused if not f.get("tick")]
-    ground = score_steps([f for f in steps if (f.get("truth_z_m") or 0.0) < GROUND_Z_M], [])
-    st = ground.stats()
+    return [f for f in collected.fused if not f.get("tick")]
+
+
+def _on_ground(step: dict[str, Any]) -> bool:
+    return bool((step.get("truth_z_m") or 0.0) < GROUND_Z_M)
+
+
+def _run(job: tuple[ForeignTask, str]) -> tuple[str, str, float | None, float | None]:
+    task, variant = job
+    steps = _steps(task, variant)
+    st = score_steps([f for f in steps if _on_ground(f)], []).stats()
     return task.label, variant, st["rmse_m"], score_steps(steps, []).stats()[
         "velocity_median_m_s"]
 
 
 def _errors(task: ForeignTask) -> tuple[str, list[float], list[float]]:
     """The default's step errors on one log, the ball on the ground and in the air."""
-    from replay.profiles import options_for
-    from replay.runner import replay
-    from replay.sinks import ResultsCollector
-
-    collected = ResultsCollector()
-    replay(task.log, options_for(cameras=task.cameras, image_topic=IMAGE_TOPIC,
-                                 pose_topic=pose_topic(task.options), truth_topic=TRUTH_TOPIC,
-                                 progress=False, quiet=True, threads=1), sinks=[collected])
-    steps = [f for f in collected.fused if not f.get("tick") and f.get("error_m") is not None]
-    ground = [f["error_m"] for f in steps if (f.get("truth_z_m") or 0.0) < GROUND_Z_M]
-    air = [f["error_m"] for f in steps if (f.get("truth_z_m") or 0.0) >= GROUND_Z_M]
-    return task.label, ground, air
+    steps = [f for f in _steps(task, "default") if f.get("error_m") is not None]
+    return (task.label, [f["error_m"] for f in steps if _on_ground(f)],
+            [f["error_m"] for f in steps if not _on_ground(f)])
 
 
 def _rms(v: list[float]) -> str:

@@ -42,8 +42,8 @@ from estimator.noise import CalibratedNoise, Noise, NoiseModel
 from estimator.rays import BallRay, Point3, aloft, height_unknown_covariance, ray_of, triangulate
 from estimator.tracking.ballistic import BallisticParams, BallisticTracker, Landing
 from estimator.tracking.flights import FlightFollower
+from estimator.tracking.one_shot import TrackFusion
 from estimator.tracking.ray_pairs import RayPairs, ray_residual
-from estimator.tracking.tracker import TrackFusion
 
 __all__ = [
     "FUSION_METHODS",

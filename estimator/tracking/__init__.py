@@ -1,7 +1,8 @@
 """The ball tracker: robots' estimates at their own stamps -> the ball's position and velocity.
 
 - :mod:`estimator.tracking.tracker`: :class:`BallTracker` (gate, manoeuvres, re-acquisition,
-  late estimates) and :class:`TrackFusion`, the tracker as a one-shot fusion;
+  late estimates); :mod:`estimator.tracking.one_shot`: :class:`TrackFusion`, the tracker as a
+  one-shot fusion;
 - :mod:`estimator.tracking.model`: the motion model and the Kalman filter's steps;
 - :mod:`estimator.tracking.params`: :class:`TrackerParams`; :mod:`estimator.tracking.state`:
   its input :class:`Measurement` and output :class:`TrackState`;
@@ -18,10 +19,11 @@ on :mod:`estimator.fusion` (which offers the tracker as its ``track`` method).
 from __future__ import annotations
 
 from estimator.tracking.clutter import ClutterMap
+from estimator.tracking.one_shot import TrackFusion
 from estimator.tracking.params import GATE_CHI2_999, TrackerParams
 from estimator.tracking.smoother import FilterNode, SmoothedTrack
 from estimator.tracking.state import Measurement, TrackState
-from estimator.tracking.tracker import BallTracker, TrackFusion
+from estimator.tracking.tracker import BallTracker
 
 __all__ = [
     "GATE_CHI2_999",

@@ -48,15 +48,12 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
-from estimator.estimates import BallEstimate, FusedEstimate, covariance_rows
-from estimator.noise import CalibratedNoise, Noise
 from estimator.tracking.clutter import ClutterMap
 from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
 from estimator.tracking.params import TrackerParams
@@ -70,7 +67,7 @@ from estimator.tracking.reacquire import (
 from estimator.tracking.smoother import FilterNode, SmoothedTrack
 from estimator.tracking.state import Measurement, TrackState, track_state
 
-__all__ = ["BallTracker", "TrackFusion"]
+__all__ = ["BallTracker"]
 
 
 @dataclass(eq=False)
@@ -415,29 +412,3 @@ class BallTracker:
         return first + tuple(e.m.robot for e in track.entries
                              if e.m.stamp_ns == stamp_ns and e.accepted)
 
-
-@dataclass(frozen=True)
-class TrackFusion:
-    """The tracker as a one-shot :class:`~estimator.fusion.Fusion`: simultaneous estimates
-    fed to a fresh tracker in input order; the result is the track at that instant (the
-    estimates that pass the gate, inverse-covariance weighted), its robots those accepted."""
-
-    noise: Noise = field(default_factory=CalibratedNoise)
-    params: TrackerParams = field(default_factory=TrackerParams)
-
-    @property
-    def name(self) -> str:
-        return "track"
-
-    def fuse(self, estimates: Sequence[BallEstimate]) -> FusedEstimate | None:
-        if not estimates:
-            return None
-        tracker = BallTracker(self.params)
-        for e in estimates:
-            tracker.update(Measurement(0, e.robot, e.x_m, e.y_m,
-                                       covariance_rows(self.noise.covariance(e))))
-        state = tracker.state_at(0)
-        if state is None:  # pragma: no cover - a track at stamp 0 always exists
-            return None
-        return FusedEstimate(state.x_m, state.y_m, state.position_covariance,
-                             tracker.accepted_at(0))

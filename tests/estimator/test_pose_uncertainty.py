@@ -14,7 +14,7 @@ from estimator.errors import FusionError
 from estimator.estimates import BallEstimate, Covariance3
 from estimator.fusion import RobustFusion, WeightedFusion
 from estimator.noise import CalibratedNoise, NoiseModel, localisation_covariance
-from estimator.tracking.tracker import TrackFusion
+from estimator.tracking.one_shot import TrackFusion
 
 YAW_SIGMA = math.radians(3.0)
 

@@ -3,6 +3,8 @@
 - :mod:`estimator.tracking.tracker`: :class:`BallTracker` (gate, manoeuvres, re-acquisition,
   late estimates); :mod:`estimator.tracking.one_shot`: :class:`TrackFusion`, the tracker as a
   one-shot fusion;
+- :mod:`estimator.tracking.offsets`: the track's velocity, from a filter beside it that
+  holds each robot's offset (how far its estimates sit from the others');
 - :mod:`estimator.tracking.model`: the motion model and the Kalman filter's steps;
 - :mod:`estimator.tracking.params`: :class:`TrackerParams`; :mod:`estimator.tracking.state`:
   its input :class:`Measurement` and output :class:`TrackState`;

@@ -19,6 +19,10 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   ``max_speed`` fast could have gone there, and it does not fall where rejected estimates
   keep falling (a still false blob: :class:`~estimator.tracking.clutter.ClutterMap`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
+- **Velocity**: the track's velocity is that of a filter run beside it on the estimates it
+  accepts, with each robot's offset from the others in its state
+  (:mod:`estimator.tracking.offsets`): robots that disagree by a few centimetres, their
+  estimates alternating, do not read as motion. The position is this filter's.
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
   velocity 0 with sigma ``kick_sigma``), confirmed once it has accepted estimates from two
   robots (or from the same robot when no other reports), and when a robot disagreed with it,
@@ -56,6 +60,7 @@ from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
 from estimator.tracking.clutter import ClutterMap
 from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
+from estimator.tracking.offsets import OffsetFilter
 from estimator.tracking.params import TrackerParams
 from estimator.tracking.reacquire import (
     STILL_M_S,
@@ -84,6 +89,8 @@ class _Entry:
     """Posterior when accepted, else the prediction to its stamp."""
     prior: Gaussian | None = None
     """The prediction to its stamp (kick included), for the smoother."""
+    offsets: Gaussian | None = None
+    """The ball and the robots' offsets after it (:mod:`~estimator.tracking.offsets`)."""
 
     @property
     def key(self) -> tuple[int, int]:
@@ -117,6 +124,8 @@ class _Track:
     """The track's first estimate (z, R)."""
     travelled: bool = False
     """The track has been ``TRAVELLED_M`` and more than its noise from its first estimate."""
+    offsets: Gaussian | None = None
+    """The ball and the robots' offsets at ``anchor_ns``."""
 
 
 class BallTracker:
@@ -132,6 +141,7 @@ class BallTracker:
         self._track: _Track | None = None
         self._seq = 0
         self._clutter = ClutterMap()
+        self._offsets = OffsetFilter(self.params)
         self.late = 0
         """Estimates dropped because they were older than the tracker's memory."""
 
@@ -187,17 +197,21 @@ class BallTracker:
         prm = self.params
         prev = track.entries[start - 1] if start > 0 else None
         t_prev, state = (prev.m.stamp_ns, prev.state) if prev else (track.anchor_ns, track.anchor)
-        assert state is not None
+        offsets = prev.offsets if prev else track.offsets
+        assert state is not None and offsets is not None
         for e in track.entries[start:]:
             x, p = state
             if e.kick:  # an impulse of unknown size just before this estimate
                 p = p + np.diag([0.0, 0.0, 1.0, 1.0]) * prm.kick_sigma_m_s**2
-            prior = predict((x, p), (e.m.stamp_ns - t_prev) / NS_PER_S,
-                            q=prm.accel_noise_m2_s3, friction_per_s=prm.friction_per_s)
+            dt = (e.m.stamp_ns - t_prev) / NS_PER_S
+            prior = predict((x, p), dt, q=prm.accel_noise_m2_s3,
+                            friction_per_s=prm.friction_per_s)
             _, _, d2 = innovation(prior, e.z, e.r)
             e.accepted = d2 <= prm.gate
             e.state = update(prior, e.z, e.r) if e.accepted else prior
             e.prior = prior
+            e.offsets = offsets = self._offsets.step(offsets, dt, kick=e.kick, robot=e.m.robot,
+                                                     z=e.z, r=e.r, accepted=e.accepted)
             t_prev, state = e.m.stamp_ns, e.state
 
     def _consistent(self, a: _Entry, b: _Entry) -> bool:
@@ -341,7 +355,8 @@ class BallTracker:
             self._nodes.append(FilterNode(e.m.stamp_ns, initial, initial, self._segment))
         return _Track(e.m.stamp_ns, initial, entries, robots={e.m.robot},
                       anchor_accepted_ns=e.m.stamp_ns, anchor_robot=e.m.robot,
-                      start_ns=e.m.stamp_ns, origin=(e.z, e.r))
+                      start_ns=e.m.stamp_ns, origin=(e.z, e.r),
+                      offsets=self._offsets.start(initial, e.m.robot, e.m.stamp_ns))
 
     def _prune(self, track: _Track, now_ns: int) -> None:
         """Fold entries older than memory_ns into the anchor."""
@@ -353,6 +368,9 @@ class BallTracker:
         for first in track.entries[:count]:
             assert first.state is not None and first.prior is not None
             track.anchor_ns, track.anchor = first.m.stamp_ns, first.state
+            assert first.offsets is not None
+            track.offsets = first.offsets
+            self._offsets.settle(first.offsets, first.m.stamp_ns)
             track.anchor_robot = None
             if first.accepted:
                 track.anchor_accepted_ns = first.m.stamp_ns
@@ -391,16 +409,19 @@ class BallTracker:
         track = self._track
         if track is None or stamp_ns - self._last_accepted_ns(track) > self.params.lost_after_ns:
             return None
-        t_prev, state = track.anchor_ns, track.anchor
+        t_prev, state, offsets = track.anchor_ns, track.anchor, track.offsets
         for e in reversed(track.entries):
             if e.m.stamp_ns <= stamp_ns:
                 assert e.state is not None
-                t_prev, state = e.m.stamp_ns, e.state
+                t_prev, state, offsets = e.m.stamp_ns, e.state, e.offsets
                 break
         prm = self.params
-        g = predict(state, (stamp_ns - t_prev) / NS_PER_S, q=prm.accel_noise_m2_s3,
-                    friction_per_s=prm.friction_per_s)
-        return track_state(stamp_ns, g, track.confirmed)
+        dt = (stamp_ns - t_prev) / NS_PER_S
+        x, p = (a.copy() for a in predict(state, dt, q=prm.accel_noise_m2_s3,
+                                          friction_per_s=prm.friction_per_s))
+        assert offsets is not None  # the velocity is the offset filter's (module docstring)
+        x[2:4], p[2:4, 2:4] = self._offsets.velocity(offsets, dt)
+        return track_state(stamp_ns, (x, p), track.confirmed)
 
     def accepted_at(self, stamp_ns: int) -> tuple[str, ...]:
         """Robots whose estimates stamped ``stamp_ns`` the track accepted, in arrival order."""

@@ -65,7 +65,10 @@ def test_constant_velocity_converges_to_the_exact_motion() -> None:
     t, _, _accepted, state = steps[-1]
     assert all(a for _, _, a, _ in steps)
     pos, vel = error(state, straight, t)
-    assert pos < 1e-9 and vel < 1e-6  # noise-free: the filter is exact
+    # noise-free: the position is exact, the velocity (the offsets' filter, which lets each
+    # robot's first estimates sit a little off the others' and forgets that over seconds)
+    # within 0.1 mm/s
+    assert pos < 1e-9 and vel < 1e-4
     # with 3 mm noise: after the first frames within millimetres and centimetres a second
     noisy = feed(BallTracker(exact), straight, frames=40)
     errors = np.array([error(s, straight, t) for t, _, _, s in noisy[9:]])
@@ -221,7 +224,9 @@ def test_a_late_estimate_is_put_in_stamp_order() -> None:
 
 def _close(a: TrackState | None, b: TrackState | None) -> bool:
     assert a is not None and b is not None
-    return abs(a.x_m - b.x_m) < 1e-9 and abs(a.vx_m_s - b.vx_m_s) < 1e-6
+    # the shuffled tracker drops the first estimate (older than its anchor): the offsets'
+    # filter still shows it at a few micrometres per second
+    return abs(a.x_m - b.x_m) < 1e-9 and abs(a.vx_m_s - b.vx_m_s) < 1e-5
 
 
 def test_deterministic() -> None:

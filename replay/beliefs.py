@@ -9,17 +9,20 @@ from collections.abc import Mapping, Sequence
 from dsp.jsonio import Json
 from estimator.tracking.bias import BiasEstimator
 from estimator.tracking.pose_noise import PoseNoiseEstimator
+from estimator.tracking.tracker import BallTracker
 
 __all__ = ["beliefs"]
 
 
 def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
-            bias: BiasEstimator | None, stated: Mapping[str, tuple[float, float]]
-            ) -> dict[str, dict[str, Json]]:
+            bias: BiasEstimator | None, stated: Mapping[str, tuple[float, float]],
+            tracker: BallTracker | None = None) -> dict[str, dict[str, Json]]:
     """Per robot: the pose spread ``learnt`` from the residuals (and how many), the spread its
-    log ``stated`` (m, rad) beside it, and the ``bias`` corrected by at the end; robots of
-    which nothing was learnt are left out."""
+    log ``stated`` (m, rad) beside it, the ``bias`` corrected by at the end, and the offset
+    of its estimates from the others' that the ``tracker``'s velocity filter held at the end
+    (:mod:`estimator.tracking.offsets`); robots of which nothing was learnt are left out."""
     out: dict[str, dict[str, Json]] = {}
+    offsets = {} if tracker is None else tracker.offsets()
     for robot in robots:
         d: dict[str, Json] = {}
         if learnt is not None and learnt.count(robot):
@@ -33,6 +36,9 @@ def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
             b, _ = bias.bias(robot)
             d.update(bias_x_m=round(float(b[0]), 6), bias_y_m=round(float(b[1]), 6),
                      bias_yaw_deg=round(math.degrees(float(b[2])), 6))
+        if robot in offsets:
+            d.update(offset_x_m=round(offsets[robot][0], 6),
+                     offset_y_m=round(offsets[robot][1], 6))
         if d:
             out[robot] = d
     return out

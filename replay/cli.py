@@ -341,6 +341,9 @@ def describe_belief(b: Mapping[str, object]) -> str:
         parts.append(f"corrected by ({100 * float(str(b['bias_x_m'])):+.1f}, "
                      f"{100 * float(str(b['bias_y_m'])):+.1f}) cm, "
                      f"{float(str(b['bias_yaw_deg'])):+.2f} deg at the end")
+    if "offset_x_m" in b:
+        parts.append(f"its ball ({100 * float(str(b['offset_x_m'])):+.1f}, "
+                     f"{100 * float(str(b['offset_y_m'])):+.1f}) cm from the others' at the end")
     return "; ".join(parts)
 
 

@@ -301,7 +301,7 @@ class FrameEstimator:
     def beliefs(self) -> dict[str, dict[str, Json]]:
         """What the replay came to believe of each robot's pose (:func:`replay.beliefs.beliefs`)."""
         return beliefs(list(self.cameras.specs), self.pose_noise if self.bias is None
-                       else self.bias.learnt, self.bias, self._stated)
+                       else self.bias.learnt, self.bias, self._stated, self.tracker)
 
     def flush(self) -> None:
         """Once the log is read: the held-back steps, smoothed, to the sinks."""

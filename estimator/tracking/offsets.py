@@ -136,6 +136,12 @@ class OffsetFilter:
         x[:2] -= x[4 + 2 * k:6 + 2 * k]
         return x, p
 
+    def of(self, g: Gaussian) -> dict[str, tuple[float, float]]:
+        """Each robot's offset in ``g`` (x, y) [m], in the order the robots were first seen."""
+        x = g[0]
+        return {r: (float(x[4 + 2 * k]), float(x[5 + 2 * k])) for r, k in self.robots.items()
+                if 6 + 2 * k <= len(x)}
+
     def velocity(self, g: Gaussian, dt_s: float) -> Gaussian:
         """The ball's velocity and its covariance ``dt_s`` after ``g``."""
         x, p = self.predict(g, dt_s)

@@ -423,6 +423,14 @@ class BallTracker:
         x[2:4], p[2:4, 2:4] = self._offsets.velocity(offsets, dt)
         return track_state(stamp_ns, (x, p), track.confirmed)
 
+    def offsets(self) -> dict[str, tuple[float, float]]:
+        """Each robot's offset from the others (x, y) [m] at the newest estimate, as the
+        velocity's filter holds it (:mod:`~estimator.tracking.offsets`); empty, no track."""
+        track = self._track
+        g = None if track is None else track.entries[-1].offsets if track.entries else (
+            track.offsets)
+        return {} if g is None else self._offsets.of(g)
+
     def accepted_at(self, stamp_ns: int) -> tuple[str, ...]:
         """Robots whose estimates stamped ``stamp_ns`` the track accepted, in arrival order."""
         track = self._track

@@ -1,11 +1,13 @@
 """What a log does not state is learnt from it: on logs another renderer drew (no dsp
 metadata, PoseStamped), the default learns each robot's pose spread and corrects its
 bias from the ball; a stated covariance is the biases' spread instead, and is checked
-against the balls; what was learnt is in the summary and the results."""
+against the balls; what was learnt is in the summary and the results, with how far each
+robot's estimates sat from the others' (the velocity filter's offsets)."""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -82,3 +84,19 @@ def test_a_stated_covariance_is_used_and_checked_against_the_balls(runs: dict) -
                for b in stated["summary"]["learnt"].values())
     assert shown > 2 * told  # the balls show the localiser overconfident
     assert "the log states 2.0 cm" in text
+
+
+def test_each_robots_offset_from_the_others_is_in_the_summary(runs: dict) -> None:
+    """Whatever corrects the poses, the offsets the track's velocity filter held at the end
+    are in the results and the printed summary, a few centimetres each (the robots' own
+    errors here are 2-20 cm)."""
+    for name in ("exact", "drift", "stated"):
+        doc, text = runs[name]
+        learnt = doc["summary"]["learnt"]
+        assert set(learnt) == {"r1", "r2", "r3"}
+        offsets = [math.hypot(b["offset_x_m"], b["offset_y_m"]) for b in learnt.values()]
+        assert 0.0 < max(offsets) < 0.15
+        line = next(x for x in text.splitlines() if x.startswith("learnt r1:"))
+        b = learnt["r1"]
+        assert line.endswith(f"its ball ({100 * b['offset_x_m']:+.1f}, "
+                             f"{100 * b['offset_y_m']:+.1f}) cm from the others' at the end")

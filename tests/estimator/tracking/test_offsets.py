@@ -110,3 +110,22 @@ def test_the_offsets_carry_on_to_the_next_track_and_fade() -> None:
     # a robot first seen later gets the prior
     x3, p3 = f.start(initial, "c", gap_ns)
     assert x3[8:10].tolist() == [0.0, 0.0] and p3[8, 8] == pytest.approx(f.sigma_m**2)
+
+
+def test_the_tracker_tells_each_robots_offset_from_the_others() -> None:
+    """What the velocity's filter came to hold: how far each robot's estimates sit from
+    the others' (what all share no estimate can tell from the ball)."""
+    rng = np.random.default_rng(3)
+    tracker = BallTracker(TrackerParams(friction_per_s=0.0))
+    assert tracker.offsets() == {}
+    for k in range(80):
+        for robot, phase in zip(ROBOTS, PHASES_MS, strict=True):
+            ns = (k * 50 + phase) * MS
+            z = _seen(robot, ns / 1e9, rng, None)
+            tracker.update(Measurement(ns, robot, float(z[0]), float(z[1]), R_ROWS))
+    held = tracker.offsets()
+    assert list(held) == list(ROBOTS)  # in the order first seen
+    first = ROBOTS[0]
+    for robot in ROBOTS[1:]:  # 4-8 cm apart, told within a centimetre
+        told = np.subtract(held[robot], held[first])
+        assert np.allclose(told, np.subtract(OFFSETS[robot], OFFSETS[first]), atol=0.01)

@@ -46,6 +46,13 @@ class TrackerParams:
     """A tentative track that a robot disagreed with is confirmed only when its accepted
     estimates span at least this long [ns] (two robots taking the same box for the ball
     9 ms apart, against a third that sees the ball, do not confirm it)."""
+    lean_count: int = 4
+    """A kick is tried where the last this many accepted estimates lean one way
+    (:mod:`estimator.tracking.lean`; 0: never)."""
+    lean_sigma: float = 3.0
+    """... when their whitened innovations' mean, times sqrt(lean_count), is this long."""
+    lean_keep: float = 0.5
+    """... and kept when their summed squared innovations fall to this share or less."""
     lone_kick_ns: int = 250_000_000
     """A lone rejected estimate may explain a kick when the track's last accepted estimate
     is at most this old [ns] and within the tracker's memory (0: never; a kick then needs
@@ -56,12 +63,14 @@ class TrackerParams:
         if not (all(v > 0 for v in positive) and self.accel_noise_m2_s3 >= 0.0
                 and self.friction_per_s >= 0.0 and 0 <= self.manoeuvre_ns <= self.memory_ns
                 and self.reacquire_ns >= 0 and self.reacquire_count >= 2
-                and self.lone_kick_ns >= 0 and self.confirm_ns >= 0):
+                and self.lone_kick_ns >= 0 and self.confirm_ns >= 0
+                and self.lean_count >= 0 and self.lean_sigma > 0 and 0 < self.lean_keep <= 1):
             raise FusionError(
                 f"tracker parameters {self}: gate, kick_sigma_m_s, max_speed_m_s and "
                 "lost_after_ns must be > 0, accel_noise_m2_s3 and friction_per_s >= 0, "
                 "0 <= manoeuvre_ns <= memory_ns, reacquire_ns >= 0, reacquire_count >= 2, "
-                "lone_kick_ns >= 0, confirm_ns >= 0"
+                "lone_kick_ns >= 0, confirm_ns >= 0, lean_count >= 0, lean_sigma > 0, "
+                "0 < lean_keep <= 1"
             )
 
 

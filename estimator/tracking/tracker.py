@@ -18,6 +18,8 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   itself when the last accepted one is at most ``lone_kick_ns`` old, a ball at most
   ``max_speed`` fast could have gone there, and it does not fall where rejected estimates
   keep falling (a still false blob: :class:`~estimator.tracking.clutter.ClutterMap`).
+- **A kick the gate missed**: accepted estimates that all lean one way are tried with a
+  kick before them (:mod:`estimator.tracking.lean`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
 - **Velocity**: the track's velocity is that of a filter run beside it on the estimates it
   accepts, with each robot's offset from the others in its state
@@ -59,6 +61,7 @@ import numpy as np
 from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
 from estimator.tracking.clutter import ClutterMap
+from estimator.tracking.lean import lean_kick
 from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
 from estimator.tracking.offsets import OffsetFilter
 from estimator.tracking.params import TrackerParams
@@ -178,6 +181,10 @@ class BallTracker:
                 self._reacquire(track, e)
         track = self._track
         assert track is not None
+        prm, now = self.params, track
+        if e.accepted and now.confirmed and prm.lean_count:  # a kick the gate missed
+            lean_kick(now.entries, lambda i: self._rerun(now, i), count=prm.lean_count,
+                      sigma=prm.lean_sigma, keep_ratio=prm.lean_keep)
         self._note_travel(track, e)
         self._confirm(track, e)
         self._prune(track, m.stamp_ns)

@@ -43,9 +43,8 @@ def _whitened(e: Leaning) -> Matrix:
     return np.asarray(np.linalg.solve(np.linalg.cholesky(p[:2, :2] + e.r), e.z - x[:2]))
 
 
-def _squared(e: Leaning) -> float:
-    v = _whitened(e)
-    return float(v @ v)
+def _squared(whitened: Sequence[Matrix]) -> float:
+    return sum(float(v @ v) for v in whitened)
 
 
 def lean_kick(entries: Sequence[Leaning], rerun: Callable[[int], None], *, count: int,
@@ -56,14 +55,16 @@ def lean_kick(entries: Sequence[Leaning], rerun: Callable[[int], None], *, count
     last = [e for e in entries if e.accepted][-count:]
     if len(last) < count or any(e.kick for e in last):
         return False
-    mean = np.mean([_whitened(e) for e in last], axis=0)
+    whitened = [_whitened(e) for e in last]
+    mean = np.mean(whitened, axis=0)
     if float(np.hypot(mean[0], mean[1])) * math.sqrt(count) < sigma:
         return False
-    before = sum(_squared(e) for e in last)
+    before = _squared(whitened)
     i = next(j for j, e in enumerate(entries) if e is last[0])
     last[0].kick = True
     rerun(i)
-    if all(e.accepted for e in last) and sum(_squared(e) for e in last) <= keep_ratio * before:
+    if all(e.accepted for e in last) and (
+            _squared([_whitened(e) for e in last]) <= keep_ratio * before):
         return True
     last[0].kick = False
     rerun(i)

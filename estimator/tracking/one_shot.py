@@ -14,6 +14,7 @@ from estimator.tracking.tracker import BallTracker
 
 __all__ = ["TrackFusion"]
 
+
 @dataclass(frozen=True)
 class TrackFusion:
     """The tracker as a one-shot :class:`~estimator.fusion.Fusion`: simultaneous estimates

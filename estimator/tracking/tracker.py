@@ -24,7 +24,7 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
 - **Velocity**: the track's velocity is that of a filter run beside it on the estimates it
   accepts, with each robot's offset from the others in its state
   (:mod:`estimator.tracking.offsets`): robots that disagree by a few centimetres, their
-  estimates alternating, do not read as motion. The position is this filter's.
+  estimates alternating, do not read as motion. The position stays the tracker's own.
 - **Initialisation**: the first estimate starts a *tentative* track (position from it,
   velocity 0 with sigma ``kick_sigma``), confirmed once it has accepted estimates from two
   robots (or from the same robot when no other reports), and when a robot disagreed with it,
@@ -181,7 +181,7 @@ class BallTracker:
                 self._reacquire(track, e)
         track = self._track
         assert track is not None
-        prm, now = self.params, track
+        prm, now = self.params, track  # (now: the track as the lambda sees it)
         if e.accepted and now.confirmed and prm.lean_count:  # a kick the gate missed
             lean_kick(now.entries, lambda i: self._rerun(now, i), count=prm.lean_count,
                       sigma=prm.lean_sigma, keep_ratio=prm.lean_keep)

@@ -334,6 +334,10 @@ def describe_belief(b: Mapping[str, object]) -> str:
         parts.append(f"pose off by {100 * float(str(b['pose_sigma_m'])):.1f} cm and "
                      f"{float(str(b['pose_sigma_deg'])):.2f} deg (1 sigma, from "
                      f"{b['residuals']} residuals)")
+    if "line_sigma_m" in b:
+        parts.append(f"its belief off by {100 * float(str(b['line_sigma_m'])):.1f} cm and "
+                     f"{float(str(b['line_sigma_deg'])):.2f} deg as its line fits show (1 sigma, "
+                     f"from {b['line_fits']} fits)")
     if "fit_sigma_m" in b:
         parts.append(f"its line fits off by {100 * float(str(b['fit_sigma_m'])):.1f} cm and "
                      f"{float(str(b['fit_sigma_deg'])):.2f} deg as its ball shows (1 sigma, from "

@@ -11,7 +11,8 @@ results are the same bytes whatever the thread count:
 
 1. :meth:`Localiser.points`: the image's line points (needs the image alone; pure);
 2. :meth:`Localiser.fit`: the pose that fits them, around the believed pose at the image's
-   stamp with the covariance ``--pose-sigma`` states (pure);
+   stamp with the covariance ``--pose-sigma`` states, else the one the robot's own fits
+   showed so far (:meth:`Localiser.prior`, :mod:`estimator.localisation.spread`) (pure);
 3. :meth:`Localiser.settle`: in frame order, on the replay's own thread: a failed fit takes
    the robot's last correction while it is recent (:class:`~estimator.localisation.
    CorrectionHold`), else the believed pose stays; the frame's :class:`~replay.records.
@@ -33,11 +34,13 @@ import numpy as np
 
 from dsp.errors import UsageError
 from dsp.field import DEFAULT_FIELD, Circle, FieldSpec, Rect, Segment, markings
+from dsp.jsonio import Json
 from estimator.camera import CameraModel
 from estimator.errors import LocalisationError
 from estimator.geometry import RobotPose
 from estimator.localisation import (
     CorrectionHold,
+    CorrectionSpread,
     DistanceGrid,
     FieldLines,
     GroundGrid,
@@ -114,7 +117,8 @@ class Localiser:
 
     def __init__(self, field: FieldSpec, cameras: Mapping[str, CameraModel], *,
                  sigma_m: float, sigma_deg: float,
-                 mount_yaw_rad: Mapping[str, float] | None = None) -> None:
+                 mount_yaw_rad: Mapping[str, float] | None = None,
+                 learn: bool = False) -> None:
         self.field = field
         self.lines = field_lines_for(field)
         self.distance = DistanceGrid.build(self.lines)
@@ -129,6 +133,9 @@ class Localiser:
                 by_model[key] = GroundGrid.build(camera)
             self.grids[robot] = by_model[key]
         self.prior_covariance = prior_covariance(sigma_m, sigma_deg)
+        """The fits' prior covariance when it is not learnt (``learn`` False)."""
+        self.spread = CorrectionSpread() if learn else None
+        """Each robot's pose spread as its fits show it: its next fit's prior."""
         self.hold = CorrectionHold()
 
     def points(self, robot: str, image: np.ndarray | None) -> LocalisedPoints | None:
@@ -149,6 +156,19 @@ class Localiser:
             pts = LinePoints(xy, pts.sigma_m, pts.contrast)
         return LocalisedPoints(pts, self.cameras[robot], camera_xy)
 
+    def beliefs(self, learnt: dict[str, dict[str, Json]]) -> dict[str, dict[str, Json]]:
+        """``learnt`` (``summary.learnt``) with, per robot its fits learnt from, how far its
+        belief was off (``line_sigma_m``, ``line_sigma_deg``: the spread its next fit would
+        search with) and from how many fits (``line_fits``)."""
+        for robot in sorted(self.grids):
+            if self.spread is not None and self.spread.count(robot):
+                cov = self.spread.covariance(robot)
+                learnt.setdefault(robot, {}).update(
+                    line_sigma_m=round(math.sqrt(cov[0, 0]), 6),
+                    line_sigma_deg=round(math.degrees(math.sqrt(cov[2, 2])), 6),
+                    line_fits=self.spread.count(robot))
+        return learnt
+
     def start(self, robot: str, stamp_ns: int, believed: RobotPose) -> RobotPose | None:
         """Where the fit of the robot's frame at ``stamp_ns`` starts: its last settled
         correction carried to ``believed`` while at most :data:`WARM_AGE_NS` old (the
@@ -156,25 +176,36 @@ class Localiser:
         frame order, on the replay's own thread."""
         return self.hold.carried(robot, stamp_ns, believed, WARM_AGE_NS)
 
+    def prior(self, robot: str) -> np.ndarray:
+        """The covariance the robot's next fit searches with: learnt from its fits so far, or
+        the one given. Called in frame order, on the replay's own thread."""
+        return self.prior_covariance if self.spread is None else self.spread.covariance(robot)
+
     def fit(self, points: LocalisedPoints | None, believed: RobotPose,
-            start: RobotPose | None = None) -> PoseCorrection | None:
-        """The pose the points give around ``believed``, searched from ``start`` when given
-        (None: no points to fit). Pure and thread-safe."""
+            start: RobotPose | None = None,
+            prior: np.ndarray | None = None) -> PoseCorrection | None:
+        """The pose the points give around ``believed`` (covariance ``prior``, else the one
+        given), searched from ``start`` when given (None: no points to fit). Pure and
+        thread-safe."""
         if points is None:
             return None
-        return correct_pose(believed, self.prior_covariance, points.points, self.distance,
-                            self.lines, start=start)
+        return correct_pose(believed, self.prior_covariance if prior is None else prior,
+                            points.points, self.distance, self.lines, start=start)
 
     def settle(self, robot: str, stamp_ns: int, believed: RobotPose,
                correction: PoseCorrection | None,
-               points: LocalisedPoints | None) -> Localisation:
-        """The frame's pose, in frame order: the fit, a held earlier one or the belief."""
+               points: LocalisedPoints | None, prior: np.ndarray | None = None) -> Localisation:
+        """The frame's pose, in frame order: the fit, a held earlier one or the belief
+        (``prior``: the covariance the fit searched with)."""
+        prior = self.prior_covariance if prior is None else prior
+        if correction is not None and self.spread is not None:
+            self.spread.observe(robot, stamp_ns, believed, correction)
         if correction is None:
-            cov = self.prior_covariance
+            cov = prior
             status = NO_CAMERA if robot not in self.grids else "too_few_points"
             return Localisation(believed, _rows3(cov), status, "prior", 0, 0,
                                 points)
-        held = self.hold.update(robot, stamp_ns, believed, self.prior_covariance, correction)
+        held = self.hold.update(robot, stamp_ns, believed, prior, correction)
         return Localisation(held.pose, _rows3(held.covariance), correction.status.value,
                             held.source, correction.points, correction.inliers,
                             points)

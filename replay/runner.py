@@ -155,7 +155,8 @@ def replay(path: Path | str, options: ReplayOptions | None = None, *,
             check_selected(path, info, options, stats.frames)
             _check_outcome(path, stats, reader, stream.bad_images)
             stats.finish(undecodable=reader.undecodable, recovered=_recovered(reader),
-                         beliefs=estimator.beliefs())
+                         beliefs=estimator.beliefs() if localiser is None
+                         else localiser.beliefs(estimator.beliefs()))
             warnings = diagnosis.warnings(bad_images=stream.bad_images,
                                           bad_messages=reader.bad_messages)
             if stream.clock is not None and (note := stream.clock.note(
@@ -190,7 +191,8 @@ def _localiser(options: ReplayOptions, field: FieldSpec | None, estimator: Frame
     sigma_m, sigma_deg = options.pose_sigma
     return Localiser(check_field(field, str(path)), cams.models, sigma_m=sigma_m,
                      sigma_deg=sigma_deg,
-                     mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models})
+                     mount_yaw_rad={r: cams.mount_yaw_rad(r) for r in cams.models},
+                     learn=not options.pose_sigma_given)
 
 
 def _open_outputs(stack: contextlib.ExitStack[bool | None], reader: LogReader,
@@ -268,6 +270,8 @@ class _Pending:
     decoded: Decoded
     pose: PoseMatch | None
     fit: Callable[[], PoseCorrection | None]
+    prior: np.ndarray | None = None
+    """The covariance the fit searched with."""
 
 
 class _Stream:
@@ -359,10 +363,12 @@ class _Stream:
         pose = self._pose_at(img.robot, img.stamp_ns)
         field_pose = None if pose is None else self.estimator.field_pose(img.robot, pose)
         fit: Callable[[], PoseCorrection | None] = _nothing
+        prior = self.localiser.prior(img.robot)
         if field_pose is not None and decoded.points is not None:
             start = self.localiser.start(img.robot, img.stamp_ns, field_pose.pose)
-            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose, start)
-        self.pending.append(_Pending(img, decoded, pose, fit))
+            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose, start,
+                                   prior)
+        self.pending.append(_Pending(img, decoded, pose, fit, prior))
 
     def _settle(self, now_ns: int | None) -> None:
         """The held-back frames whose lead has passed at log time ``now_ns`` (None: all),
@@ -375,7 +381,7 @@ class _Stream:
             p = self.pending.popleft()
             loc = None if p.pose is None else self.localiser.settle(
                 p.img.robot, p.img.stamp_ns, self.estimator.field_pose(p.img.robot, p.pose).pose,
-                p.fit(), p.decoded.points)
+                p.fit(), p.decoded.points, p.prior)
             self._image(p.img, p.decoded, functools.partial(_same, p.pose), loc)
 
     def _image(self, img: ImageMessage, decoded: Decoded,

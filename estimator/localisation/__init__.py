@@ -12,7 +12,9 @@ I/O; the caller builds :class:`FieldLines` from its field description once, the 
     pose = result.pose            # the prior itself unless result.ok
 
 and, across frames, :class:`CorrectionHold` (:mod:`.pose_hold`) carries a robot's last
-accepted correction over the frames whose fit failed.
+accepted correction over the frames whose fit failed, and :class:`CorrectionSpread`
+(:mod:`.spread`) learns from the corrections how far each robot's belief is off: the prior
+of its next fits.
 """
 
 from estimator.localisation.field_lines import DistanceGrid, FieldLines
@@ -24,9 +26,11 @@ from estimator.localisation.line_points import (
 )
 from estimator.localisation.pose_fit import FitStatus, PoseCorrection, PoseFitParams, correct_pose
 from estimator.localisation.pose_hold import CorrectionHold, HeldPose
+from estimator.localisation.spread import CorrectionSpread, SpreadParams
 
 __all__ = [
     "CorrectionHold",
+    "CorrectionSpread",
     "DistanceGrid",
     "FieldLines",
     "FitStatus",
@@ -36,6 +40,7 @@ __all__ = [
     "LinePoints",
     "PoseCorrection",
     "PoseFitParams",
+    "SpreadParams",
     "correct_pose",
     "detect_line_points",
 ]

@@ -123,6 +123,9 @@ class PoseCorrection:
     """Points within ``inlier_m`` of a line at the result."""
     line_information: FloatArray
     """(3, 3): H_L / information_scale, the lines' own information (zero when failed)."""
+    found: RobotPose | None = None
+    """Where a fit refused as a JUMP went (None otherwise): how far the lines would move the
+    pose (:mod:`.spread` learns the belief's spread from it)."""
 
     @property
     def ok(self) -> bool:
@@ -181,8 +184,9 @@ def _gauss_newton(q0: FloatArray, info0: FloatArray, p: FloatArray, inv_var: Flo
 
 
 def _failed(prior: RobotPose, cov0: FloatArray, status: FitStatus, points: int,
-            inliers: int = 0) -> PoseCorrection:
-    return PoseCorrection(prior, cov0.copy(), status, points, inliers, np.zeros((3, 3)))
+            inliers: int = 0, found: RobotPose | None = None) -> PoseCorrection:
+    return PoseCorrection(prior, cov0.copy(), status, points, inliers, np.zeros((3, 3)),
+                          found)
 
 
 def _prior_covariance(value: FloatArray) -> FloatArray:
@@ -231,6 +235,7 @@ def correct_pose(prior: RobotPose, prior_covariance: FloatArray, points: LinePoi
     dq = q - q0
     dq[2] = wrap_angle(float(dq[2]))
     if float(dq @ np.linalg.solve(cov0, dq)) > p.max_jump_chi2:
-        return _failed(prior, cov0, FitStatus.JUMP, n, inliers)
+        return _failed(prior, cov0, FitStatus.JUMP, n, inliers,
+                       RobotPose(float(q[0]), float(q[1]), float(q[2])))
     return PoseCorrection(RobotPose(float(q[0]), float(q[1]), float(q[2])),
                           0.5 * (cov + cov.T), FitStatus.OK, n, inliers, h_lines)

@@ -16,14 +16,11 @@ __all__ = ["beliefs"]
 
 def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
             bias: BiasEstimator | None, stated: Mapping[str, tuple[float, float]],
-            tracker: BallTracker | None = None,
-            fit_check: PoseNoiseEstimator | None = None) -> dict[str, dict[str, Json]]:
+            tracker: BallTracker | None = None) -> dict[str, dict[str, Json]]:
     """Per robot: the pose spread ``learnt`` from the residuals (and how many), the spread its
     log ``stated`` (m, rad) beside it, the ``bias`` corrected by at the end, and the offset
     of its estimates from the others' that the ``tracker``'s velocity filter held at the end
-    (:mod:`estimator.tracking.offsets`), and the spread of its line-fitted poses the
-    residuals showed (``fit_check``: the floor of the fits' covariance); robots of which
-    nothing was learnt are left out."""
+    (:mod:`estimator.tracking.offsets`); robots of which nothing was learnt are left out."""
     out: dict[str, dict[str, Json]] = {}
     offsets = {} if tracker is None else tracker.offsets()
     for robot in robots:
@@ -35,10 +32,6 @@ def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
             if robot in stated:  # what the log states, beside what its balls show
                 m, t = stated[robot]
                 d.update(stated_sigma_m=round(m, 6), stated_sigma_deg=round(math.degrees(t), 6))
-        if fit_check is not None and fit_check.count(robot):
-            s_m, s_t = fit_check.sigma(robot)
-            d.update(fit_sigma_m=round(s_m, 6), fit_sigma_deg=round(math.degrees(s_t), 6),
-                     fit_residuals=fit_check.count(robot))
         if bias is not None and bias.updates:
             b, _ = bias.bias(robot)
             d.update(bias_x_m=round(float(b[0]), 6), bias_y_m=round(float(b[1]), 6),

@@ -203,12 +203,12 @@ def _add_localise_arguments(p: argparse._ActionsContainer) -> None:
                    "with the tracked one (--fusion track); none: the believed poses")
     p.add_argument("--pose-sigma", metavar="M,DEG", type=_pose_sigma, default=None,
                    help="the believed pose's standard deviation, position in metres and yaw "
-                   "in degrees: a line fit that moves the pose further than this allows is "
-                   "refused (default 0.05,1); with --localise ball, the spread of each "
-                   "robot's bias (the same default); with --pose-uncertainty, the pose's "
-                   "covariance when neither the lines nor the log give one (default: "
-                   "learnt from the log as it replays, from how each robot's ball disagrees "
-                   "with the others')")
+                   "in degrees, for every robot: the line fit's prior (a fit that moves the "
+                   "pose further than this allows is refused); with --localise ball, the "
+                   "spread of each robot's bias; with --pose-uncertainty, the pose's "
+                   "covariance when neither the lines nor the log give one (default: each "
+                   "learnt from the log as it replays, from each robot's line fits or from "
+                   "how its ball disagrees with the others')")
     p.add_argument("--pose-uncertainty", action=argparse.BooleanOptionalAction, default=None,
                    help="weigh each robot's estimate by its own pose's uncertainty too: the "
                    "line fit's covariance, else the log pose's (PoseWithCovarianceStamped), "
@@ -338,10 +338,6 @@ def describe_belief(b: Mapping[str, object]) -> str:
         parts.append(f"its belief off by {100 * float(str(b['line_sigma_m'])):.1f} cm and "
                      f"{float(str(b['line_sigma_deg'])):.2f} deg as its line fits show (1 sigma, "
                      f"from {b['line_fits']} fits)")
-    if "fit_sigma_m" in b:
-        parts.append(f"its line fits off by {100 * float(str(b['fit_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['fit_sigma_deg'])):.2f} deg as its ball shows (1 sigma, from "
-                     f"{b['fit_residuals']} residuals)")
     if "stated_sigma_m" in b:
         parts.append(f"the log states {100 * float(str(b['stated_sigma_m'])):.1f} cm and "
                      f"{float(str(b['stated_sigma_deg'])):.2f} deg")

@@ -25,10 +25,10 @@ gives the tracker its ray at its stamp). The trackers make a step at every image
 (:meth:`FrameEstimator.step_window_ns`). With a ``pose_covariance``
 (``--pose-uncertainty``) each estimate carries the covariance of the pose it was located
 from, which every fusion's noise model adds the ball's share of
-(:func:`estimator.noise.localisation_covariance`): the line fit's (at least what its
-residuals show), else the log pose's, else that default. Offline (``smooth``), the steps
-are held back and leave with the RTS smoother's track once the log is read
-(:meth:`FrameEstimator.sinks`, :meth:`FrameEstimator.flush`, :mod:`replay.smoothing`).
+(:func:`estimator.noise.localisation_covariance`): the line fit's, else the log pose's, else
+that default. Offline (``smooth``), the steps are held back and leave with the RTS
+smoother's track once the log is read (:meth:`FrameEstimator.sinks`,
+:meth:`FrameEstimator.flush`, :mod:`replay.smoothing`).
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ from estimator.hops import HopFollower
 from estimator.noise import CalibratedNoise, Noise, localisation_covariance
 from estimator.tracking import BallTracker, Measurement, TrackState
 from estimator.tracking.bias import BiasEstimator
-from estimator.tracking.pose_noise import FIT_CHECK, PoseNoiseEstimator, at_least
+from estimator.tracking.pose_noise import PoseNoiseEstimator
 from replay import plugins
 from replay.aloft import StillFilter, blob_range_m, ground_xy
 from replay.beliefs import beliefs
@@ -148,15 +148,14 @@ class FrameEstimator:
         self.pose_noise = pose_noise
         """Each robot's pose covariance learnt from the track's residuals
         (:mod:`estimator.tracking.pose_noise`), which an estimate carries when neither its
-        line fit nor its log pose gives one (``pose_covariance`` None); ``fit_check`` the
-        same of its line-fitted poses, the floor of the fits' covariance."""
-        self.fit_check = None if pose_noise is None else PoseNoiseEstimator(FIT_CHECK)
+        line fit nor its log pose gives one (``pose_covariance`` None)."""
         self._accepted_ns: dict[str, int] = {}  # each robot's last accepted estimate's stamp
         self._flying_until_ns: int | None = None  # the ball flew until then (+ the hold)
         self._stated: dict[str, tuple[float, float]] = {}  # the log's pose sigma (m, rad)
         self.pose_covariance = (None if pose_covariance is None
                                 else covariance3_rows(np.asarray(pose_covariance, np.float64)))
-        """The pose covariance (x, y, yaw) an estimate carries when nothing else gives one."""
+        """The pose covariance (x, y, yaw) an estimate carries when neither its line fit
+        nor its log pose gives one; None: estimates carry none (module docstring)."""
         self.finder = finder
         self._centres = dict(cameras.centres)
         self._heights = {r: m.height_m for r, m in cameras.models.items()}
@@ -261,10 +260,8 @@ class FrameEstimator:
                          loc: Localisation | None) -> Covariance3 | None:
         """The covariance of the located-from pose: the line fit's (or its held or prior
         one), else the log pose's, else the one learnt, else the one given."""
-        if loc is not None:  # a fit's checked against what its residuals show
-            cov = np.asarray(loc.covariance, np.float64)
-            return covariance3_rows(cov if self.fit_check is None or loc.source == "ball"
-                                    else at_least(cov, self.fit_check.variances(robot)))
+        if loc is not None:
+            return covariance3_rows(np.asarray(loc.covariance, np.float64))
         if pose.covariance is not None:
             return covariance3_rows(self._note_stated(robot, pose.covariance))
         if self.pose_noise is not None:
@@ -304,8 +301,7 @@ class FrameEstimator:
     def beliefs(self) -> dict[str, dict[str, Json]]:
         """What the replay came to believe of each robot's pose (:func:`replay.beliefs.beliefs`)."""
         return beliefs(list(self.cameras.specs), self.pose_noise if self.bias is None
-                       else self.bias.learnt, self.bias, self._stated, self.tracker,
-                       self.fit_check)
+                       else self.bias.learnt, self.bias, self._stated, self.tracker)
 
     def flush(self) -> None:
         """Once the log is read: the held-back steps, smoothed, to the sinks."""
@@ -314,7 +310,8 @@ class FrameEstimator:
 
     def step_window_ns(self, window_ns: int) -> int:
         """The window that groups frames into steps: the fusion window, or 1 ns for the
-        trackers, which give one at every image stamp (synchronised cameras share theirs)."""
+        trackers (``track``, ``ballistic``), which give a fused estimate at every image
+        stamp (synchronised cameras' images share theirs)."""
         tracked = self.tracker is not None or isinstance(self.fusion, fusion.BallisticFusion)
         return 1 if tracked else window_ns
 
@@ -400,15 +397,17 @@ class FrameEstimator:
     def _bias_prior(self, tracker: BallTracker, f: FrameResult) -> TrackState | None:
         """``--localise ball``: the confirmed track at the frame's stamp before its estimate
         goes in, the reference its robot's bias is measured against (None: none)."""
-        if (self.bias is None or f.localisation is None or f.localisation.source != "ball"
-                or not self._supporters(f)):  # a track of its own estimates tells nothing
+        if self.bias is None or f.localisation is None or f.localisation.source != "ball":
             return None
+        if not self._supporters(f):
+            return None  # a track of this robot's own estimates tells nothing of its bias
         state = tracker.state_at(f.stamp_ns)
         return state if state is not None and state.confirmed else None
 
     def _supporters(self, f: FrameResult) -> list[str]:
-        """The other robots whose estimates went into the track within :data:`BIAS_SUPPORT_NS`
-        before the frame; none while the ball flies (:data:`FLIGHT_HOLD_NS`)."""
+        """The other robots whose estimates went into the track within
+        :data:`BIAS_SUPPORT_NS` before the frame; none while the ball flies
+        (:data:`FLIGHT_HOLD_NS`), when a residual tells nothing of a pose."""
         if self._flying_until_ns is not None and f.stamp_ns <= self._flying_until_ns:
             return []
         return [r for r, t in self._accepted_ns.items()
@@ -417,20 +416,22 @@ class FrameEstimator:
     def _learn_pose_noise(self, tracker: BallTracker, f: FrameResult) -> None:
         """The frame's residual against the track the other robots support, before its
         estimate goes in, into its robot's pose covariance: the one its estimates carry
-        where nothing states one, else (a line fit's) the floor of the fit's."""
-        learner = self.pose_noise if f.localisation is None else self.fit_check
-        if learner is None or f.estimate is None or (f.localisation is not None
-                                                     and f.localisation.source == "ball"):
-            return  # the bias filter learns its own
-        others, state = self._supporters(f), tracker.state_at(f.stamp_ns)
-        if not others or state is None or not state.confirmed:
+        where the log states none, and what a stated one is checked against."""
+        assert self.pose_noise is not None and f.estimate is not None
+        if f.localisation is not None:
+            return  # the line fit's or the bias filter's: they learn their own
+        others = self._supporters(f)
+        if not others:
+            return
+        state = tracker.state_at(f.stamp_ns)
+        if state is None or not state.confirmed:
             return
         est = f.estimate
         own = self.noise.covariance(_ball(replace(est, pose_covariance=None), f.r_px))
         expected = own + np.asarray(state.position_covariance, np.float64)
-        learner.observe(f.robot, f.stamp_ns, (est.x_m - state.x_m, est.y_m - state.y_m),
-                        (est.x_m - est.robot_x_m, est.y_m - est.robot_y_m), expected,
-                        len(others) + 1)
+        self.pose_noise.observe(f.robot, f.stamp_ns, (est.x_m - state.x_m, est.y_m - state.y_m),
+                                (est.x_m - est.robot_x_m, est.y_m - est.robot_y_m), expected,
+                                len(others) + 1)
 
     def _learn_bias(self, f: FrameResult, prior: TrackState) -> None:
         """The frame's residual against the track into its robot's bias filter."""

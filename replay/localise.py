@@ -133,7 +133,8 @@ class Localiser:
                 by_model[key] = GroundGrid.build(camera)
             self.grids[robot] = by_model[key]
         self.prior_covariance = prior_covariance(sigma_m, sigma_deg)
-        """The fits' prior covariance when it is not learnt (``learn`` False)."""
+        """The fits' prior covariance when it is not learnt (``learn`` False), else only that
+        of a fit asked for without one."""
         self.spread = CorrectionSpread() if learn else None
         """Each robot's pose spread as its fits show it: its next fit's prior."""
         self.hold = CorrectionHold()

@@ -49,8 +49,10 @@ LOCALISE_MODES = ("none", "lines", "ball", "auto")
 (:mod:`replay.localise`) or by each robot's bias the tracker's residuals show
 (:mod:`estimator.tracking.bias`); "auto": :func:`replay.profiles.decide`."""
 DEFAULT_POSE_SIGMA = (0.05, 1.0)
-"""Where ``--pose-sigma`` is not given: the believed pose's standard deviation (m, deg) the
-line fit weighs it with. The fusion's pose uncertainty is learnt from the log instead."""
+"""What :attr:`ReplayOptions.pose_sigma` gives where ``--pose-sigma`` is not: no replay uses
+it then (the line fit's prior, the bias's spread and the pose's covariance are learnt from
+the log: :mod:`estimator.localisation.spread`, :mod:`estimator.tracking.pose_noise`); the
+fallback of a :class:`~replay.localise.Localiser` asked to fit without a prior."""
 FIT_LEAD_S = 0.1
 """With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose,
 while its fit runs in the pool; the outputs do not depend on it."""
@@ -196,7 +198,7 @@ class ReplayOptions:
     pose_sigma_deg: float | None = None
     """``--pose-sigma`` (position [m], yaw [deg]): the line fit's weight of the believed
     pose; the pose's covariance where neither the line fit nor the log gives one; the bias's
-    spread. None: :data:`DEFAULT_POSE_SIGMA` for the line fit, the rest learnt."""
+    spread. None: each learnt from the log as it replays."""
     pose_uncertainty: bool = False
     """Each robot's estimate carries the covariance of the pose it was located from, and
     the fusion adds the ball's share of it (:func:`estimator.noise.localisation_covariance`:
@@ -310,9 +312,8 @@ class ReplayOptions:
         return self.pose_sigma_m is not None
 
     @property
-    def pose_sigma_used(self) -> bool:  # by the line fit, or given for the rest
-        return self.localise == "lines" or (self.pose_sigma_given and (
-            self.localising or self.pose_uncertainty))
+    def pose_sigma_used(self) -> bool:  # given, and something to weigh with it
+        return self.pose_sigma_given and (self.localising or self.pose_uncertainty)
 
     @property
     def pose_sigma(self) -> tuple[float, float]:  # (m, deg): given, else the default

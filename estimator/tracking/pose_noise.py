@@ -26,12 +26,6 @@ which the excess is scaled back by. Only residuals against a track other robots 
 count (a robot alone has nothing to be compared with), and a residual beyond
 :attr:`PoseNoiseParams.max_residual_m` (a false blob, a kick) is left out. Deterministic and
 causal: the covariance at a frame uses only residuals before it.
-
-The same learning checks a covariance nobody measured against the residuals: a line fit's
-(:data:`FIT_CHECK`, :func:`at_least`). A fit from points on lines it mistook, or through a
-camera model a little off, is sure of itself to millimetres and a few hundredths of a
-degree while its robot's ball lies decimetres from the others'; weighed by that covariance
-its estimates overrule every other robot's and the track's velocity jumps between them.
 """
 
 from __future__ import annotations
@@ -43,7 +37,7 @@ import numpy as np
 
 from estimator.estimates import Covariance3, Matrix, covariance3_rows
 
-__all__ = ["FIT_CHECK", "PoseNoiseEstimator", "PoseNoiseParams", "at_least"]
+__all__ = ["PoseNoiseEstimator", "PoseNoiseParams"]
 
 NS_PER_S = 1_000_000_000
 
@@ -73,25 +67,6 @@ class PoseNoiseParams:
     (R + P + J Sigma J^T) exceeds this is left out: a ball in the air placed on the ground,
     a false blob the tracker took. Four sigma: a pose that drifts further than learnt
     still teaches, through the residuals within it."""
-
-
-FIT_CHECK = PoseNoiseParams(prior_sigma_m=0.0, prior_sigma_rad=0.0, prior_weight=20.0)
-"""How a line fit's covariance is checked: the spread its corrected poses show in the
-residuals, from no spread at all (a fit that is right shows none) held by twenty
-residuals' worth, so that a few large ones in a replay's first seconds raise little (the
-realistic 6 s mirror match of seed 11: 0.02475 m unchecked, 0.02533 with four residuals'
-worth, one robot's yaw raised to 0.23 deg for half a second where its fits said 0.03;
-0.02511 with twenty)."""
-
-
-def at_least(covariance: Matrix, variances: tuple[float, float]) -> Matrix:
-    """A pose covariance (x, y, yaw) whose diagonal is raised to ``variances`` (s_m^2 for
-    x and y, s_t^2 for the yaw) where it is smaller: a fit that claims more than its
-    residuals show is given what they show."""
-    c = np.array(covariance, dtype=np.float64)
-    s_m2, s_t2 = variances
-    return c + np.diag([max(0.0, s_m2 - c[0, 0]), max(0.0, s_m2 - c[1, 1]),
-                        max(0.0, s_t2 - c[2, 2])])
 
 
 class _Moments:

@@ -82,7 +82,9 @@ def test_same_bytes_whatever_the_thread_count(carpet_log: Path, tmp_path: Path) 
     assert outs[0] == outs[1]
     doc = json.loads(outs[0])
     assert doc["options"]["localise"] == "lines"
-    assert doc["options"]["pose_sigma_m"] == 0.05 and doc["options"]["pose_sigma_deg"] == 1.0
+    assert "pose_sigma_m" not in doc["options"]  # learnt from the fits: none was given
+    assert {r: b["line_fits"] for r, b in doc["summary"]["learnt"].items()} == {
+        "robot1": 4, "robot2": 4, "robot3": 4}
     assert doc["summary"]["localisation"] == {"sources": {"lines": 12}, "statuses": {"ok": 12}}
 
 

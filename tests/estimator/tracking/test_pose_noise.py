@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from estimator.tracking.bias import BiasEstimator
-from estimator.tracking.pose_noise import FIT_CHECK, PoseNoiseEstimator, PoseNoiseParams, at_least
+from estimator.tracking.pose_noise import PoseNoiseEstimator, PoseNoiseParams
 
 NS = 1_000_000_000
 R = np.diag([0.02**2, 0.02**2])  # the estimates' own noise the residuals state
@@ -119,31 +119,3 @@ def test_a_stated_covariance_is_the_bias_spread_in_place_of_the_learnt() -> None
     assert math.sqrt(bias.stationary("r2")[0, 0]) == pytest.approx(0.03, abs=0.005)  # learnt's
     _, cov = bias.corrected("r1", 0.0, 0.0, 0.0)  # no yaw noise beyond what it states
     assert math.degrees(math.sqrt(cov[2][2])) == pytest.approx(0.1 * math.sqrt(2), rel=0.01)
-
-
-
-def test_a_line_fits_check_raises_nothing_for_right_fits_and_the_spread_for_wrong_ones(
-        ) -> None:
-    right, wrong = PoseNoiseEstimator(FIT_CHECK), PoseNoiseEstimator(FIT_CHECK)
-    assert right.variances("r1") == (0.0, 0.0)  # before any residual: the fit's own
-    _feed(right, 0.0, 0.0, n=300)
-    _feed(wrong, 0.06, 1.5, n=300)  # ten seconds of a pose 6 cm and 1.5 deg off
-    fit = np.diag([0.002**2, 0.002**2, math.radians(0.03) ** 2])  # what a fit claims
-    kept = at_least(fit, right.variances("r1"))
-    assert math.sqrt(kept[0, 0]) < 0.01 and math.degrees(math.sqrt(kept[2, 2])) < 0.2
-    raised = at_least(fit, wrong.variances("r1"))
-    # the yaw in full; the position in part: residuals beyond four sigmas of what is
-    # learnt so far are left out, and it starts from none
-    assert math.degrees(math.sqrt(raised[2, 2])) == pytest.approx(1.5, abs=0.3)
-    assert 0.02 < math.sqrt(raised[0, 0]) <= 0.06
-    wide = np.diag([0.2**2, 0.2**2, math.radians(5.0) ** 2])  # a fit unsure already
-    assert np.array_equal(at_least(wide, wrong.variances("r1")), wide)
-
-
-def test_a_fits_first_residuals_raise_little() -> None:
-    checked, quick = PoseNoiseEstimator(FIT_CHECK), PoseNoiseEstimator(
-        PoseNoiseParams(prior_sigma_m=0.0, prior_sigma_rad=0.0))  # four residuals' worth
-    for est in (checked, quick):
-        for k in range(3):  # three residuals 6 cm across the ray, 4 m out
-            est.observe("r1", (2 + k) * NS, (0.0, 0.06), (4.0, 0.0), R, 1000)
-    assert 0.0 < checked.sigma("r1")[1] < 0.6 * quick.sigma("r1")[1]

@@ -105,6 +105,10 @@ class ForeignOptions:
     size_px: int = 640
     centre_offset_px: tuple[float, float] = (2.0, -3.0)
     field: str = "18x12"
+    names_field: bool = False
+    """The camera file names the field (its ``field`` key), as a team's may: the default
+    then corrects the poses from the field lines where a robot's camera has a model (the
+    "mirror" profile; a lookup table names no camera height, so no line fit)."""
     truth: str = "odometry"
     """/mocap/ball as nav_msgs/Odometry (position and velocity: the replay scores both),
     geometry_msgs/PointStamped or PoseStamped (position only)."""
@@ -170,7 +174,8 @@ def write_camera_file(path: Path, options: ForeignOptions, *, force: bool = Fals
         tmp.write_text(camera_file_text(
             {"default": camera_entry(options)}, path.suffix.lower(),
             header="The cameras of a foreign log, described exactly "
-            "(python -m replay.evaluate.foreign)."), encoding="utf-8")
+            "(python -m replay.evaluate.foreign).",
+            field=options.field if options.names_field else None), encoding="utf-8")
 
 
 @dataclass(frozen=True)

@@ -72,6 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", default="640", metavar="PX", help="image side (default 640)")
     p.add_argument("--field", default="18x12", metavar="|".join(FIELDS),
                    help="the field drawn (default 18x12)")
+    p.add_argument("--name-field", action="store_true",
+                   help="the camera file names the field (as a team's may): the default then "
+                   "corrects the poses from the field lines where the camera has a model")
     p.add_argument("--truth", default="odometry", metavar="odometry|point|pose",
                    help="/mocap/ball as nav_msgs/Odometry (position and velocity, default), "
                    "PointStamped or PoseStamped")
@@ -126,6 +129,7 @@ def options_from_args(args: argparse.Namespace) -> ForeignOptions:
         camera=_choice("--camera", args.camera, CAMERA_KINDS),
         size_px=int(_number("--size", args.size, MIN_SIZE_PX, MAX_SIZE_PX, whole=True)),
         field=_choice("--field", args.field, tuple(FIELDS)),
+        names_field=args.name_field,
         truth=_choice("--truth", args.truth, TRUTH_KINDS),
         epoch_s=EPOCH_S,
     )

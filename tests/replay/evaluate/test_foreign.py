@@ -4,6 +4,8 @@ describes the camera exactly, and a command that refuses bad values in one line.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -15,6 +17,7 @@ from mcap_ros2.decoder import DecoderFactory
 from dsp import contract
 from dsp.camera_file import read_camera_file
 from estimator.detection import detect_ball
+from replay.cli import main as replay_main
 from replay.evaluate.foreign import (
     IMAGE_TOPIC,
     TRUTH_TOPIC,
@@ -199,8 +202,35 @@ def test_the_suite_keeps_tune_and_report_seeds_apart(tmp_path: Path) -> None:
     assert {log.rate_hz for log in FOREIGN_LOGS} == {20.0, 30.0}
     assert {log.robots for log in FOREIGN_LOGS} == {2, 3, 4, 5}
     assert {log.camera for log in FOREIGN_LOGS} == {"own", "mirror"}
+    named = [log for log in FOREIGN_LOGS if log.field]  # a team's file naming its field
+    assert named and {log.camera for log in named} == {"mirror"}
+    assert {log.drift for log in named} >= {None, (0.10, 2.0)}
     tasks = foreign_tasks(tmp_path, seeds=REPORT_SEEDS, duration_s=10.0)
     assert len({t.log.name for t in tasks}) == len(tasks)
+    assert [t.options.names_field for t in tasks] == [log.field for log in FOREIGN_LOGS]
+
+
+def test_a_camera_file_naming_the_field_gets_the_line_fit(tmp_path: Path) -> None:
+    o = ForeignOptions(seed=7, robots=3, rate_hz=15.0, duration_s=4.0, camera="mirror",
+                       poses="drift", drift=(0.10, 2.0))
+    log = tmp_path / "team.mcap"
+    write_foreign_log(log, o)
+    runs = {}
+    for named in (False, True):
+        cams = tmp_path / f"named-{named}.cameras.yaml"
+        write_camera_file(cams, dataclasses.replace(o, names_field=named))
+        assert (read_camera_file(cams).field is not None) is named
+        out = tmp_path / f"named-{named}.json"
+        assert replay_main([str(log), "--cameras", str(cams), "--image-topic", IMAGE_TOPIC,
+                            "--pose-topic", "/{robot}/pose", "--truth-topic", TRUTH_TOPIC,
+                            "--out", str(out), "--quiet"]) == 0
+        runs[named] = json.loads(out.read_text())
+    assert runs[False]["pipeline"]["poses"] == "ball"
+    assert runs[True]["pipeline"]["poses"] == "lines"
+    rmse = {k: math.sqrt(np.mean([s["error_m"] ** 2 for s in r["fused"]
+                                  if s.get("error_m") is not None]))
+            for k, r in runs.items()}
+    assert rmse[True] < 0.5 * rmse[False], rmse  # 10 cm / 2 deg of drift: the lines fix it
 
 
 @pytest.mark.parametrize("argv", [

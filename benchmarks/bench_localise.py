@@ -11,8 +11,8 @@ the same fit from the belief, every stage (what every fit cost before); each fra
 taking turns. It prints each one's median per frame [ms] and the lines' total as a ratio
 to the detection.
 The one-time grids (distance grid, one ground grid per camera model) are timed apart.
-``dsp-replay --threads N`` runs the line points in its look-ahead threads and the fits in
-its pool.
+``dsp-replay --threads N`` runs the line points in its look-ahead threads and the fits on
+its own thread, in frame order.
 
 Run: python benchmarks/bench_localise.py [LOG]
 """

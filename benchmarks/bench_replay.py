@@ -1,6 +1,7 @@
 """Benchmark replay: frames per second beside the floor, and peak RSS as the log grows.
 
     python benchmarks/bench_replay.py --recorded [--seconds 6] [--threads 1,0] [--malloc]
+        [--profile best|fast|paper|plain]
     python benchmarks/bench_replay.py [--seconds 2] [--factor 10]
 
 ``--recorded``: records the ``rolling`` scenario (full 1080 x 1080 omni images at 10 Hz,
@@ -9,7 +10,8 @@ the same run, the floor and the replay with each ``--threads`` value (0: the def
 cores; 1: serial). The floor is warm: the mcap library and ``cv2.imdecode`` over the same
 log in one thread, run twice in one process, the second run timed (the first run's figure
 is printed beside it). The replay (``replay()`` writing results JSON and estimates MCAP,
-as ``dsp-replay --out --out-mcap``) gives frames/s with its start-up (the whole call), in
+as ``dsp-replay --out --out-mcap``, with ``--profile``'s pipeline: dsp-replay's default unless
+given) gives frames/s with its start-up (the whole call), in
 its loop (first to last frame) and the start-up to the first frame; each as a ratio to the
 floor. Each figure is the median of ``--runs`` runs, each in a fresh child process.
 
@@ -40,6 +42,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from replay.profiles import DEFAULT_PROFILE, PROFILE_CHOICES
+
 ROOT = Path(__file__).resolve().parents[1]
 
 CHILD = r"""
@@ -49,7 +53,9 @@ import json, resource, sys
 from pathlib import Path
 from replay import ReplayOptions, replay
 from replay.memory import keep_image_buffers
+from replay.profiles import options_for
 log, out, threads = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
+profile = sys.argv[5]
 if sys.argv[4] == "keep":
     keep_image_buffers()  # as dsp-replay does first
 from replay import SinkBase
@@ -61,8 +67,10 @@ class Clock(SinkBase):
 clock = Clock()
 r0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter()
-s = replay(log, ReplayOptions(out=out / "r.json", out_mcap=out / "e.mcap", force=True,
-                              progress=False, threads=threads or None), sinks=[clock])
+kw = dict(out=out / "r.json", out_mcap=out / "e.mcap", force=True, progress=False,
+          threads=threads or None)
+options = ReplayOptions(**kw) if profile == "plain" else options_for(profile, **kw)
+s = replay(log, options, sinks=[clock])
 wall = time.perf_counter() - t0
 r1 = resource.getrusage(resource.RUSAGE_SELF)
 loop_fps = (s.frames - 1) / (clock.last - clock.first)  # between the first and last frame
@@ -125,8 +133,10 @@ def _child(code: str, *args: str) -> dict[str, float]:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def measure(log: Path, out: Path, threads: int = 0, *, keep: bool = True) -> dict[str, float]:
-    return _child(CHILD, str(log), str(out), str(threads), "keep" if keep else "default")
+def measure(log: Path, out: Path, threads: int = 0, *, keep: bool = True,
+            profile: str = DEFAULT_PROFILE) -> dict[str, float]:
+    return _child(CHILD, str(log), str(out), str(threads), "keep" if keep else "default",
+                  profile)
 
 
 KEYS = ("frames_per_s", "loop_frames_per_s", "start_s", "process_s", "peak_rss_mib", "cpu_ms",
@@ -152,7 +162,8 @@ def speed(args: argparse.Namespace) -> int:
     from recorder.record import RecordOptions, record
 
     threads = [int(t) for t in args.threads.split(",")]
-    print(f"rolling, {args.seconds:g} s, 3 robots, 10 Hz; median of {args.runs} runs, one "
+    print(f"rolling, {args.seconds:g} s, 3 robots, 10 Hz; the replay's pipeline: "
+          f"{args.profile}; median of {args.runs} runs, one "
           "run of the script (figures side by side; the machine is shared and noisy); load "
           f"average {os.getloadavg()[0]:.1f} at the start")
     with tempfile.TemporaryDirectory() as tmp:
@@ -169,7 +180,7 @@ def speed(args: argparse.Namespace) -> int:
                 floor.append(_child(FLOOR, str(log)))
                 tuned.append(_child(FLOOR, str(log), "keep"))
                 for n, keep in variants:
-                    runs[n, keep].append(measure(log, d, n, keep=keep))
+                    runs[n, keep].append(measure(log, d, n, keep=keep, profile=args.profile))
             fps0 = statistics.median(r["frames_per_s"] for r in floor)
             mib = log.stat().st_size / 2**20
             cold0 = statistics.median(r["cold_frames_per_s"] for r in floor)
@@ -202,6 +213,10 @@ def main() -> int:
     p.add_argument("--threads", default="0,1",
                    help="--recorded: comma-separated --threads values (0: the default)")
     p.add_argument("--runs", type=int, default=3, help="--recorded: runs per figure")
+    p.add_argument("--profile", default=DEFAULT_PROFILE, choices=(*PROFILE_CHOICES, "plain"),
+                   help="the replay's pipeline: a profile (default: dsp-replay's own, "
+                   f"{DEFAULT_PROFILE}) or plain (ReplayOptions(): the corrected estimator and "
+                   "the tracker on the believed poses)")
     p.add_argument("--malloc", action="store_true",
                    help="--recorded: each replay also without keep_image_buffers (glibc's "
                    "malloc left as it is), interleaved")

@@ -15,13 +15,11 @@ With ``threads`` 1 there is no pool: :meth:`Ahead.take` does the work in the cal
 
 from __future__ import annotations
 
-import functools
 import time
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TypeVar
 
 import numpy as np
 
@@ -32,9 +30,6 @@ from replay.plugins import Detector
 from replay.real_ball import BallFinder
 
 __all__ = ["Ahead", "Decoded", "LinePointsFn", "decode_and_detect"]
-
-R = TypeVar("R")
-
 
 LinePointsFn = Callable[[str, "np.ndarray | None"], "LocalisedPoints | None"]
 """(robot, image) -> the image's field-line points (:meth:`replay.localise.Localiser.points`)."""
@@ -114,15 +109,6 @@ class Ahead:
         if self._pool is not None:
             self._fill()
         return result
-
-    def later(self, fn: Callable[..., R], *args: object) -> Callable[[], R]:
-        """``fn(*args)`` started in the pool now (with no pool: computed when asked for);
-        call the returned function for its result. For work that needs more than the image
-        (the line fit needs the pose), so it is not pushed with the image; a pure ``fn``
-        gives the same result either way."""
-        if self._pool is None:
-            return functools.partial(fn, *args)
-        return self._pool.submit(fn, *args).result
 
     def close(self) -> None:
         """Drop what is still waiting and stop the threads."""

@@ -351,8 +351,9 @@ class _Stream:
 
     def _ready(self, img: ImageMessage) -> None:
         """An image whose poses are all in: estimated now, or (localising) its line fit
-        started in the pool, from the believed pose now known, and the frame held back
-        until the log is ``lead`` further on (:meth:`_settle`)."""
+        prepared from the believed pose now known (and the robot's prior and start, in
+        frame order), and the frame held back until the log is ``lead`` further on
+        (:meth:`_settle`)."""
         if not self._wanted(img):
             return
         decoded = self.ahead.take(img)
@@ -366,8 +367,10 @@ class _Stream:
         prior = self.localiser.prior(img.robot)
         if field_pose is not None and decoded.points is not None:
             start = self.localiser.start(img.robot, img.stamp_ns, field_pose.pose)
-            fit = self.ahead.later(self.localiser.fit, decoded.points, field_pose.pose, start,
-                                   prior)
+            # on this thread when settled, not in the pool: the fit is many small numpy calls
+            # that hold the GIL, where a pool thread would wait for it and hold up decoding
+            fit = functools.partial(self.localiser.fit, decoded.points, field_pose.pose, start,
+                                    prior)
         self.pending.append(_Pending(img, decoded, pose, fit, prior))
 
     def _settle(self, now_ns: int | None) -> None:

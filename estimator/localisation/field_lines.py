@@ -33,7 +33,8 @@ from estimator.errors import LocalisationError
 __all__ = ["DistanceGrid", "FieldLines"]
 
 FloatArray = NDArray[np.float64]
-_MAP_COLS = 256
+MAP_COLS = 256
+"""Points per row of the remap tables that read the grid (well under OpenCV's 32767)."""
 _BLOCK_CELLS = 32
 """The side of the grid's blocks, in cells, each measured against its nearby markings."""
 _CHUNK_CELLS = 1 << 18
@@ -207,12 +208,12 @@ class DistanceGrid:
         """As :meth:`FieldLines.distance`, interpolated from the grid."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         n_points = len(p)
-        # rows of _MAP_COLS points: remap's maps stay well under OpenCV's 32767 columns
-        size = -(-n_points // _MAP_COLS) * _MAP_COLS
+        # rows of MAP_COLS points: remap's maps stay well under OpenCV's 32767 columns
+        size = -(-n_points // MAP_COLS) * MAP_COLS
         mx, my = np.full(size, -1e4, np.float32), np.full(size, -1e4, np.float32)
         mx[:n_points] = (p[:, 0] - self.x0_m) / self.step_m
         my[:n_points] = (p[:, 1] - self.y0_m) / self.step_m
-        read = cv2.remap(self.offset_m, mx.reshape(-1, _MAP_COLS), my.reshape(-1, _MAP_COLS),
+        read = cv2.remap(self.offset_m, mx.reshape(-1, MAP_COLS), my.reshape(-1, MAP_COLS),
                          cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                          borderValue=(np.nan, np.nan))
         v = np.asarray(read, dtype=np.float64).reshape(-1, 2)[:n_points]

@@ -118,6 +118,15 @@ class GroundGrid:
     image_shape: tuple[int, int]
     """(height, width) of the images the tables read."""
     params: LinePointParams
+    pointed: NDArray[np.bool_]
+    """(rows, cols): the cells that give a point when they are line cells (of the
+    checkerboard's black squares when ``checkerboard``, else all)."""
+    chroma_limit: NDArray[np.uint8]
+    """(256,): the most ``max - min`` a cell whose brightest channel is ``max`` may have,
+    ``floor(max_chroma * max)`` (a lookup table: the same test in integers)."""
+    padded_xy: tuple[FloatArray, FloatArray]
+    """:attr:`x_m` and :attr:`y_m` grown by half a centroid window of zeros on every side,
+    flattened: where each frame's centroids read their windows' positions."""
 
     @classmethod
     def build(cls, camera: CameraModel, params: LinePointParams | None = None) -> GroundGrid:
@@ -145,7 +154,15 @@ class GroundGrid:
         valid &= r_px > self_radius + p.rim_margin_px
         map1, map2 = _point_maps(uv, valid)
         sigma = np.sqrt(p.base_sigma_m**2 + np.where(valid, footprint, 0.0) ** 2)
-        return cls(map1, map2, valid, x, y, sigma, (camera.height_px, camera.width_px), p)
+        pointed = np.ones_like(valid)
+        if p.checkerboard:
+            pointed[0::2, 1::2] = False
+            pointed[1::2, 0::2] = False
+        limit = np.floor(p.max_chroma * np.arange(256.0)).clip(0, 255).astype(np.uint8)
+        half = p.centroid_cells // 2
+        padded = (np.pad(x, half).ravel(), np.pad(y, half).ravel())
+        return cls(map1, map2, valid, x, y, sigma, (camera.height_px, camera.width_px), p,
+                   pointed, limit, padded)
 
 
 def _point_maps(uv: FloatArray, valid: NDArray[np.bool_]) -> tuple[NDArray[np.int16],
@@ -206,7 +223,7 @@ def line_mask(image_bgr: NDArray[np.uint8], grid: GroundGrid) -> tuple[
     side = max(3, 2 * round(p.opening_m / p.cell_m / 2) + 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (side, side))
     tophat = np.asarray(cv2.morphologyEx(lo, cv2.MORPH_TOPHAT, kernel), np.uint8)
-    grey = (hi.astype(np.int16) - lo) <= p.max_chroma * hi
+    grey = cv2.subtract(hi, lo) <= cv2.LUT(hi, grid.chroma_limit)
     mask = grid.valid & grey & (tophat >= p.min_contrast)
     return mask, tophat
 
@@ -214,27 +231,30 @@ def line_mask(image_bgr: NDArray[np.uint8], grid: GroundGrid) -> tuple[
 def _centroids(mask: NDArray[np.bool_], tophat: NDArray[np.uint8], grid: GroundGrid,
                cells: NDArray[np.intp]) -> FloatArray:
     """(N, 2) [m]: the contrast-weighted centroid of the line cells' positions in a
-    ``centroid_cells`` square window about each of ``cells`` (flat, row-major indices)."""
+    ``centroid_cells`` square window about each of ``cells`` (flat, row-major indices).
+    Summed over each window's cells alone (read from the grid padded by the window's half
+    side), not filtered over the whole grid: a frame has a few thousand points and a
+    hundred thousand cells."""
     side = grid.params.centroid_cells
-    t = np.where(mask, tophat, 0).astype(np.float64)
-
-    def window_sum(a: FloatArray) -> FloatArray:
-        out = cv2.boxFilter(a, cv2.CV_64F, (side, side), normalize=False,
-                            borderType=cv2.BORDER_CONSTANT)
-        return np.asarray(out, dtype=np.float64).ravel()[cells]
-
-    s0, sx, sy = window_sum(t), window_sum(t * grid.x_m), window_sum(t * grid.y_m)
-    return np.stack([sx / s0, sy / s0], axis=1)
+    half = side // 2
+    rows, cols = mask.shape
+    wide = cols + 2 * half
+    t = np.zeros((rows + 2 * half, wide))
+    np.multiply(tophat, mask, out=t[half:half + rows, half:half + cols], casting="unsafe")
+    ring = (np.arange(-half, side - half)[:, None] * wide + np.arange(-half, side - half)).ravel()
+    at = ((cells // cols + half) * wide + cells % cols + half)[:, None] + ring
+    w = t.ravel().take(at)
+    x, y = grid.padded_xy
+    s0 = np.einsum("ij->i", w)
+    return np.stack([np.einsum("ij,ij->i", w, x.take(at)) / s0,
+                     np.einsum("ij,ij->i", w, y.take(at)) / s0], axis=1)
 
 
 def detect_line_points(image_bgr: NDArray[np.uint8], grid: GroundGrid) -> LinePoints:
     """The white line points of one omni image (BGR, the camera's size), robot frame."""
     p = grid.params
     mask, tophat = line_mask(image_bgr, grid)
-    keep = mask.copy()
-    if p.checkerboard:
-        keep[0::2, 1::2] = False
-        keep[1::2, 0::2] = False
+    keep = mask & grid.pointed
     # flat, row-major indices: a fixed order, whatever the threads (and several times
     # cheaper than np.nonzero's row and column arrays)
     cells = np.flatnonzero(keep)

@@ -39,12 +39,13 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from estimator.errors import LocalisationError
 from estimator.geometry import RobotPose, wrap_angle
-from estimator.localisation.field_lines import DistanceGrid, FieldLines
+from estimator.localisation.field_lines import MAP_COLS, DistanceGrid, FieldLines
 from estimator.localisation.line_points import LinePoints
 
 __all__ = ["FitStatus", "PoseCorrection", "PoseFitParams", "correct_pose"]
@@ -140,45 +141,87 @@ def _to_field(q: FloatArray, p: FloatArray) -> FloatArray:
     return out
 
 
-def _normal_equations(q: FloatArray, p: FloatArray, inv_var: FloatArray, grid: DistanceGrid,
-                      c_m: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """(H_L, g_L, d): the lines' Gauss-Newton Hessian and gradient at q, and the distances."""
-    f = _to_field(q, p)
-    d, n = grid.distance(f)
-    rel = f - q[:2]  # R(yaw) p_i
-    j = np.empty((len(p), 3))
-    j[:, :2] = n
-    j[:, 2] = n[:, 1] * rel[:, 0] - n[:, 0] * rel[:, 1]
-    w = inv_var / (1.0 + (d * d) / (c_m * c_m))  # Cauchy's IRLS weight over sigma^2
-    jw = j * w[:, None]
+class _Points:
+    """One stage's points laid out once for the distance grid's reads: their coordinates
+    apart, the remap tables' buffers (rows of :data:`~.field_lines.MAP_COLS`, the tail
+    off the grid) and the Jacobian's, so an evaluation allocates little and calls few
+    numpy functions (the fit runs every frame; its cost is mostly calls, not arithmetic)."""
+
+    def __init__(self, p: FloatArray, inv_var: FloatArray) -> None:
+        n = len(p)
+        self.px, self.py = np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1])
+        self.inv_var = inv_var
+        size = -(-n // MAP_COLS) * MAP_COLS
+        mx, my = np.full(size, -1e4, np.float32), np.full(size, -1e4, np.float32)
+        self.mx, self.my = mx[:n], my[:n]
+        self.maps = (mx.reshape(-1, MAP_COLS), my.reshape(-1, MAP_COLS))
+        self.j = np.empty((3, n))
+
+
+def _normal_equations(q: FloatArray, pts: _Points, grid: DistanceGrid, c_m: float
+                      ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+    """(H_L, g_L, d^2, off): the lines' Gauss-Newton Hessian and gradient at q, the squared
+    distances and which points fell off the grid. With v_i the grid's vector from the
+    nearest line (d_i = |v_i|, n_i = v_i / d_i) and J'_i = d_i J_i = [v_i, v_i x R p_i]:
+    H_L = sum w_i J'_i J'_i^T / d_i^2, g_L = sum w_i J'_i (as :meth:`DistanceGrid.distance`
+    and J_i = n_i^T [I, perp(R p_i)] give them, in fewer steps)."""
+    c, s = math.cos(q[2]), math.sin(q[2])
+    relx = c * pts.px - s * pts.py  # R(yaw) p_i
+    rely = s * pts.px + c * pts.py
+    k = 1.0 / grid.step_m
+    np.multiply(relx + (q[0] - grid.x0_m), k, out=pts.mx)
+    np.multiply(rely + (q[1] - grid.y0_m), k, out=pts.my)
+    read = cv2.remap(grid.offset_m, pts.maps[0], pts.maps[1], cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_CONSTANT, borderValue=(np.nan, np.nan))
+    v = read.reshape(-1, 2)[:len(relx)]
+    j = pts.j  # (3, n): rows contiguous, the sums below run along them
+    j[0], j[1] = v[:, 0], v[:, 1]
+    np.subtract(j[1] * relx, j[0] * rely, out=j[2])
+    off = np.isnan(j[0])
+    if off.any():
+        j[:, off] = 0.0
+    d2 = np.einsum("in,in->n", j[:2], j[:2])
+    w = pts.inv_var / (1.0 + d2 * (1.0 / (c_m * c_m)))  # Cauchy's IRLS weight over sigma^2
+    u = w / np.maximum(d2, 1e-18)
     # einsum, not BLAS: a sum in one fixed order whatever the thread count (bit-identical)
-    return np.einsum("ni,nj->ij", jw, j), np.einsum("ni,n->i", jw, d), d
+    return np.einsum("in,jn->ij", j * u, j), np.einsum("in,n->i", j, w), d2, off
 
 
 def _gauss_newton(q0: FloatArray, info0: FloatArray, p: FloatArray, inv_var: FloatArray,
                   grid: DistanceGrid, lines: FieldLines, params: PoseFitParams,
                   start: FloatArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The minimum of E from q0 (from ``start`` when given: then only the last
-    ``warm_stages`` stages run); returns (q, H_L at q, distances at q). After the first
-    stage the points are kept to the field grown by ``refine_margin_m`` under the pose
-    found so far (what stands just behind an outer line, a goal, drops out)."""
+    ``warm_stages`` stages run); returns (q, H_L, distances): H_L and the distances where
+    the last step began (a step under ``tolerance_m`` and ``tolerance_rad`` ends the
+    search: they move less than the points' own noise over it, and another evaluation
+    would be a quarter of the fit's cost), at q when it ran out of iterations. After the
+    first stage the points are kept to the field grown by ``refine_margin_m`` under the
+    pose found so far (what stands just behind an outer line, a goal, drops out)."""
     q = q0.copy() if start is None else start.copy()
-    use = np.ones(len(p), dtype=bool)
+    pts = _Points(p, inv_var)
     stages = params.stages if start is None else params.stages[-params.warm_stages:]
+    last: tuple[FloatArray, FloatArray, NDArray[np.bool_]] | None = None
     for k, c_m in enumerate(stages):
         if k == 1 or (start is not None and k == 0):
             use = lines.inside(_to_field(q, p), params.refine_margin_m)
-        pk, wk = p[use], inv_var[use]
+            pts = _Points(p[use], inv_var[use])
+        last = None
         for _ in range(params.iterations):
-            h, g, _d = _normal_equations(q, pk, wk, grid, c_m)
+            h, g, d2, off = _normal_equations(q, pts, grid, c_m)
             dq = q - q0
             dq[2] = wrap_angle(float(dq[2]))
             step = np.linalg.solve(h + info0, -(g + info0 @ dq))
             q = q + step
             if abs(step[0]) + abs(step[1]) < params.tolerance_m and (
                     abs(step[2]) < params.tolerance_rad):
+                last = (h, d2, off)
                 break
-    h, _g, d = _normal_equations(q, p[use], inv_var[use], grid, params.stages[-1])
+    if last is None:  # the last stage ran out of iterations: H and d where it stopped
+        h, _g, d2, off = _normal_equations(q, pts, grid, params.stages[-1])
+    else:  # converged: those of its last step's start, under a millimetre away
+        h, d2, off = last
+    d = np.sqrt(d2)
+    d[off] = grid.outside_m
     q[2] = wrap_angle(float(q[2]))
     return q, h, d
 

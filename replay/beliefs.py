@@ -11,7 +11,7 @@ from estimator.tracking.bias import BiasEstimator
 from estimator.tracking.pose_noise import PoseNoiseEstimator
 from estimator.tracking.tracker import BallTracker
 
-__all__ = ["beliefs"]
+__all__ = ["beliefs", "describe_belief", "learnt_markdown"]
 
 
 def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
@@ -42,3 +42,39 @@ def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
         if d:
             out[robot] = d
     return out
+
+
+def describe_belief(b: Mapping[str, object]) -> str:
+    """One robot's learnt pose, in words (:attr:`ReplaySummary.beliefs`)."""
+    parts = []
+    if "pose_sigma_m" in b:
+        parts.append(f"pose off by {100 * float(str(b['pose_sigma_m'])):.1f} cm and "
+                     f"{float(str(b['pose_sigma_deg'])):.2f} deg (1 sigma, from "
+                     f"{b['residuals']} residuals)")
+    if "line_sigma_m" in b:
+        parts.append(f"its belief off by {100 * float(str(b['line_sigma_m'])):.1f} cm and "
+                     f"{float(str(b['line_sigma_deg'])):.2f} deg as its line fits show (1 sigma, "
+                     f"from {b['line_fits']} fits)")
+    if "stated_sigma_m" in b:
+        parts.append(f"the log states {100 * float(str(b['stated_sigma_m'])):.1f} cm and "
+                     f"{float(str(b['stated_sigma_deg'])):.2f} deg")
+    if "bias_x_m" in b:
+        parts.append(f"corrected by ({100 * float(str(b['bias_x_m'])):+.1f}, "
+                     f"{100 * float(str(b['bias_y_m'])):+.1f}) cm, "
+                     f"{float(str(b['bias_yaw_deg'])):+.2f} deg at the end")
+    if "offset_x_m" in b:
+        parts.append(f"its ball ({100 * float(str(b['offset_x_m'])):+.1f}, "
+                     f"{100 * float(str(b['offset_y_m'])):+.1f}) cm from the others' at the end")
+    return "; ".join(parts)
+
+
+def learnt_markdown(robots: Sequence[str], learnt: Mapping[str, Mapping[str, object]] | None
+                    ) -> str:
+    """What the replay came to believe of each robot's pose (``summary.learnt``), as the
+    Markdown the Rerun recording shows at ``/summary/learnt``."""
+    head = ("# What the replay learnt\n\nOf each robot's pose, what its log did not state, "
+            "estimated as the log replayed (the results' `summary.learnt`).\n\n")
+    rows = [f"- **{r}**: {describe_belief(learnt[r])}" for r in robots
+            if learnt is not None and r in learnt]
+    return head + ("\n".join(rows) if rows else "Nothing was learnt of any robot's pose "
+                   "in this replay.") + "\n"

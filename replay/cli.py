@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 from dsp import contract
@@ -28,6 +28,7 @@ from dsp.plotting import FIGURE_SUFFIXES
 from dsp.text import printable
 from estimator.fusion import FUSION_METHODS
 from replay.batch.cli import add_batch_arguments, check_single, is_batch, run_batch
+from replay.beliefs import describe_belief
 from replay.log.catalogue import check_mcap_file
 from replay.memory import keep_image_buffers
 from replay.options import (
@@ -325,30 +326,6 @@ def _m(v: float | None) -> str:
 
 def _rate(v: float) -> str:
     return f"{v:.1f}" if math.isfinite(v) else "-"
-
-
-def describe_belief(b: Mapping[str, object]) -> str:
-    """One robot's learnt pose, in words (:attr:`ReplaySummary.beliefs`)."""
-    parts = []
-    if "pose_sigma_m" in b:
-        parts.append(f"pose off by {100 * float(str(b['pose_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['pose_sigma_deg'])):.2f} deg (1 sigma, from "
-                     f"{b['residuals']} residuals)")
-    if "line_sigma_m" in b:
-        parts.append(f"its belief off by {100 * float(str(b['line_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['line_sigma_deg'])):.2f} deg as its line fits show (1 sigma, "
-                     f"from {b['line_fits']} fits)")
-    if "stated_sigma_m" in b:
-        parts.append(f"the log states {100 * float(str(b['stated_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['stated_sigma_deg'])):.2f} deg")
-    if "bias_x_m" in b:
-        parts.append(f"corrected by ({100 * float(str(b['bias_x_m'])):+.1f}, "
-                     f"{100 * float(str(b['bias_y_m'])):+.1f}) cm, "
-                     f"{float(str(b['bias_yaw_deg'])):+.2f} deg at the end")
-    if "offset_x_m" in b:
-        parts.append(f"its ball ({100 * float(str(b['offset_x_m'])):+.1f}, "
-                     f"{100 * float(str(b['offset_y_m'])):+.1f}) cm from the others' at the end")
-    return "; ".join(parts)
 
 
 def format_summary(s: ReplaySummary) -> str:

@@ -33,8 +33,8 @@ from replay.options import ReplayOptions, RerunTarget
 from replay.runner import file_digest, replay
 from replay.sinks.rerun.blueprint import cameras_view, field_view
 from replay.sinks.rerun.live import check_display
-from replay.sinks.rerun.sink import APPLICATION_ID, RerunSink, recording_id
-from replay.sinks.rerun.streams import check_room, commit, flush, write_failure
+from replay.sinks.rerun.sink import APPLICATION_ID, RerunSink
+from replay.sinks.rerun.streams import check_room, commit, flush, recording_id, write_failure
 from replay.sinks.style import FUSED_COLOUR, TRACK_COLOUR
 
 __all__ = ["PREFIXES", "replay_options", "side_by_side", "side_by_side_blueprint"]

@@ -81,12 +81,12 @@ def open_outputs(stack: contextlib.ExitStack[bool | None], options: ReplayOption
 
         sinks.append(stack.enter_context(RerunSink(
             options.rerun, info=info, digest=context.digest, options=options,
-            centres=context.centres, field=context.drawn_field)))
+            centres=context.centres, field=context.drawn_field, summary=context.stats)))
         if options.rerun_save is not None:  # viewed live and saved: a second stream
             from replay.options import RerunTarget
 
             sinks.append(stack.enter_context(RerunSink(
                 RerunTarget("save", str(options.rerun_save)), info=info,
                 digest=context.digest, options=options, centres=context.centres,
-                field=context.drawn_field)))
+                field=context.drawn_field, summary=context.stats)))
     return sinks

@@ -40,9 +40,10 @@ def scenario_kind(scenario: str | None, *, tracked: bool = False) -> str:
 
 
 def cameras_view(robots: Sequence[str], prefix: str = "",
-                 images_from: str | None = None) -> rrb.Container:
-    """The cameras as tabs (and all of them in the last); ``prefix``: a run's entities';
-    ``images_from``: the prefix whose images to show under them (one copy for two runs)."""
+                 images_from: str | None = None, extra: Sequence[rrb.View] = ()) -> rrb.Container:
+    """The cameras as tabs (and all of them in the last, then ``extra``); ``prefix``: a
+    run's entities'; ``images_from``: the prefix whose images to show under them (one copy
+    for two runs)."""
     label = f"{prefix.strip('/')} " if prefix else ""
 
     def view(r: str, name: str) -> rrb.View:
@@ -56,6 +57,7 @@ def cameras_view(robots: Sequence[str], prefix: str = "",
     if len(robots) > 1:
         tabs.append(rrb.Grid(*[view(r, f"{label}{r}") for r in robots],
                              name=f"{label}all cameras"))
+    tabs.extend(extra)
     return rrb.Tabs(*tabs, active_tab=0, name=f"{label}cameras")
 
 
@@ -82,6 +84,11 @@ def field_view(field: FieldSpec, prefix: str = "", *, oblique: bool = False) -> 
         eye_controls=eye)
 
 
+def _learnt() -> rrb.View:
+    """The tab of what the replay learnt of each robot's pose (logged when it ends)."""
+    return rrb.TextDocumentView(origin="/summary/learnt", name="what the replay learnt")
+
+
 def _series(origin: str, name: str) -> rrb.View:
     return rrb.TimeSeriesView(origin=origin, name=name,
                               plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop))
@@ -96,7 +103,7 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
     if kind == "paper":
         # a handful of frames of a still ball: the images and the field say most
         return rrb.Horizontal(
-            cameras_view(robots),
+            cameras_view(robots, extra=[_learnt()]),
             rrb.Vertical(field_view(field, oblique=heights), rrb.Horizontal(error, *small),
                          row_shares=[3.0, 1.2]),
             column_shares=[1.0, 1.45])
@@ -109,7 +116,7 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
         bottom.insert(len(bottom) - len(small), _series("/plots/height", "ball height [m]"))
         shares.insert(len(shares) - len(small), 2.0)
     return rrb.Horizontal(
-        rrb.Vertical(cameras_view(robots), error, row_shares=[3.0, 2.0]),
+        rrb.Vertical(cameras_view(robots, extra=[_learnt()]), error, row_shares=[3.0, 2.0]),
         rrb.Vertical(field_view(field, oblique=heights),
                      rrb.Horizontal(*bottom, column_shares=shares),
                      row_shares=[3.0, 1.3]),

@@ -14,11 +14,8 @@ gap instead of a straight line across.
 from __future__ import annotations
 
 import contextlib
-import hashlib
-import json
 import math
 import sys
-import uuid
 from collections import deque
 from collections.abc import Mapping
 from pathlib import Path
@@ -34,6 +31,7 @@ from dsp.errors import UsageError
 from dsp.field import DEFAULT_FIELD, FIELDS, FieldSpec, polylines
 from estimator.constants import NS_PER_S
 from estimator.geometry import RobotPose
+from replay.beliefs import learnt_markdown
 from replay.log import LogInfo
 from replay.options import ReplayOptions, RerunTarget
 from replay.records import FrameResult, StepResult
@@ -48,7 +46,7 @@ from replay.sinks.rerun.live import (
     grpc_address,
     reachable,
 )
-from replay.sinks.rerun.streams import blueprint_storage, check_room, flush, release, write_failure
+from replay.sinks.results import SummarySource
 from replay.sinks.style import (
     BALL_COLOUR,
     BALL_RADIUS_M,
@@ -66,8 +64,7 @@ from replay.sinks.style import (
     robot_colour,
 )
 
-__all__ = ["APPLICATION_ID", "ENTITY_PATHS", "LOCALISED_PATHS", "TIMELINES", "RerunSink",
-           "field_lines", "recording_id"]
+__all__ = ["APPLICATION_ID", "ENTITY_PATHS", "LOCALISED_PATHS", "TIMELINES", "RerunSink"]
 
 APPLICATION_ID = "dual_sight_replay"
 TIMELINES = ("sim_time", "frame", "step")
@@ -89,25 +86,16 @@ ENTITY_PATHS = (
     "/plots/error/{robot}", "/plots/error/fused", "/plots/speed/track", "/plots/speed/truth",
     "/plots/height/fused", "/plots/height/truth",
     "/plots/blob_area/{robot}", "/plots/pose_sigma/{robot}", "/plots/estimator_ms/{robot}",
+    "/summary/learnt",
 )
 """Every entity the sink logs (``{robot}`` per robot; the track's only with a tracker, its
 landing only with ``ballistic``, the corrected pose and the line points only with
-``--localise``, the heights only with a 3-D fusion, pose_sigma with a pose uncertainty)."""
+``--localise``, the heights only with a 3-D fusion, pose_sigma with a pose uncertainty, the
+summary once the replay has ended)."""
 LOCALISED_PATHS = ("/field/robots/{robot}/corrected", "/field/robots/{robot}/corrected/heading",
                    "/robots/{robot}/camera/lines")  # only --localise logs them
 TRAIL_S = 3.0  # how much of the track's past the trail shows [s]
 _BALL_Z = BALL_RADIUS_M
-
-
-def recording_id(digest: str, options: Mapping[str, object]) -> str:
-    """A UUID derived from the log's hash and the options (same input -> same recording)."""
-    text = json.dumps({"sha256": digest, "options": options}, sort_keys=True, default=str)
-    return str(uuid.UUID(bytes=hashlib.sha256(text.encode()).digest()[:16], version=4))
-
-
-def field_lines(spec: FieldSpec) -> list[list[tuple[float, float]]]:
-    """The field's markings (:mod:`dsp.field`) as polylines for ``/field/lines``."""
-    return polylines(spec)
 
 
 class RerunSink(SinkBase):
@@ -115,8 +103,10 @@ class RerunSink(SinkBase):
 
     def __init__(self, target: RerunTarget, *, info: LogInfo, digest: str,
                  options: ReplayOptions, centres: Mapping[str, tuple[float, float]],
-                 field: FieldSpec | None = None) -> None:
+                 field: FieldSpec | None = None,
+                 summary: SummarySource | None = None) -> None:
         self.target = target
+        self.summary = summary  # what the replay learnt, logged at its end
         self._save: AtomicFile | None = None
         self._liveness: Liveness | None = None
         self.lost: str | None = None  # why the viewer is no longer logged to
@@ -128,7 +118,7 @@ class RerunSink(SinkBase):
         opts = options.as_dict()
         for key in ("rerun", "out", "out_mcap", "out_csv", "plot", "force", "progress"):
             opts.pop(key, None)
-        self.recording_id = recording_id(digest, opts)
+        self.recording_id = streams.recording_id(digest, opts)
         self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id)
         self.rec.set_log_time_enabled(False)  # sim time only: no wall clock in the recording
         self.colours = {r: robot_colour(i) for i, r in enumerate(info.robots)}
@@ -152,14 +142,14 @@ class RerunSink(SinkBase):
         bp = self.blueprint()
         if mode == "save":
             self._save = AtomicFile(Path(str(target)), force=force)
-            check_room(self._save.path)  # a nearly full disk can block Rerun's writer
+            streams.check_room(self._save.path)  # a nearly full disk can block Rerun's writer
             try:
-                with blueprint_storage(APPLICATION_ID, bp) as storage:
+                with streams.blueprint_storage(APPLICATION_ID, bp) as storage:
                     rr_bindings.save(path=str(self._save.tmp), default_blueprint=storage,
                                      recording=self.rec.to_native(), write_footer=True)
             except RuntimeError as err:
                 self.broken = True
-                raise write_failure(self._save.path, err, self.rec) from err
+                raise streams.write_failure(self._save.path, err, self.rec) from err
         elif mode == "spawn":
             check_display()
             self.rec.spawn(default_blueprint=bp)
@@ -195,7 +185,7 @@ class RerunSink(SinkBase):
     def _static(self) -> None:
         rec = self.rec
         rec.log("/field", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        strips = [[(x, y, 0.0) for x, y in s] for s in field_lines(self.field)]
+        strips = [[(x, y, 0.0) for x, y in s] for s in polylines(self.field)]  # the markings
         rec.log("/field/lines", rr.LineStrips3D(strips, colors=[FIELD_LINE_COLOUR], radii=0.04),
                 static=True)
         for robot in self.info.robots:
@@ -427,12 +417,14 @@ class RerunSink(SinkBase):
         viewer that went away is not waited for."""
         try:
             if self.lost is None:
+                if ok and self.summary is not None:
+                    self._learnt(self.summary.summary_dict().get("learnt"))
                 try:
-                    flush(self.rec, None if self._save is None else self._save.tmp)
+                    streams.flush(self.rec, None if self._save is None else self._save.tmp)
                 except RuntimeError as err:  # a full disk, or the gRPC connection broke
                     if self._save is not None:
                         self.broken = True
-                        raise write_failure(self._save.path, err, self.rec) from err
+                        raise streams.write_failure(self._save.path, err, self.rec) from err
                     print(f"warning: the Rerun viewer went away ({err})", file=sys.stderr)
                     self.lost = str(err)
             if ok and self._save is not None:
@@ -440,11 +432,17 @@ class RerunSink(SinkBase):
         finally:
             self._end()
 
+    def _learnt(self, learnt: object) -> None:
+        """``/summary/learnt``: what the replay came to believe of each robot's pose."""
+        text = learnt_markdown(self.info.robots, learnt if isinstance(learnt, dict) else None)
+        self.rec.log("/summary/learnt", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN),
+                     static=True)
+
     def _end(self) -> None:
         """Close the recording (its threads end; a viewer that went away is not waited for)
         and remove an uncommitted .rrd."""
         if self.lost is None and not self.broken:  # a broken file writer blocks a disconnect
             with contextlib.suppress(RuntimeError):
-                release(self.rec)
+                streams.release(self.rec)
         if self._save is not None:
             self._save.discard()

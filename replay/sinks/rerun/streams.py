@@ -18,8 +18,11 @@ before the file is committed.
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import json
 import os
-from collections.abc import Iterator
+import uuid
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +35,7 @@ from dsp.errors import OutputError
 from dsp.launch import end_without_finalising
 
 __all__ = ["MIN_FREE_BYTES", "abandon", "blueprint_storage", "check_complete", "check_room",
-           "commit", "flush", "release"]
+           "commit", "flush", "recording_id", "release"]
 
 MIN_FREE_BYTES = 1 << 20
 """1 MiB: less room than this for an .rrd is a full disk."""
@@ -44,6 +47,12 @@ FLUSH_STEP_S = 0.5
 FLUSH_STALLS = 3
 """A flush to an .rrd is waited for in steps of FLUSH_STEP_S for as long as the file grows;
 FLUSH_STALLS steps in a row without a byte written mean its writer has stopped."""
+
+
+def recording_id(digest: str, options: Mapping[str, object]) -> str:
+    """A UUID derived from the log's hash and the options (same input -> same recording)."""
+    text = json.dumps({"sha256": digest, "options": options}, sort_keys=True, default=str)
+    return str(uuid.UUID(bytes=hashlib.sha256(text.encode()).digest()[:16], version=4))
 
 
 @contextlib.contextmanager

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from replay.beliefs import describe_belief
 from replay.options import ReplayOptions, RerunTarget
+from replay.profiles import options_for
 from replay.runner import replay
 from replay.sinks.rerun.shapes import label_box
 from replay.sinks.rerun.sink import ENTITY_PATHS, LOCALISED_PATHS, TIMELINES
@@ -202,3 +204,20 @@ def test_labels_sit_beside_the_ball_and_the_robots_not_on_them(chunks: list) -> 
         assert math.hypot(min(max(x, x0), x1) - x, min(max(y, y0), y1) - y) > 0.36, key
     assert {t[0] for t in column(r"/field/robots/\w+/name", "Points3D:labels").values()} == set(
         ROBOTS)
+
+
+def test_the_recording_ends_with_what_the_replay_learnt(tmp_path: Path) -> None:
+    """The default pipeline learns each robot's pose spread from the log (its line fits,
+    its residuals): the .rrd's ``/summary/learnt`` says so per robot, in the printed
+    summary's words, and names what the results' ``summary.learnt`` holds."""
+    rrd, out = tmp_path / "match.rrd", tmp_path / "match.json"
+    s = replay(ROOT / "logs" / "golden" / "match.mcap",
+               options_for(rerun=RerunTarget("save", str(rrd)), out=out, progress=False))
+    learnt = s.beliefs
+    assert learnt and set(learnt) == set(ROBOTS)
+    docs = [ch for ch in chunk.RrdReader(rrd).stream() if ch.entity_path == "/summary/learnt"]
+    assert len(docs) == 1 and docs[0].is_static
+    text = docs[0].to_record_batch().column("TextDocument:text").to_pylist()[0][0]
+    for robot in ROBOTS:
+        assert f"- **{robot}**: {describe_belief(learnt[robot])}" in text
+        assert "as its line fits show" in describe_belief(learnt[robot])

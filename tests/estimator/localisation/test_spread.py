@@ -50,10 +50,25 @@ def test_before_any_fit_the_start_and_then_what_the_fits_show() -> None:
 def test_exact_beliefs_narrow_it_to_the_floor() -> None:
     p = SpreadParams()
     spread = CorrectionSpread()
-    _feed(spread, 0.0, 0.0)  # (the start never fades: four fits' worth of 300 or so)
+    _feed(spread, 0.0, 0.0)
     s_m, s_deg = _sigmas(spread)
     assert p.floor_sigma_m <= s_m < 1.5 * p.floor_sigma_m
     assert math.degrees(p.floor_sigma_rad) <= s_deg < 1.5 * math.degrees(p.floor_sigma_rad)
+
+
+def test_millimetre_corrections_are_learnt_as_millimetres_once_the_start_has_faded() -> None:
+    """Exact beliefs, the fits' own noise 3 mm and 0.1 deg, 10 s at 20 Hz: the spread is
+    what the fits show, not the start's 10 cm (four fits' worth that did not fade kept it
+    at 1.8 cm); a second after the first fit the start still counts."""
+    spread = CorrectionSpread()
+    rng = np.random.default_rng(5)
+    for k in range(200):
+        dx, dy, dyaw = rng.normal(0.0, [0.003, 0.003, math.radians(0.1)])
+        spread.observe("r1", k * NS // 20, BELIEVED, _fit(dx, dy, dyaw))
+        if k == 20:
+            assert _sigmas(spread)[0] > 0.03
+    s_m, s_deg = _sigmas(spread)
+    assert s_m == pytest.approx(0.003, rel=0.2) and s_deg == pytest.approx(0.1, rel=0.2)
 
 
 def test_a_refused_jump_widens_it_a_neighbouring_line_and_other_failures_do_not() -> None:

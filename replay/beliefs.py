@@ -44,20 +44,21 @@ def beliefs(robots: Sequence[str], learnt: PoseNoiseEstimator | None,
     return out
 
 
+def _spread(b: Mapping[str, object], m: str, deg: str) -> str:
+    return f"{100 * float(str(b[m])):.1f} cm and {float(str(b[deg])):.2f} deg"
+
+
 def describe_belief(b: Mapping[str, object]) -> str:
     """One robot's learnt pose, in words (:attr:`ReplaySummary.beliefs`)."""
     parts = []
     if "pose_sigma_m" in b:
-        parts.append(f"pose off by {100 * float(str(b['pose_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['pose_sigma_deg'])):.2f} deg (1 sigma, from "
-                     f"{b['residuals']} residuals)")
+        parts.append(f"pose off by {_spread(b, 'pose_sigma_m', 'pose_sigma_deg')} (1 sigma, "
+                     f"from {b['residuals']} residuals)")
     if "line_sigma_m" in b:
-        parts.append(f"its belief off by {100 * float(str(b['line_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['line_sigma_deg'])):.2f} deg as its line fits show (1 sigma, "
-                     f"from {b['line_fits']} fits)")
+        parts.append(f"its belief off by {_spread(b, 'line_sigma_m', 'line_sigma_deg')} as "
+                     f"its line fits show (1 sigma, from {b['line_fits']} fits)")
     if "stated_sigma_m" in b:
-        parts.append(f"the log states {100 * float(str(b['stated_sigma_m'])):.1f} cm and "
-                     f"{float(str(b['stated_sigma_deg'])):.2f} deg")
+        parts.append(f"the log states {_spread(b, 'stated_sigma_m', 'stated_sigma_deg')}")
     if "bias_x_m" in b:
         parts.append(f"corrected by ({100 * float(str(b['bias_x_m'])):+.1f}, "
                      f"{100 * float(str(b['bias_y_m'])):+.1f}) cm, "

@@ -6,8 +6,9 @@ by centimetres and a degree or so; the same omni image that sees the ball sees t
 white lines. :class:`Localiser` is built once per replay from the field the log's scenario
 metadata or the camera file names (:func:`field_for`, :mod:`dsp.field`) and each robot's
 camera model, and splits the work three
-ways, so that the costly parts run in the look-ahead's threads (:mod:`replay.ahead`) and the
-results are the same bytes whatever the thread count:
+ways, so that the part that needs the image alone runs in the look-ahead's threads
+(:mod:`replay.ahead`), the fit (many small numpy calls, which hold the GIL) on the replay's
+own thread, and the results are the same bytes whatever the thread count:
 
 1. :meth:`Localiser.points`: the image's line points (needs the image alone; pure);
 2. :meth:`Localiser.fit`: the pose that fits them, around the believed pose at the image's

@@ -54,9 +54,8 @@ it then (the line fit's prior, the bias's spread and the pose's covariance are l
 the log: :mod:`estimator.localisation.spread`, :mod:`estimator.tracking.pose_noise`); the
 fallback of a :class:`~replay.localise.Localiser` asked to fit without a prior."""
 FIT_LEAD_S = 0.1
-"""With ``--localise lines`` a frame waits this much longer [s] (log time) after its pose
-before it settles (its fit runs then, on the replay's thread); the outputs do not depend
-on it."""
+"""With ``--localise lines`` a frame settles (its fit runs) this much later [s] in log time
+than its pose: which earlier fits its prior and start have seen, the same every run."""
 
 
 @dataclass(frozen=True)

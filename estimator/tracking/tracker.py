@@ -17,7 +17,9 @@ filter predicts to each stamp, so a moving ball is not smeared over a fusion win
   robot sees the ball, nothing corroborates: a lone rejected estimate explains a kick by
   itself when the last accepted one is at most ``lone_kick_ns`` old, a ball at most
   ``max_speed`` fast could have gone there, and it does not fall where rejected estimates
-  keep falling (a still false blob: :class:`~estimator.tracking.clutter.ClutterMap`).
+  keep falling (a still false blob: :class:`~estimator.tracking.clutter.ClutterMap`); the
+  kick goes after the last accepted one, or a frame or two earlier where that would make
+  the ball faster than ``max_speed`` (:mod:`estimator.tracking.lone_kick`).
 - **A kick the gate missed**: accepted estimates that all lean one way are tried with a
   kick before them (:mod:`estimator.tracking.lean`).
 - **Friction**: velocity decays at ``friction_per_s`` (linear rolling friction).
@@ -62,6 +64,7 @@ from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
 from estimator.tracking.clutter import ClutterMap
 from estimator.tracking.lean import lean_kick
+from estimator.tracking.lone_kick import LONE_KICK_BACK, LONE_KICK_BACK_NS, lone_kick
 from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
 from estimator.tracking.offsets import OffsetFilter
 from estimator.tracking.params import TrackerParams
@@ -275,13 +278,8 @@ class BallTracker:
         dz = e.z - x[:2]
         if float(dz @ np.linalg.solve(p[:2, :2] + e.r + reach**2 * np.eye(2), dz)) > prm.gate:
             return  # farther than a ball could have gone
-        k = track.entries[j + 1]
-        was, k.kick = k.kick, True
-        self._rerun(track, j + 1)
-        if e.accepted and not any(f.accepted for f in track.entries[j + 1:i]):
-            return
-        k.kick = was
-        self._rerun(track, j + 1)
+        lone_kick(track.entries, i, j, lambda k: self._rerun(track, k),
+                  max_speed=prm.max_speed_m_s, back=LONE_KICK_BACK, back_ns=LONE_KICK_BACK_NS)
 
     def _restart_from_pair(self, track: _Track, e: _Entry) -> None:
         """A tentative track that two consistent rejected estimates contradict starts

@@ -31,7 +31,7 @@ from replay.compare.load import ResultsRun
 from replay.log import LogInfo, LogReader
 from replay.options import ReplayOptions, RerunTarget
 from replay.runner import file_digest, replay
-from replay.sinks.rerun.blueprint import cameras_view, field_view
+from replay.sinks.rerun.blueprint import cameras_view, field_view, learnt_view
 from replay.sinks.rerun.live import check_display
 from replay.sinks.rerun.sink import APPLICATION_ID, RerunSink
 from replay.sinks.rerun.streams import check_room, commit, flush, recording_id, write_failure
@@ -105,17 +105,23 @@ class _PrefixedSink(RerunSink):
     def close(self, ok: bool) -> None:  # the shared recording is closed by its owner
         pass
 
+    def learnt(self, beliefs: Mapping[str, Json] | None) -> None:
+        """``{prefix}/summary/learnt``: what this run's replay learnt (its ``beliefs``)."""
+        self._learnt(dict(beliefs) if beliefs else None)
+
 
 def side_by_side_blueprint(robots: tuple[str, ...], field: FieldSpec) -> rrb.Blueprint:
-    """A's cameras beside B's, A's field beside B's, both runs' errors in one plot."""
+    """A's cameras beside B's (each run's last tab what it learnt), A's field beside B's,
+    both runs' errors in one plot."""
     a, b = PREFIXES
     errors = rrb.TimeSeriesView(origin="/", contents=[f"{a}/plots/error/**",
                                                       f"{b}/plots/error/**"],
                                 name="error vs ground truth [m], A and B",
                                 plot_legend=rrb.PlotLegend(rrb.Corner2D.RightTop))
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(cameras_view(robots, a),
-                                    cameras_view(robots, b, images_from=a)),
+        rrb.Vertical(rrb.Horizontal(cameras_view(robots, a, extra=[learnt_view(a)]),
+                                    cameras_view(robots, b, images_from=a,
+                                                 extra=[learnt_view(b)])),
                      rrb.Horizontal(field_view(field, a), field_view(field, b)),
                      errors, row_shares=[3.0, 2.4, 1.6]),
         rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
@@ -161,7 +167,7 @@ def side_by_side(log: Path, a: ResultsRun, b: ResultsRun, *, save: Path | None,
         for prefix, opts in zip(PREFIXES, options, strict=True):
             sink = _PrefixedSink(rec, prefix, info=info, digest=digest, centres=centres,
                                  options=dataclasses.replace(opts))
-            replay(log, opts, sinks=[sink])
+            sink.learnt(replay(log, opts, sinks=[sink]).beliefs)
         try:
             flush(rec, None if out is None else out.tmp)
         except RuntimeError as err:  # the file writer stopped, or the viewer went away

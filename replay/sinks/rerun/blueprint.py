@@ -25,7 +25,7 @@ import rerun.blueprint as rrb
 from dsp.field import FieldSpec
 from replay.sinks.style import FIELD_BACKGROUND
 
-__all__ = ["KINDS", "blueprint", "cameras_view", "field_view", "scenario_kind"]
+__all__ = ["KINDS", "blueprint", "cameras_view", "field_view", "learnt_view", "scenario_kind"]
 
 KINDS = ("paper", "moving", "log")
 
@@ -84,9 +84,11 @@ def field_view(field: FieldSpec, prefix: str = "", *, oblique: bool = False) -> 
         eye_controls=eye)
 
 
-def _learnt() -> rrb.View:
-    """The tab of what the replay learnt of each robot's pose (logged when it ends)."""
-    return rrb.TextDocumentView(origin="/summary/learnt", name="what the replay learnt")
+def learnt_view(prefix: str = "") -> rrb.View:
+    """The tab of what the replay learnt of each robot's pose (logged when it ends);
+    ``prefix``: a run's entities' (a short name: two runs' tabs share the width)."""
+    name = f"{prefix.strip('/')} learnt" if prefix else "what the replay learnt"
+    return rrb.TextDocumentView(origin=f"{prefix}/summary/learnt", name=name)
 
 
 def _series(origin: str, name: str) -> rrb.View:
@@ -103,7 +105,7 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
     if kind == "paper":
         # a handful of frames of a still ball: the images and the field say most
         return rrb.Horizontal(
-            cameras_view(robots, extra=[_learnt()]),
+            cameras_view(robots, extra=[learnt_view()]),
             rrb.Vertical(field_view(field, oblique=heights), rrb.Horizontal(error, *small),
                          row_shares=[3.0, 1.2]),
             column_shares=[1.0, 1.45])
@@ -116,7 +118,7 @@ def _layout(robots: Sequence[str], field: FieldSpec, kind: str,
         bottom.insert(len(bottom) - len(small), _series("/plots/height", "ball height [m]"))
         shares.insert(len(shares) - len(small), 2.0)
     return rrb.Horizontal(
-        rrb.Vertical(cameras_view(robots, extra=[_learnt()]), error, row_shares=[3.0, 2.0]),
+        rrb.Vertical(cameras_view(robots, extra=[learnt_view()]), error, row_shares=[3.0, 2.0]),
         rrb.Vertical(field_view(field, oblique=heights),
                      rrb.Horizontal(*bottom, column_shares=shares),
                      row_shares=[3.0, 1.3]),

@@ -9,10 +9,12 @@ from pathlib import Path
 import pytest
 
 import replay.cli
+from replay.beliefs import learnt_markdown
 from replay.compare.cli import main
 
 chunk = pytest.importorskip("rerun.chunk")
 LOG = Path(__file__).resolve().parents[3] / "logs" / "golden" / "rolling.mcap"
+ROBOTS = ("robot1", "robot2", "robot3")
 
 
 def _fused_errors(chunks: list, path: str) -> list[float]:
@@ -49,6 +51,11 @@ def test_both_runs_side_by_side(tmp_path: Path, capsys: pytest.CaptureFixture[st
         expected = [s["error_m"] for s in doc["fused"] if s["error_m"] is not None]
         assert _fused_errors(chunks, f"{prefix}/plots/error/fused") == pytest.approx(
             expected, abs=1e-6)
+        # each run's last camera tab: what its replay learnt, as its results file says
+        docs = [ch for ch in chunks if ch.entity_path == f"{prefix}/summary/learnt"]
+        assert len(docs) == 1 and docs[0].is_static
+        text = docs[0].to_record_batch().column("TextDocument:text").to_pylist()[0][0]
+        assert text == learnt_markdown(ROBOTS, doc["summary"].get("learnt"))
 
 
 def test_the_log_must_be_the_results_log(tmp_path: Path,

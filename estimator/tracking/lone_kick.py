@@ -53,40 +53,39 @@ class Kickable(Protocol):
 
 
 def lone_kick(entries: Sequence[Kickable], i: int, j: int, rerun: Callable[[int], None], *,
-              max_speed: float, back: int, back_ns: int) -> bool:
+              max_speed: float, back: int = LONE_KICK_BACK,
+              back_ns: int = LONE_KICK_BACK_NS) -> bool:
     """Explain the refused ``entries[i]`` by a kick (module docstring); ``j`` is the last
     accepted entry before it, ``rerun(k)`` re-runs the track from ``entries[k]``. True when
     a kick was kept (the track is left re-run with it)."""
     e = entries[i]
+    after = _try(entries, j + 1, i, rerun, keep_below=max_speed)
+    if after is not None and after[1] <= max_speed:
+        return True  # kept by _try
     earlier = [a for a in range(j, 0, -1)
                if entries[a].accepted and not entries[a].kick
                and e.m.stamp_ns - entries[a].m.stamp_ns <= back_ns][:back]
-    start = min(earlier, default=j + 1)
-    after = _try(entries, j + 1, i, start, rerun, keep_below=max_speed)
-    if after is not None and after[1] <= max_speed:
-        return True  # kept
     best: tuple[float, int] | None = None
     for k in earlier:
-        tried = _try(entries, k, i, start, rerun)
+        tried = _try(entries, k, i, rerun, cost_from=earlier[-1])
         if tried is not None and tried[1] <= max_speed and (best is None or tried[0] < best[0]):
             best = (tried[0], k)
-    if best is not None:
-        return _keep(entries, best[1], rerun)
-    return after is not None and _keep(entries, j + 1, rerun)
-
-
-def _keep(entries: Sequence[Kickable], k: int, rerun: Callable[[int], None]) -> bool:
-    entries[k].kick = True
-    rerun(k)
+    chosen = best[1] if best is not None else j + 1 if after is not None else None
+    if chosen is None:
+        return False
+    entries[chosen].kick = True
+    rerun(chosen)
     return True
 
 
-def _try(entries: Sequence[Kickable], k: int, i: int, start: int,
-         rerun: Callable[[int], None], keep_below: float = -1.0) -> tuple[float, float] | None:
+def _try(entries: Sequence[Kickable], k: int, i: int, rerun: Callable[[int], None], *,
+         cost_from: int | None = None, keep_below: float | None = None
+         ) -> tuple[float, float] | None:
     """The track re-run with a kick before entries[k], then taken back unless the ball's
-    speed is at most ``keep_below``: the negative log-likelihood of the accepted
-    entries[start:i + 1] and the ball's speed after entries[i]; None when entries[i] is
-    still refused or an entry between the kick and it changes its verdict."""
+    speed is at most ``keep_below``: (the negative log-likelihood of the accepted
+    entries[cost_from:i + 1], 0 without ``cost_from``; the ball's speed after entries[i]);
+    None when entries[i] is still refused or an entry between the kick and it changes its
+    verdict."""
     verdicts = [f.accepted for f in entries[k:i]]
     was, entries[k].kick = entries[k].kick, True
     rerun(k)
@@ -94,13 +93,13 @@ def _try(entries: Sequence[Kickable], k: int, i: int, start: int,
     e = entries[i]
     if e.accepted and [f.accepted for f in entries[k:i]] == verdicts:
         cost = 0.0
-        for f in entries[start:i + 1]:
+        for f in entries[i + 1 if cost_from is None else cost_from:i + 1]:
             if f.accepted and f.prior is not None:
                 _, s, d2 = innovation(f.prior, f.z, f.r)
                 cost += d2 + math.log(float(np.linalg.det(s)))
         assert e.state is not None
         out = (cost, math.hypot(float(e.state[0][2]), float(e.state[0][3])))
-        if out[1] <= keep_below:
+        if keep_below is not None and out[1] <= keep_below:
             return out
     entries[k].kick = was
     rerun(k)

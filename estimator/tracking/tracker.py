@@ -64,7 +64,7 @@ from estimator.constants import NS_PER_S
 from estimator.errors import FusionError
 from estimator.tracking.clutter import ClutterMap
 from estimator.tracking.lean import lean_kick
-from estimator.tracking.lone_kick import LONE_KICK_BACK, LONE_KICK_BACK_NS, lone_kick
+from estimator.tracking.lone_kick import lone_kick
 from estimator.tracking.model import Gaussian, Matrix, innovation, predict, update
 from estimator.tracking.offsets import OffsetFilter
 from estimator.tracking.params import TrackerParams
@@ -279,7 +279,7 @@ class BallTracker:
         if float(dz @ np.linalg.solve(p[:2, :2] + e.r + reach**2 * np.eye(2), dz)) > prm.gate:
             return  # farther than a ball could have gone
         lone_kick(track.entries, i, j, lambda k: self._rerun(track, k),
-                  max_speed=prm.max_speed_m_s, back=LONE_KICK_BACK, back_ns=LONE_KICK_BACK_NS)
+                  max_speed=prm.max_speed_m_s)
 
     def _restart_from_pair(self, track: _Track, e: _Entry) -> None:
         """A tentative track that two consistent rejected estimates contradict starts

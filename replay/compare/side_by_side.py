@@ -105,10 +105,6 @@ class _PrefixedSink(RerunSink):
     def close(self, ok: bool) -> None:  # the shared recording is closed by its owner
         pass
 
-    def learnt(self, beliefs: Mapping[str, Json] | None) -> None:
-        """``{prefix}/summary/learnt``: what this run's replay learnt (its ``beliefs``)."""
-        self._learnt(dict(beliefs) if beliefs else None)
-
 
 def side_by_side_blueprint(robots: tuple[str, ...], field: FieldSpec) -> rrb.Blueprint:
     """A's cameras beside B's (each run's last tab what it learnt), A's field beside B's,
@@ -167,7 +163,7 @@ def side_by_side(log: Path, a: ResultsRun, b: ResultsRun, *, save: Path | None,
         for prefix, opts in zip(PREFIXES, options, strict=True):
             sink = _PrefixedSink(rec, prefix, info=info, digest=digest, centres=centres,
                                  options=dataclasses.replace(opts))
-            sink.learnt(replay(log, opts, sinks=[sink]).beliefs)
+            sink.log_learnt(replay(log, opts, sinks=[sink]).beliefs)  # under the prefix
         try:
             flush(rec, None if out is None else out.tmp)
         except RuntimeError as err:  # the file writer stopped, or the viewer went away

@@ -418,7 +418,7 @@ class RerunSink(SinkBase):
         try:
             if self.lost is None:
                 if ok and self.summary is not None:
-                    self._learnt(self.summary.summary_dict().get("learnt"))
+                    self.log_learnt(self.summary.summary_dict().get("learnt"))
                 try:
                     streams.flush(self.rec, None if self._save is None else self._save.tmp)
                 except RuntimeError as err:  # a full disk, or the gRPC connection broke
@@ -432,8 +432,9 @@ class RerunSink(SinkBase):
         finally:
             self._end()
 
-    def _learnt(self, learnt: object) -> None:
-        """``/summary/learnt``: what the replay came to believe of each robot's pose."""
+    def log_learnt(self, learnt: object) -> None:
+        """``/summary/learnt``: what the replay came to believe of each robot's pose (the
+        results' ``summary.learnt``; None or empty: nothing)."""
         text = learnt_markdown(self.info.robots, learnt if isinstance(learnt, dict) else None)
         self.rec.log("/summary/learnt", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN),
                      static=True)
